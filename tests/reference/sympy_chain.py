@@ -1,0 +1,376 @@
+"""Independent symbolic derivation of a free-flying flexible chain (test oracle).
+
+This module re-derives, from ``shared/design/formulation.md`` sections 1-4 and
+with *no code shared with gibbsimpact*, the equations of motion
+
+    M(q) qddot = forcing(q, qdot)
+
+of a free-flying chain of Euler-Bernoulli links, by a different route than the
+package's recursive 4x4 Gibbs-Appell algorithm:
+
+* kinematics with ``sympy.physics.mechanics`` frames and points
+  (``ReferenceFrame.orient_axis`` for every rotation, ``Vector.dt`` for every
+  velocity);
+* the kinetic energy of each link written in closed form through its *modal
+  integrals* (``int mu``, ``int mu x``, ``int mu x^2``, ``int mu psi_k``,
+  ``int mu x psi_k``, ``int mu psi_k psi_l``) which are computed here with
+  mpmath at 40 digits from mode shapes whose frequency roots and normalisation
+  are also computed here;
+* Lagrange's equations of the second kind via ``LagrangesMethod``;
+* ``lambdify(..., cse=True)`` so that tests can evaluate at random states.
+
+Conventions (binding, formulation.md):
+
+    q = [X1, X2, X3, th_m1, th_0, th_1, ..., th_n, delta_1_1 .. delta_n_mn]
+    T_1 = Trans(X) Rx(th_m1) Ry(th_0) Rz(th_1)
+    T_i = T_(i-1) E_(i-1) Rz(th_i),  E_j = Trans(l_j + u, v(l_j), w(l_j)) Rot(phi_j)
+    phi_j = (0, -w'(l_j), v'(l_j))
+    p(x) = T_i (x + u(x), v(x), w(x), 1)^T,  v = sum psi_k delta_k (y-modes), w (z-modes)
+    T = sum_i 1/2 int mu |p_dot|^2 dx + 1/2 omega_i^T J_i omega_i   (omega_i of T_i, in T_i)
+    J_i = l_i diag(j_x, j_y, j_z)
+    V = - sum_i int mu g.p dx + 1/2 sum_i delta_i^T K_i delta_i
+    K_kl = int EI_z psi_k'' psi_l'' (y-modes), int EI_y psi_k'' psi_l'' (z-modes)
+
+Only uniform links (constant mu, EI) and no axial/torsion modes are supported;
+``Rot(phi)`` is supported when at most one of v'(l), w'(l) is generically
+non-zero on a link that has a successor (then it is the exact single-axis
+rotation Rz(v'(l)) or Ry(-w'(l))).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import mpmath as mp
+import numpy as np
+import sympy as sp
+from sympy.physics.mechanics import (
+    LagrangesMethod,
+    Point,
+    ReferenceFrame,
+    dynamicsymbols,
+)
+
+MP_DPS = 40
+
+# --------------------------------------------------------------------------
+# Parameters
+# --------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RefMode:
+    """One assumed mode: boundary condition, bending direction, mode number."""
+
+    bc: str  # "clamped-clamped" | "clamped-free"
+    direction: str  # "y" (v, bending with EI_z) | "z" (w, bending with EI_y)
+    number: int = 1
+
+
+@dataclass(frozen=True)
+class RefLink:
+    """One uniform link. EI_y bends along z (w), EI_z bends along y (v)."""
+
+    length: float
+    mu: float
+    EI_y: float
+    EI_z: float
+    modes: tuple = ()
+    rotary_inertia: tuple = (0.0, 0.0, 0.0)  # (j_x, j_y, j_z) per unit length, kg m
+
+
+# --------------------------------------------------------------------------
+# Mode shapes (mpmath, independent of the package)
+# --------------------------------------------------------------------------
+
+
+def _freq_eq(bc):
+    # clamped-clamped: cos(bl) cosh(bl) = 1 ; clamped-free: cos(bl) cosh(bl) = -1
+    if bc == "clamped-clamped":
+        return lambda b: mp.cos(b) * mp.cosh(b) - 1, lambda k: (k + mp.mpf(1) / 2) * mp.pi
+    if bc == "clamped-free":
+        return lambda b: mp.cos(b) * mp.cosh(b) + 1, lambda k: (k - mp.mpf(1) / 2) * mp.pi
+    raise ValueError(f"unsupported boundary condition {bc!r}")
+
+
+@lru_cache(maxsize=None)
+def beta_l(bc: str, number: int):
+    """k-th positive root beta*l of the frequency equation (mpmath, MP_DPS digits)."""
+    with mp.workdps(MP_DPS):
+        f, guess = _freq_eq(bc)
+        # f grows like cosh; divide by cosh to get a well-scaled function
+        g = lambda b: f(b) / mp.cosh(b)  # noqa: E731
+        return mp.findroot(g, guess(number))
+
+
+class ModeShape:
+    """psi(x) = C [cosh bx - cos bx - sigma (sinh bx - sin bx)], max|psi| = 1."""
+
+    def __init__(self, bc: str, number: int, length: float):
+        self.bc, self.number = bc, number
+        with mp.workdps(MP_DPS):
+            self.l = mp.mpf(length)
+            bl = beta_l(bc, number)
+            self.beta = bl / self.l
+            if bc == "clamped-clamped":
+                self.sigma = (mp.cosh(bl) - mp.cos(bl)) / (mp.sinh(bl) - mp.sin(bl))
+            else:
+                self.sigma = (mp.cosh(bl) + mp.cos(bl)) / (mp.sinh(bl) + mp.sin(bl))
+            self.C = mp.mpf(1)
+            # locate max |psi| on [0, l]: dense scan, then refine on psi' = 0
+            xs = [self.l * i / 4000 for i in range(4001)]
+            vals = [abs(self.psi(x)) for x in xs]
+            imax = max(range(len(xs)), key=lambda i: vals[i])
+            if 0 < imax < len(xs) - 1:
+                xm = mp.findroot(lambda x: self.dpsi(x), xs[imax])
+            else:
+                xm = xs[imax]
+            pm = self.psi(xm)
+            self.x_max = xm
+            self.C = 1 / pm  # |psi(xm)| = 1 and psi(xm) > 0
+
+    def psi(self, x):
+        b = self.beta
+        return self.C * (mp.cosh(b * x) - mp.cos(b * x) - self.sigma * (mp.sinh(b * x) - mp.sin(b * x)))
+
+    def dpsi(self, x):
+        b = self.beta
+        return self.C * b * (mp.sinh(b * x) + mp.sin(b * x) - self.sigma * (mp.cosh(b * x) - mp.cos(b * x)))
+
+    def ddpsi(self, x):
+        b = self.beta
+        return self.C * b**2 * (mp.cosh(b * x) + mp.cos(b * x) - self.sigma * (mp.sinh(b * x) + mp.sin(b * x)))
+
+
+@dataclass
+class ModalIntegrals:
+    """Exact (40-digit) modal integrals of one uniform link."""
+
+    m0: float  # int mu dx
+    m1: float  # int mu x dx
+    m2: float  # int mu x^2 dx
+    s: np.ndarray  # s_k = int mu psi_k dx
+    t: np.ndarray  # t_k = int mu x psi_k dx
+    S: np.ndarray  # S_kl = int mu psi_k psi_l dx
+    K: np.ndarray  # K_kl = int EI psi_k'' psi_l'' dx (EI_z for y, EI_y for z; 0 across)
+    end_value: np.ndarray  # psi_k(l)
+    end_slope: np.ndarray  # psi_k'(l)
+    shapes: list = field(default_factory=list)
+
+
+def _quad(f, l):
+    return mp.quad(f, [0, l / 4, l / 2, 3 * l / 4, l])
+
+
+def modal_integrals(link: RefLink) -> ModalIntegrals:
+    with mp.workdps(MP_DPS):
+        l = mp.mpf(link.length)
+        mu = mp.mpf(link.mu)
+        shapes = [ModeShape(m.bc, m.number, link.length) for m in link.modes]
+        m = len(shapes)
+        s = np.zeros(m)
+        t = np.zeros(m)
+        S = np.zeros((m, m))
+        K = np.zeros((m, m))
+        for a, pa in enumerate(shapes):
+            s[a] = float(mu * _quad(pa.psi, l))
+            t[a] = float(mu * _quad(lambda x: x * pa.psi(x), l))
+            for b, pb in enumerate(shapes):
+                S[a, b] = float(mu * _quad(lambda x: pa.psi(x) * pb.psi(x), l))
+                da, db = link.modes[a].direction, link.modes[b].direction
+                if da == db:
+                    EI = mp.mpf(link.EI_z if da == "y" else link.EI_y)
+                    K[a, b] = float(EI * _quad(lambda x: pa.ddpsi(x) * pb.ddpsi(x), l))
+        end_value = np.array([float(p.psi(l)) for p in shapes])
+        end_slope = np.array([float(p.dpsi(l)) for p in shapes])
+        # clamped-clamped: psi(l) = psi'(l) = 0 exactly
+        for a, mode in enumerate(link.modes):
+            if mode.bc == "clamped-clamped":
+                end_value[a] = 0.0
+                end_slope[a] = 0.0
+        return ModalIntegrals(
+            m0=float(mu * l),
+            m1=float(mu * l**2 / 2),
+            m2=float(mu * l**3 / 3),
+            s=s, t=t, S=S, K=K,
+            end_value=end_value, end_slope=end_slope, shapes=shapes,
+        )
+
+
+# --------------------------------------------------------------------------
+# Symbolic model
+# --------------------------------------------------------------------------
+
+
+def _mat3(v, frame):
+    return v.to_matrix(frame)
+
+
+@dataclass
+class ReferenceModel:
+    """Lambdified oracle. All callables take 1-D numpy arrays of length N."""
+
+    links: tuple
+    gravity: tuple
+    coordinate_names: list
+    n_dof: int
+    _M: object
+    _F: object
+    _E: object
+    _tip: object
+
+    def mass_matrix(self, q):
+        return np.asarray(self._M(*np.asarray(q, float)), dtype=float)
+
+    def forcing(self, q, qdot):
+        args = np.concatenate([np.asarray(q, float), np.asarray(qdot, float)])
+        return np.asarray(self._F(*args), dtype=float).reshape(-1)
+
+    def forward_dynamics(self, q, qdot):
+        return np.linalg.solve(self.mass_matrix(q), self.forcing(q, qdot))
+
+    def energy(self, q, qdot):
+        args = np.concatenate([np.asarray(q, float), np.asarray(qdot, float)])
+        return float(self._E(*args))
+
+    def joint_points(self, q):
+        """O_1 .. O_(n+1) in the inertial frame, shape (n+1, 3)."""
+        return np.asarray(self._tip(*np.asarray(q, float)), dtype=float).reshape(-1, 3)
+
+
+def derive(links, gravity=(0.0, -9.81, 0.0), *, check_mass_matrix=False):
+    """Derive the chain symbolically and return (symbolic dict, ReferenceModel).
+
+    Lagrangian: L = T - V with
+      T_i = 1/2 [m0 A0.A0 + 2 m1 A0.A1 + m2 A1.A1
+                 + 2 sum_k s_k A0.B_k + 2 sum_k t_k A1.B_k + sum_kl S_kl B_k.B_l]
+            + 1/2 omega_i^T J_i omega_i
+      where p_dot(x) = A0 + x A1 + sum_k psi_k(x) B_k,
+            A0 = d/dt O_i, A1 = d/dt e_x(i), B_k = d/dt (delta_k e_dir(k)).
+      V_i = -g . (m0 O_i + R_i (m1 e_x + sum_k s_k delta_k e_dir(k))) + 1/2 delta^T K delta
+    """
+    links = tuple(links)
+    n = len(links)
+    ints = [modal_integrals(lk) for lk in links]
+
+    X = dynamicsymbols("X1:4")
+    th = dynamicsymbols("th_m1 th_0") + [dynamicsymbols(f"th_{i}") for i in range(1, n + 1)]
+    deltas = []
+    names = ["X1", "X2", "X3", "th_m1", "th_0"] + [f"th_{i}" for i in range(1, n + 1)]
+    for i, lk in enumerate(links, start=1):
+        di = [dynamicsymbols(f"delta_{i}_{k}") for k in range(1, len(lk.modes) + 1)]
+        deltas.append(di)
+        names += [f"delta_{i}_{k}" for k in range(1, len(lk.modes) + 1)]
+    q = list(X) + list(th) + [d for di in deltas for d in di]
+    t = dynamicsymbols._t
+    qd = [qi.diff(t) for qi in q]
+
+    N = ReferenceFrame("N")
+    O = Point("O")
+    O.set_vel(N, 0)
+    # T_1 = Trans(X) Rx(th_m1) Ry(th_0) Rz(th_1): successive body-axis rotations
+    Fa = ReferenceFrame("Fa")
+    Fa.orient_axis(N, N.x, th[0])
+    Fb = ReferenceFrame("Fb")
+    Fb.orient_axis(Fa, Fa.y, th[1])
+    frame = ReferenceFrame("L1")
+    frame.orient_axis(Fb, Fb.z, th[2])
+    origin = O.locatenew("O1", X[0] * N.x + X[1] * N.y + X[2] * N.z)
+
+    gvec = gravity[0] * N.x + gravity[1] * N.y + gravity[2] * N.z
+    T_total = sp.S.Zero
+    V_total = sp.S.Zero
+    joint_pts = []
+    frames = []
+    for i, (lk, mi, di) in enumerate(zip(links, ints, deltas), start=1):
+        frames.append(frame)
+        joint_pts.append(origin)
+        dirs = [frame.y if m.direction == "y" else frame.z for m in lk.modes]
+        rpos = origin.pos_from(O)
+        A0 = rpos.dt(N)  # velocity of O_i
+        A1 = frame.x.dt(N)  # omega x e_x
+        B = [(dk * ek).dt(N) for dk, ek in zip(di, dirs)]
+        # express everything in the link frame before dotting (shorter expressions)
+        a0 = _mat3(A0, frame)
+        a1 = _mat3(A1, frame)
+        b = [_mat3(Bk, frame) for Bk in B]
+        Ti = mi.m0 * a0.dot(a0) + 2 * mi.m1 * a0.dot(a1) + mi.m2 * a1.dot(a1)
+        for k in range(len(b)):
+            Ti += 2 * mi.s[k] * a0.dot(b[k]) + 2 * mi.t[k] * a1.dot(b[k])
+            for kk in range(len(b)):
+                Ti += mi.S[k, kk] * b[k].dot(b[kk])
+        Ti = Ti / 2
+        w = _mat3(frame.ang_vel_in(N), frame)
+        J = [lk.length * j for j in lk.rotary_inertia]
+        Ti += sp.Rational(1, 2) * sum(J[c] * w[c] ** 2 for c in range(3))
+        T_total += Ti
+
+        first_moment = mi.m0 * rpos + mi.m1 * frame.x
+        for k in range(len(di)):
+            first_moment += mi.s[k] * di[k] * dirs[k]
+        V_total += -gvec.dot(first_moment)
+        for k in range(len(di)):
+            for kk in range(len(di)):
+                if mi.K[k, kk] != 0.0:
+                    V_total += sp.Rational(1, 2) * mi.K[k, kk] * di[k] * di[kk]
+
+        # tip of link i: E_i = Trans(l + u, v(l), w(l)) Rot(0, -w'(l), v'(l))
+        vl = sum((mi.end_value[k] * di[k] for k, m in enumerate(lk.modes) if m.direction == "y"), sp.S.Zero)
+        wl = sum((mi.end_value[k] * di[k] for k, m in enumerate(lk.modes) if m.direction == "z"), sp.S.Zero)
+        vsl = sum((mi.end_slope[k] * di[k] for k, m in enumerate(lk.modes) if m.direction == "y"), sp.S.Zero)
+        wsl = sum((mi.end_slope[k] * di[k] for k, m in enumerate(lk.modes) if m.direction == "z"), sp.S.Zero)
+        tip = origin.locatenew(f"O{i + 1}", lk.length * frame.x + vl * frame.y + wl * frame.z)
+        if i < n:
+            if vsl != 0 and wsl != 0:
+                raise NotImplementedError("Rot(phi) with both v'(l) and w'(l) non-zero")
+            Fe = ReferenceFrame(f"E{i}")
+            if wsl != 0:
+                Fe.orient_axis(frame, frame.y, -wsl)  # Rot(0, -w'(l), 0) = Ry(-w'(l))
+            else:
+                Fe.orient_axis(frame, frame.z, vsl)  # Rot(0, 0, v'(l)) = Rz(v'(l))
+            nxt = ReferenceFrame(f"L{i + 1}")
+            nxt.orient_axis(Fe, Fe.z, th[2 + i])  # Rz(th_(i+1))
+            frame = nxt
+        origin = tip
+    joint_pts.append(origin)
+
+    Lag = T_total - V_total
+    lm = LagrangesMethod(sp.Matrix([Lag]), q, frame=N)
+    lm.form_lagranges_equations()
+    Msym = lm.mass_matrix
+    Fsym = lm.forcing
+
+    # plain symbols for lambdify (derivatives first)
+    qs = sp.symbols(f"q0:{len(q)}")
+    us = sp.symbols(f"u0:{len(q)}")
+    rep_d = dict(zip(qd, us))
+    rep_q = dict(zip(q, qs))
+
+    def plain(expr):
+        return expr.xreplace(rep_d).xreplace(rep_q)
+
+    Mp = plain(Msym)
+    Fp = plain(Fsym)
+    Ep = plain(sp.Matrix([T_total + V_total]))[0]
+    tips = sp.Matrix([[plain(P.pos_from(O).dot(e)) for e in (N.x, N.y, N.z)] for P in joint_pts])
+    Mf = sp.lambdify(qs, Mp, modules="numpy", cse=True)
+    Ff = sp.lambdify(qs + us, Fp, modules="numpy", cse=True)
+    Ef = sp.lambdify(qs + us, Ep, modules="numpy", cse=True)
+    Tf = sp.lambdify(qs, tips, modules="numpy", cse=True)
+    model = ReferenceModel(
+        links=links, gravity=tuple(gravity), coordinate_names=names, n_dof=len(q),
+        _M=Mf, _F=Ff, _E=Ef, _tip=Tf,
+    )
+    sym = dict(q=q, qd=qd, T=T_total, V=V_total, M=Msym, forcing=Fsym, integrals=ints, frames=frames)
+    return sym, model
+
+
+_CACHE: dict = {}
+
+
+def reference_model(links, gravity=(0.0, -9.81, 0.0)) -> ReferenceModel:
+    """Cached ``derive(...)[1]``; links must be a tuple of RefLink."""
+    key = (tuple(links), tuple(gravity))
+    if key not in _CACHE:
+        _CACHE[key] = derive(links, gravity)[1]
+    return _CACHE[key]
