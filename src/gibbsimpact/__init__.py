@@ -8,7 +8,13 @@ See docs/ and the README for the symbols and conventions.
 from .dynamics import Energy, SingularMassMatrixError
 from .model import Chain, Link, Model
 from .modes import Mode, natural_frequency
+from .results import ImpactRecord, Result
+from .simulate import simulate
+from .walls import Circle, Plane, Sphere
 
 __version__ = "0.1.0"
 
-__all__ = ["Chain", "Energy", "Link", "Mode", "Model", "SingularMassMatrixError", "natural_frequency", "__version__"]
+__all__ = [
+    "Chain", "Circle", "Energy", "ImpactRecord", "Link", "Mode", "Model", "Plane", "Result",
+    "SingularMassMatrixError", "Sphere", "natural_frequency", "simulate", "__version__",
+]

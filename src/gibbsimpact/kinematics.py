@@ -236,9 +236,40 @@ def frames(model, q: np.ndarray, qdot: np.ndarray | None = None) -> Frames:
     return Frames(Ts, dTs, Tds, Tdds)
 
 
+def _end_translation_rotation(ld, delta):
+    """E(delta) (4, 4) without derivatives."""
+    G = np.eye(4)
+    G[0, 3] = ld.length
+    if ld.end_is_rigid:
+        return G
+    G[:3, 3] += ld.end_t.T @ delta
+    if np.any(ld.end_phi):
+        G[:3, :3] = rodrigues(ld.end_phi.T @ delta)[0]
+    return G
+
+
+def transforms(model, q: np.ndarray) -> np.ndarray:
+    """Link frames T_1 ... T_n and the tip frame, shape (n+1, 4, 4), no derivatives.
+
+    The cheap path for event functions and plotting.
+    """
+    n = model.n_links
+    out = np.empty((n + 1, 4, 4))
+    T = np.eye(4)
+    T[:3, 3] = q[:3]
+    T = T @ _rot(0, q[3])[0] @ _rot(1, q[4])[0] @ _rot(2, q[5])[0]
+    for i in range(n):
+        out[i] = T
+        T = T @ _end_translation_rotation(model.link_data[i], q[model.delta_index[i]])
+        if i + 1 < n:
+            T = T @ _rot(2, q[6 + i])[0]
+    out[n] = T
+    return out
+
+
 def joint_positions(model, q: np.ndarray) -> np.ndarray:
     """Joint points O_1 ... O_(n+1) in the inertial frame, shape (n+1, 3) [m]."""
-    return frames(model, q).T[:, :3, 3].copy()
+    return transforms(model, q)[:, :3, 3].copy()
 
 
 def joint_jacobians(model, q: np.ndarray) -> np.ndarray:

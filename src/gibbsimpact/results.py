@@ -1,0 +1,118 @@
+"""Simulation results: trajectory samples, impact records, status.
+
+Produced by :func:`gibbsimpact.simulate`; never mutated by the core after
+it is returned.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from .dynamics import Energy, _energy_from, mass_matrix
+
+#: Status values of a Result.
+STATUS_FINISHED = "finished"  # reached t_span[1]
+STATUS_ZENO = "zeno"  # accumulation of impacts detected; stopped
+STATUS_MAX_IMPACTS = "max_impacts"  # impact budget exhausted
+STATUS_PENETRATION = "penetration"  # a joint was found beyond a wall between events
+STATUS_FAILED = "failed"  # the dynamics could not go on (singular M, non-finite state, solver failure)
+
+
+class ImpactRecord(NamedTuple):
+    """One impact (possibly several simultaneous contacts, k of them).
+
+    time : float [s]
+    joints : tuple of int, length k, 1-based joint numbers (O_1 ... O_(n+1))
+    wall : tuple of int, length k, index of each contact's wall in Result.walls
+    normals : (k, 3) unit wall normals into the free region
+    impulses : (k,) normal impulses Lambda [N s], >= 0
+    v_before, v_after : (k,) normal velocities n.J qdot [m/s]
+    restitution : (k,) coefficients used
+    qdot_before, qdot_after : (N,) generalised velocities
+    energy_before, energy_after : Energy [J]
+    """
+
+    time: float
+    joints: tuple
+    wall: tuple
+    normals: np.ndarray
+    impulses: np.ndarray
+    v_before: np.ndarray
+    v_after: np.ndarray
+    restitution: np.ndarray
+    qdot_before: np.ndarray
+    qdot_after: np.ndarray
+    energy_before: Energy
+    energy_after: Energy
+
+
+@dataclass(eq=False)
+class Result:
+    """Output of :func:`gibbsimpact.simulate`.
+
+    Attributes
+    ----------
+    model : Model
+    walls : tuple of walls
+    t : (K,) sample times [s]; an impact time appears twice (before, after)
+    q, qdot : (K, N) coordinates and velocities at the samples
+    phase : (K,) int, index of the flight phase (0 before the first impact)
+    impacts : list of ImpactRecord
+    status : str, one of "finished", "zeno", "max_impacts", "penetration", "failed"
+    message : str, why the run ended
+    settings : dict, the solver settings used (method, rtol, atol, restitution, ...)
+    nfev : int, right-hand-side evaluations; n_steps : int, accepted steps
+    wall_time : float [s]
+    energy_error : float, max over flight phases of |E(t) - E(phase start)| / scale,
+        scale = max(|E_start|, |kinetic| + |gravity| + |strain| at phase start)
+    """
+
+    model: object
+    walls: tuple
+    t: np.ndarray
+    q: np.ndarray
+    qdot: np.ndarray
+    phase: np.ndarray
+    impacts: list
+    status: str
+    message: str
+    settings: dict = field(default_factory=dict)
+    nfev: int = 0
+    n_steps: int = 0
+    wall_time: float = 0.0
+    energy_error: float = float("nan")
+    _energy_cache: Energy | None = field(default=None, repr=False)
+
+    @property
+    def success(self) -> bool:
+        return self.status == STATUS_FINISHED
+
+    def energy(self) -> Energy:
+        """Energy(kinetic, gravity, strain, total), each an array (K,) [J]."""
+        if self._energy_cache is None:
+            rows = [_energy_from(self.model, q, qd, mass_matrix(self.model, q)) for q, qd in zip(self.q, self.qdot)]
+            arr = np.array(rows, dtype=float).reshape(len(rows), 4)
+            self._energy_cache = Energy(*(arr[:, k].copy() for k in range(4)))
+        return self._energy_cache
+
+    def joint_positions(self) -> np.ndarray:
+        """O_1 ... O_(n+1) at every sample, shape (K, n+1, 3) [m]."""
+        from .kinematics import joint_positions
+
+        return np.array([joint_positions(self.model, q) for q in self.q]).reshape(len(self.t), -1, 3)
+
+    def joint_velocities(self) -> np.ndarray:
+        """Absolute joint velocities at every sample, shape (K, n+1, 3) [m/s]."""
+        from .kinematics import joint_jacobians
+
+        return np.array([joint_jacobians(self.model, q) @ qd for q, qd in zip(self.q, self.qdot)]).reshape(
+            len(self.t), -1, 3
+        )
+
+    @property
+    def impact_times(self) -> np.ndarray:
+        """(n_impacts,) [s]."""
+        return np.array([r.time for r in self.impacts])

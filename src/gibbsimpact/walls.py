@@ -1,0 +1,141 @@
+"""Walls: gap functions g(p) > 0 inside the admissible region (formulation.md section 5).
+
+Every wall has ``gap(p)`` and ``normal(p)`` for points p of shape (K, 3) [m];
+the unit normal n = grad g / |grad g| points into the admissible region.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from numbers import Real
+
+import numpy as np
+
+
+def _check_restitution(name, e):
+    if e is None:
+        return None
+    if isinstance(e, bool) or not isinstance(e, Real) or not (0.0 <= e <= 1.0):
+        raise ValueError(f"{name} restitution={e!r} must be a number in [0, 1] (1 = elastic, 0 = plastic)")
+    return float(e)
+
+
+def _check_vector(owner, name, v, n):
+    a = np.asarray(v, dtype=float) if not isinstance(v, str) else np.array([])
+    if a.shape != (n,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{owner} {name}={v!r} must be {n} finite numbers (m)")
+    return tuple(float(x) for x in a)
+
+
+def _check_radius(owner, r):
+    if isinstance(r, bool) or not isinstance(r, Real) or not np.isfinite(r) or r <= 0:
+        raise ValueError(f"{owner} radius={r!r} must be a positive number of metres")
+    return float(r)
+
+
+@dataclass(frozen=True)
+class Circle:
+    """Circular wall of radius R about centre c in the X1-X2 plane (a cylinder along X3).
+
+    g(p) = R - |(p - c)_12|,   n = -(p - c)_12 / |(p - c)_12|
+
+    Parameters
+    ----------
+    radius : float, R [m]
+    center : (float, float), c [m]
+    restitution : float or None
+        Coefficient of restitution for contacts with this wall; None uses the
+        global value given to ``simulate``.
+    """
+
+    radius: float
+    center: tuple = (0.0, 0.0)
+    restitution: float | None = None
+    kind = "circle"
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", _check_radius("Circle", self.radius))
+        object.__setattr__(self, "center", _check_vector("Circle", "center", self.center, 2))
+        object.__setattr__(self, "restitution", _check_restitution("Circle", self.restitution))
+
+    def gap(self, p: np.ndarray) -> np.ndarray:
+        """g(p) for p (K, 3) [m] -> (K,) [m]."""
+        d = p[..., :2] - np.asarray(self.center)
+        return self.radius - np.hypot(d[..., 0], d[..., 1])
+
+    def normal(self, p: np.ndarray) -> np.ndarray:
+        """Unit inward normal for p (K, 3) -> (K, 3)."""
+        d = p[..., :2] - np.asarray(self.center)
+        r = np.hypot(d[..., 0], d[..., 1])[..., None]
+        n = np.zeros(p.shape)
+        n[..., :2] = -d / r
+        return n
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """Spherical wall of radius R about centre c.
+
+    g(p) = R - |p - c|,   n = -(p - c) / |p - c|
+    """
+
+    radius: float
+    center: tuple = (0.0, 0.0, 0.0)
+    restitution: float | None = None
+    kind = "sphere"
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", _check_radius("Sphere", self.radius))
+        object.__setattr__(self, "center", _check_vector("Sphere", "center", self.center, 3))
+        object.__setattr__(self, "restitution", _check_restitution("Sphere", self.restitution))
+
+    def gap(self, p: np.ndarray) -> np.ndarray:
+        """g(p) for p (K, 3) [m] -> (K,) [m]."""
+        return self.radius - np.linalg.norm(p - np.asarray(self.center), axis=-1)
+
+    def normal(self, p: np.ndarray) -> np.ndarray:
+        """Unit inward normal for p (K, 3) -> (K, 3)."""
+        d = p - np.asarray(self.center)
+        return -d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+@dataclass(frozen=True)
+class Plane:
+    """Plane wall through ``point`` with unit ``normal`` pointing into the admissible side.
+
+    g(p) = n . (p - point)
+    """
+
+    point: tuple
+    normal_vector: tuple = (0.0, 1.0, 0.0)
+    restitution: float | None = None
+    kind = "plane"
+
+    def __init__(self, point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), restitution=None):
+        object.__setattr__(self, "point", _check_vector("Plane", "point", point, 3))
+        nv = np.array(_check_vector("Plane", "normal", normal, 3))
+        nn = np.linalg.norm(nv)
+        if nn == 0:
+            raise ValueError(f"Plane normal={normal!r} is the zero vector; give the direction into the free side")
+        object.__setattr__(self, "normal_vector", tuple(nv / nn))
+        object.__setattr__(self, "restitution", _check_restitution("Plane", restitution))
+
+    def gap(self, p: np.ndarray) -> np.ndarray:
+        """g(p) for p (K, 3) [m] -> (K,) [m]."""
+        return (p - np.asarray(self.point)) @ np.asarray(self.normal_vector)
+
+    def normal(self, p: np.ndarray) -> np.ndarray:
+        """Unit normal (constant) broadcast to p's shape (K, 3)."""
+        return np.broadcast_to(np.asarray(self.normal_vector), p.shape).copy()
+
+
+WALL_TYPES = (Circle, Sphere, Plane)
+
+
+def describe(wall) -> str:
+    """One-line description of a wall, for messages and summaries."""
+    if isinstance(wall, Circle):
+        return f"circle R={wall.radius:g} m centre ({wall.center[0]:g}, {wall.center[1]:g})"
+    if isinstance(wall, Sphere):
+        return f"sphere R={wall.radius:g} m centre ({', '.join(f'{c:g}' for c in wall.center)})"
+    return f"plane through ({', '.join(f'{c:g}' for c in wall.point)}) normal ({', '.join(f'{c:g}' for c in wall.normal_vector)})"
