@@ -3,7 +3,8 @@
 Symbols (formulation.md section 3): ``x`` abscissa along the link [m], ``l``
 link length [m], ``beta`` wavenumber [1/m], ``psi(x)`` mode shape
 (dimensionless, normalised so that ``max |psi| = 1`` on ``[0, l]`` and
-positive where that maximum is reached, so a modal coordinate ``delta`` is a
+positive where that maximum is reached (where it is reached at several places,
+as in antisymmetric modes, at the one with the smallest x), so a modal coordinate ``delta`` is a
 peak deflection in metres).
 """
 
@@ -148,8 +149,12 @@ def _normalisation(kind: str, number: int, length: float) -> float:
             brentq(lambda t: float(_raw_shape(kind, beta, z, t, 1)), x[i], x[i + 1], xtol=1e-15 * length)
         )
     candidates += list(x[np.nonzero(d1 == 0.0)[0]])
-    vals = _raw_shape(kind, beta, z, np.array(candidates), 0)
-    k = int(np.argmax(np.abs(vals)))
+    xs = np.array(candidates)
+    vals = _raw_shape(kind, beta, z, xs, 0)
+    # Antisymmetric modes reach max |psi| at two places with opposite signs:
+    # the sign is fixed at the one nearest the proximal end (smallest x).
+    top = np.abs(vals) >= (1.0 - 1e-9) * np.abs(vals).max()
+    k = int(np.flatnonzero(top)[np.argmin(xs[top])])
     return 1.0 / float(vals[k])
 
 

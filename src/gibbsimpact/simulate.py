@@ -19,7 +19,10 @@ Event-loop rules (each one has a test in tests/test_simulate.py):
   at all accepted steps are checked; a gap below -penetration_tol stops the
   run with status "penetration".
 * Grazing: an event whose candidates have normal velocity
-  v_n >= -grazing_velocity carries no impulse; it is not an impact.
+  v_n >= -grazing_velocity carries no impulse; it is not an impact. (A pair
+  caught by its sink event is still stopped if v_n < 0.)
+* Stall guard: 100 consecutive events without progress in time stop the run
+  with status "failed" instead of hanging.
 * Accumulation of impacts (Zeno): when ``zeno_count`` consecutive impacts each
   follow the previous one by less than ``zeno_interval`` seconds, the run
   stops with status "zeno" and an estimate of the accumulation time; the
@@ -116,7 +119,7 @@ def simulate(
     output_dt: float | None = None,
     max_step: float = np.inf,
     contact_tol: float = 1e-9,
-    grazing_velocity: float = 1e-9,
+    grazing_velocity: float = 1e-6,
     penetration_tol: float = 1e-6,
     zeno_interval: float = 1e-6,
     zeno_count: int = 10,
@@ -222,6 +225,8 @@ def simulate(
     near = np.zeros((len(walls), n_joints), dtype=bool)
     pending_impact = True  # check the initial state for an impact in progress
     recent_gaps: list[float] = []
+    sink_pair = None  # (wall, joint) whose sink event ended the last phase
+    stalled = 0  # consecutive phases that made no progress in time
 
     while True:
         q, qd = y[:N], y[N:]
@@ -236,7 +241,12 @@ def simulate(
                 normals = nrm[pairs[:, 0], pairs[:, 1]]
                 Wmat = np.einsum("kc,kcn->nk", normals, Jac[pairs[:, 1]])
                 v_before = Wmat.T @ qd
-                if np.any(v_before < -grazing_velocity):
+                # An impact: some candidate approaches faster than grazing, or the
+                # pair whose "sink" event fired is still approaching (it must be stopped).
+                sinking = sink_pair is not None and np.any(
+                    (pairs[:, 0] == sink_pair[0]) & (pairs[:, 1] == sink_pair[1]) & (v_before < 0)
+                )
+                if np.any(v_before < -grazing_velocity) or sinking:
                     M = mass_matrix(model, q)
                     e_k = e_wall[pairs[:, 0]]
                     sol = solve_impulses(M, Wmat, qd, e_k)
@@ -341,17 +351,23 @@ def simulate(
                     f"t = {t:.9g} s without an event firing; tighten rtol or set max_step"
                 )
                 break
-        t, y = t_new, y_new
+        t_prev, (t, y) = t, (t_new, y_new)
         if not np.all(np.isfinite(y)):
             status, message = STATUS_FAILED, f"state became non-finite at t = {t:.9g} s"
             break
         if not fired:
             break
         kind, w_i, j = kinds[fired[0]]
+        sink_pair = (w_i, j) if kind == "sink" else None
         if kind == "leave":
             near[w_i, j] = False  # re-arm the normal event of this pair; no impact
         else:
             pending_impact = True
+        stalled = stalled + 1 if t_new - t_prev <= 1e-14 * max(1.0, abs(t_new)) else 0
+        if stalled >= 100:
+            status = STATUS_FAILED
+            message = f"event loop stalled at t = {t:.9g} s: 100 consecutive events without progress in time"
+            break
 
     t_all = np.concatenate(ts)
     res = Result(

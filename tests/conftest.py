@@ -1,0 +1,51 @@
+"""Shared model builders for the tests (the published chains and small variants)."""
+
+import numpy as np
+import pytest
+
+import gibbsimpact as gi
+from gibbsimpact.kinematics import transforms
+
+
+def two_link_circle_model():
+    """Case 1: two links, one clamped-clamped y-mode each, N = 9."""
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")])
+    return gi.Model(gi.Chain([link, link]), gravity=(0.0, -9.81, 0.0))
+
+
+def two_link_circle_state(model):
+    q = model.state(X1=-np.cos(np.pi / 6), theta_1=-np.pi / 6, theta_2=np.pi / 3)
+    return q, np.zeros_like(q)
+
+
+def single_link_sphere_model():
+    """Case 2: one link, y- and z-mode, rotary inertia of a round section r = 1 cm, N = 8."""
+    r = 0.01
+    link = gi.Link(
+        1.0, 1.0, (20.0, 20.0),
+        modes=[gi.Mode("clamped-clamped", "y"), gi.Mode("clamped-clamped", "z")],
+        rotary_inertia=(r * r / 2, r * r / 4, r * r / 4),
+    )
+    return gi.Model(gi.Chain([link]), gravity=(0.0, -9.81, 0.0))
+
+
+def single_link_sphere_state(model):
+    q = model.state(theta_m1=0.3, theta_0=0.2, theta_1=0.5)
+    q[:3] = -transforms(model, q)[0][:3, :3] @ np.array([0.5, 0.0, 0.0])
+    qd = model.state(X1=0.4, X2=0.8, X3=0.24, theta_1=2.0, delta_1_1=0.2, delta_1_2=-0.1)
+    return q, qd
+
+
+def random_state(model, rng, angle=0.8, delta=0.05, speed=1.0):
+    """A random (q, qdot) away from gimbal lock (|theta_0| < 0.8 rad)."""
+    N = model.n_dof
+    q = rng.uniform(-angle, angle, N)
+    q[:3] = rng.uniform(-1, 1, 3)
+    for idx in model.delta_index:
+        q[idx] = rng.uniform(-delta, delta, idx.size)
+    return q, rng.normal(scale=speed, size=N)
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(20261122)

@@ -1,0 +1,283 @@
+"""Impact phase and event loop: Newton's law, closed forms, invariants, the published cases."""
+
+import numpy as np
+import pytest
+
+import gibbsimpact as gi
+from gibbsimpact.impact import solve_impulses
+
+from conftest import (
+    single_link_sphere_model,
+    single_link_sphere_state,
+    two_link_circle_model,
+    two_link_circle_state,
+)
+
+G = 9.81
+
+
+@pytest.fixture(scope="module")
+def case1():
+    model = two_link_circle_model()
+    q, qd = two_link_circle_state(model)
+    return gi.simulate(model, q, qd, (0.0, 1.0), walls=[gi.Circle(1.5, (0.0, 0.0))], restitution=1.0,
+                       rtol=1e-10, atol=1e-12, method="DOP853")
+
+
+@pytest.fixture(scope="module")
+def case2():
+    model = single_link_sphere_model()
+    q, qd = single_link_sphere_state(model)
+    return gi.simulate(model, q, qd, (0.0, 1.0), walls=[gi.Sphere(1.0)], restitution=1.0,
+                       rtol=1e-10, atol=1e-12, method="DOP853")
+
+
+def rigid_rod(l=1.0, mu=2.0, gravity=(0.0, 0.0, 0.0)):
+    # j_x > 0 only so that the straight link's spin about its own axis is defined.
+    return gi.Model(gi.Chain([gi.Link(l, mu, 1.0, rotary_inertia=(1e-4, 0.0, 0.0))]), gravity=gravity)
+
+
+def check_newton_law(res):
+    for rec in res.impacts:
+        active = rec.impulses > 0
+        assert np.all(rec.impulses >= 0)
+        scale = np.max(np.abs(rec.v_before))
+        # Carrying an impulse: v+ = -e v-; not carrying: not penetrating.
+        np.testing.assert_allclose(rec.v_after[active], -rec.restitution[active] * rec.v_before[active],
+                                   rtol=0, atol=1e-10 * scale)
+        assert np.all(rec.v_after[~active] >= -rec.restitution[~active] * rec.v_before[~active] - 1e-10 * scale)
+        # Recomputed from scratch: n.J qdot+ at the impact configuration.
+        k = np.searchsorted(res.t, rec.time)
+        q_before, q_after = res.q[k], res.q[k + 1]
+        assert res.t[k] == res.t[k + 1] == rec.time
+        np.testing.assert_array_equal(q_before, q_after)  # q does not jump
+        J = res.model.joint_jacobians(q_before)
+        v = np.array([n @ J[j - 1] @ rec.qdot_after for j, n in zip(rec.joints, rec.normals)])
+        np.testing.assert_allclose(v, rec.v_after, rtol=0, atol=1e-12 * scale)
+
+
+def test_case1_impact_pattern(case1):
+    assert case1.status == "finished", case1.message
+    ref = [(0.451524, (2,)), (0.474918, (1, 3)), (0.506715, (2,)), (0.890135, (2,))]
+    assert len(case1.impacts) == len(ref)
+    for rec, (t, joints) in zip(case1.impacts, ref):
+        assert rec.time == pytest.approx(t, abs=1e-6)
+        assert tuple(sorted(rec.joints)) == joints
+    sim = case1.impacts[1]
+    assert sim.impulses[0] == pytest.approx(sim.impulses[1], rel=1e-7)  # equal impulses on O1 and O3
+
+
+def test_case1_mirror_symmetry(case1):
+    # Mirror S: X1 -> -X1. A symmetric V satisfies O3 = S O1, theta_2 = -2 theta_1, delta_2 = delta_1
+    # (clamped-clamped mode 1 is symmetric about l/2), theta_-1 = theta_0 = X3 = 0, and the same for rates.
+    S = np.diag([-1.0, 1.0, 1.0])
+    P = case1.joint_positions()
+    V = case1.joint_velocities()
+    err = max(
+        np.max(np.abs(P[:, 2] - P[:, 0] @ S)), np.max(np.abs(V[:, 2] - V[:, 0] @ S)),
+        np.max(np.abs(P[:, 1, 0])), np.max(np.abs(V[:, 1, 0])),
+        np.max(np.abs(case1.q[:, 6] + 2 * case1.q[:, 5])), np.max(np.abs(case1.qdot[:, 6] + 2 * case1.qdot[:, 5])),
+        np.max(np.abs(case1.q[:, 7] - case1.q[:, 8])), np.max(np.abs(case1.qdot[:, 7] - case1.qdot[:, 8])),
+        np.max(np.abs(case1.q[:, 2:5])), np.max(np.abs(case1.qdot[:, 2:5])),
+    )
+    assert err <= 1e-7
+
+
+def test_case1_energy_and_newton(case1):
+    E = case1.energy().total
+    assert E[0] == pytest.approx(-4.905, rel=1e-12)
+    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 1e-8
+    assert case1.energy_error <= 1e-8
+    check_newton_law(case1)
+
+
+def test_case2_impact_pattern_energy_newton(case2):
+    assert case2.status == "finished", case2.message
+    ref = [(0.540052, (1,)), (0.661352, (2,)), (0.775988, (1,))]
+    assert len(case2.impacts) == len(ref)
+    for rec, (t, joints) in zip(case2.impacts, ref):
+        assert rec.time == pytest.approx(t, abs=1e-6)
+        assert rec.joints == joints
+    E = case2.energy().total
+    assert E[0] == pytest.approx(1.807549, abs=5e-7)
+    assert np.max(np.abs(E - E[0])) / abs(E[0]) <= 1e-8
+    check_newton_law(case2)
+    # Spatial motion: the chain leaves the X1-X2 plane.
+    assert np.ptp(case2.joint_positions()[:, :, 2]) > 0.1
+
+
+def test_single_contact_energy_loss_closed_form():
+    # Flexible two-link chain, one joint hitting a plane obliquely with e = 0.6.
+    model = two_link_circle_model()
+    rng = np.random.default_rng(5)
+    q = model.state(theta_1=0.3, theta_2=0.9, delta_1_1=0.01, delta_2_1=-0.02)
+    qd = rng.normal(size=9)
+    J = model.joint_jacobians(q)[1]
+    n = np.array([0.3, 0.9, 0.2])
+    n /= np.linalg.norm(n)
+    w = J.T @ n
+    qd -= w * (w @ qd + 1.3) / (w @ w)  # approach at v_n = -1.3 m/s
+    M = model.mass_matrix(q)
+    e = 0.6
+    sol = solve_impulses(M, w[:, None], qd, e)
+    loss = 0.5 * qd @ M @ qd - 0.5 * sol.qdot_after @ M @ sol.qdot_after
+    v = w @ qd
+    expected = 0.5 * (1 - e**2) * v**2 / (w @ np.linalg.solve(M, w))
+    assert loss == pytest.approx(expected, rel=1e-10)
+    assert sol.v_after[0] == pytest.approx(-e * v, rel=1e-12)
+
+
+def test_flat_rigid_link_bounces_without_rotation():
+    # Falls flat (gravity off, uniform velocity): both ends touch at once.
+    e, v, h = 0.7, 2.0, 0.3
+    model = rigid_rod()
+    q = model.state(X2=h)
+    qd = model.state(X2=-v)
+    res = gi.simulate(model, q, qd, (0.0, 0.25), walls=[gi.Plane((0, 0, 0), (0, 1, 0))], restitution=e)
+    assert len(res.impacts) == 1
+    rec = res.impacts[0]
+    assert rec.time == pytest.approx(h / v, rel=1e-10)
+    assert rec.joints == (1, 2)
+    assert rec.impulses[0] == pytest.approx(rec.impulses[1], rel=1e-10)
+    np.testing.assert_allclose(rec.qdot_after, model.state(X2=e * v), atol=1e-10)
+
+
+def test_tilted_rigid_link_textbook_impact():
+    # Rod (m, l) at angle a to the plane, translating down at v, lower end O1 hits.
+    # 1/m_eff = 1/m + r_x^2 / I_c with r the contact point from the centre, I_c = m l^2 / 12.
+    e, v, a, l, mu = 0.5, 1.5, 0.4, 1.2, 2.0
+    m, Ic = mu * l, mu * l**3 / 12
+    model = rigid_rod(l, mu)
+    h = 0.1
+    q = model.state(X2=h, theta_1=a)
+    qd = model.state(X2=-v)
+    res = gi.simulate(model, q, qd, (0.0, 0.1), walls=[gi.Plane((0, 0, 0), (0, 1, 0))], restitution=e)
+    assert len(res.impacts) == 1 and res.impacts[0].joints == (1,)
+    rec = res.impacts[0]
+    r_x = l / 2 * np.cos(a)  # contact point relative to the centre: (-r_x, -r_y)
+    m_eff = 1.0 / (1.0 / m + r_x**2 / Ic)
+    Lam = (1 + e) * v * m_eff
+    assert rec.impulses[0] == pytest.approx(Lam, rel=1e-10)
+    q_imp = res.q[np.searchsorted(res.t, rec.time)]
+    vc = model.linear_momentum(q_imp, rec.qdot_after) / m
+    np.testing.assert_allclose(vc, [0.0, -v + Lam / m, 0.0], atol=1e-10)
+    omega = -Lam * r_x / Ic  # (r x n)_z = -r_x: the impulse at the lower-left end spins it clockwise
+    assert rec.qdot_after[5] == pytest.approx(omega, rel=1e-10)
+
+
+def test_bouncing_rod_restart_no_refire_no_tunnel():
+    # e = 1 under gravity: impacts at t_k = t1 (2k + 1), exactly as many as fit; nothing passes the plane.
+    h = 0.2
+    model = rigid_rod(gravity=(0.0, -G, 0.0))
+    t1 = np.sqrt(2 * h / G)
+    res = gi.simulate(model, model.state(X2=h), np.zeros(6), (0.0, 6.5 * t1), walls=[gi.Plane((0, 0, 0), (0, 1, 0))])
+    assert res.status == "finished", res.message
+    np.testing.assert_allclose(res.impact_times, t1 * np.array([1, 3, 5]), rtol=1e-9)
+    assert all(r.joints == (1, 2) for r in res.impacts)
+    assert res.joint_positions()[:, :, 1].min() > -1e-9
+    assert res.q[-1, 1] == pytest.approx(h - 0.5 * G * (0.5 * t1) ** 2, abs=1e-9)
+
+
+def test_grazing_is_not_an_impact():
+    # O1 flies a parabola whose apex just touches a ceiling: v_n = 0 there.
+    v0 = 2.0
+    apex = v0**2 / (2 * G)
+    model = rigid_rod(gravity=(0.0, -G, 0.0))
+    q, qd = model.state(), model.state(X1=0.5, X2=v0)
+    walls = [gi.Plane((0.0, apex, 0.0), (0.0, -1.0, 0.0))]
+    res = gi.simulate(model, q, qd, (0.0, 2 * v0 / G), walls=walls)
+    assert res.status == "finished", res.message
+    assert res.impacts == []
+    assert res.q[-1, 1] == pytest.approx(0.0, abs=1e-9)
+    # Sliding along a wall with v_n = 0 from the start: no impact either.
+    res2 = gi.simulate(rigid_rod(), model.state(), model.state(X1=1.0), (0.0, 0.5),
+                       walls=[gi.Plane((0, 0, 0), (0, 1, 0))])
+    assert res2.status == "finished" and res2.impacts == []
+    assert res2.q[-1, 0] == pytest.approx(0.5, abs=1e-12)
+
+
+def test_accumulation_of_impacts_stops_with_status():
+    # Flat rod dropped from h with e = 0.5: impacts accumulate at
+    # t_inf = t1 + 2 e v1 / (g (1 - e)),  v1 = sqrt(2 g h).
+    e, h = 0.5, 0.1
+    model = rigid_rod(gravity=(0.0, -G, 0.0))
+    v1 = np.sqrt(2 * G * h)
+    t_inf = np.sqrt(2 * h / G) + 2 * e * v1 / (G * (1 - e))
+    errors = {}
+    for tol in (1e-9, 1e-12):
+        res = gi.simulate(model, model.state(X2=h), np.zeros(6), (0.0, 2.0),
+                          walls=[gi.Plane((0, 0, 0), (0, 1, 0))], restitution=e, contact_tol=tol)
+        assert res.status == "zeno"
+        assert "accumulation" in res.message
+        est = float(res.message.split("estimated accumulation time ")[1].split(" s")[0])
+        assert res.t[-1] <= t_inf + 1e-4  # stopped at the accumulation, results kept up to it
+        assert res.t[-1] == pytest.approx(est, abs=1e-7)
+        assert len(res.impacts) >= 10
+        # Early impacts follow the geometric sequence exactly.
+        k = np.arange(8)
+        np.testing.assert_allclose(res.impact_times[:8], np.sqrt(2 * h / G) + 2 * v1 / G * e * (1 - e**k) / (1 - e), rtol=1e-9)
+        errors[tol] = abs(est - t_inf) / t_inf
+    # Once bounces are lower than the contact band (~contact_tol) the sequence is
+    # band-limited; the estimate converges as the band shrinks (error ~ sqrt(contact_tol)).
+    assert errors[1e-9] < 1e-4
+    assert errors[1e-12] < 3e-6
+    assert errors[1e-12] < errors[1e-9] / 10
+
+
+def test_sphere_no_gravity_conserves_angular_momentum_and_energy():
+    model = gi.Model(single_link_sphere_model().chain, gravity=(0.0, 0.0, 0.0))
+    q, qd = single_link_sphere_state(model)
+    qd = qd * 3.0
+    res = gi.simulate(model, q, qd, (0.0, 1.2), walls=[gi.Sphere(1.0)], restitution=1.0, rtol=1e-11, atol=1e-13)
+    assert res.status == "finished", res.message
+    assert len(res.impacts) >= 5
+    H0 = model.angular_momentum(q, qd, about=np.zeros(3))
+    H = np.array([model.angular_momentum(a, b, about=np.zeros(3)) for a, b in zip(res.q, res.qdot)])
+    assert np.max(np.linalg.norm(H - H0, axis=1)) <= 1e-8 * np.linalg.norm(H0)
+    E = res.energy().total
+    assert np.max(np.abs(E - E[0])) <= 1e-8 * abs(E[0])
+
+
+def test_simultaneous_lcp_never_pulls():
+    # A rod jammed between a floor (under O1, normal +y) and a ceiling (over O2,
+    # normal -y), both ends approaching. The two contacts are coupled positively, so
+    # the plain solve of both Newton laws pulls at O2; the complementarity solution
+    # puts the whole impulse on O1 and O2 separates.
+    mu, l, e = 2.0, 1.0, 1.0
+    m = mu * l
+    model = rigid_rod(l, mu)
+    q = model.state()
+    J = model.joint_jacobians(q)
+    W = np.stack([J[0].T @ [0.0, 1.0, 0.0], J[1].T @ [0.0, -1.0, 0.0]], axis=1)
+    qd = model.state(X2=-1.0, theta_1=1.1 / l)  # v_n = (-1.0, -0.1) m/s
+    M = model.mass_matrix(q)
+    Gm = W.T @ np.linalg.solve(M, W)
+    plain = -np.linalg.solve(Gm, (1 + e) * (W.T @ qd))
+    assert plain[1] < 0  # the naive answer pulls
+    sol = solve_impulses(M, W, qd, e)
+    np.testing.assert_allclose(sol.v_before, [-1.0, -0.1], rtol=1e-12)
+    # End of a free rod: effective mass m/4, so Lambda_1 = (1 + e) * 1.0 * m / 4.
+    np.testing.assert_allclose(sol.impulses, [(1 + e) * m / 4, 0.0], rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(sol.v_after, [1.0, 0.9], rtol=1e-12)
+
+
+def test_bad_input_errors():
+    model = two_link_circle_model()
+    q, qd = two_link_circle_state(model)
+    with pytest.raises(ValueError, match="joint O2 .* outside wall 0"):
+        gi.simulate(model, q, qd, (0, 1), walls=[gi.Circle(0.4)])
+    with pytest.raises(ValueError, match="restitution"):
+        gi.simulate(model, q, qd, (0, 1), walls=[gi.Circle(1.5)], restitution=1.5)
+    with pytest.raises(ValueError, match="t_span"):
+        gi.simulate(model, q, qd, (1, 0))
+    with pytest.raises(ValueError, match="method"):
+        gi.simulate(model, q, qd, (0, 1), method="Euler")
+    with pytest.raises(ValueError, match="walls"):
+        gi.simulate(model, q, qd, (0, 1), walls=["circle"])
+    with pytest.raises(ValueError, match="radius"):
+        gi.Circle(-1.0)
+    with pytest.raises(ValueError, match="normal"):
+        gi.Plane((0, 0, 0), (0, 0, 0))
+    single = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 1.0)]))
+    with pytest.raises(gi.SingularMassMatrixError, match="rotary_inertia"):
+        gi.simulate(single, np.zeros(6), np.zeros(6), (0, 1))
