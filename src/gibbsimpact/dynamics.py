@@ -39,6 +39,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from scipy.linalg.lapack import dposv as _dposv
+
 from .kinematics import frames
 
 
@@ -85,32 +87,33 @@ def _assemble(model, q, qdot, want_h: bool, want_dV: bool):
     dV = model.stiffness_matrix @ q if want_dV else None
     gt = np.append(model.gravity, 0.0)
     for i, ld in enumerate(model.link_data):
-        idx = model.delta_index[i]
+        idx = model.delta_slice[i]
+        m = idx.stop - idx.start
         T, A = fr.T[i], fr.dT[i]
         delta = q[idx]
         P, Q, m_r, Pv, Qd = _link_moments(ld, delta, qdot[idx] if want_h else None)
         A2 = A.reshape(N, 16)
         # M_jk += tr(A_j P A_k^T) = sum_ab (A_j P)_ab (A_k)_ab
         M += (A @ P).reshape(N, 16) @ A2.T
-        if idx.size:
+        if m:
             # M_jl += tr(A_j Q_l T^T) = sum_ab (A_j)_ab (T Q_l^T)_ab
-            F = (T @ np.swapaxes(Q, 1, 2)).reshape(idx.size, 16)
+            F = (T @ np.swapaxes(Q, 1, 2)).reshape(m, 16)
             cross = A2 @ F.T
             M[:, idx] += cross
             M[idx, :] += cross.T
             # A_l = 0 for the link's own modes, so the own block is only tr(D_kl).
-            M[np.ix_(idx, idx)] += ld.M_dd
+            M[idx, idx] += ld.M_dd
         if want_h:
             Td, Tdd0 = fr.Td[i], fr.Tdd0[i]
             # h_j += tr(A_j (P Tdd0^T + 2 Pv Td^T)) = sum_ab A_ab (Tdd0 P^T + 2 Td Pv^T)_ab
             h += A2 @ (Tdd0 @ P.T + 2.0 * Td @ Pv.T).ravel()
-            if idx.size:
+            if m:
                 # h_l += tr(Tdd0 Q_l T^T) + 2 tr(Td Qd_l T^T)
-                h[idx] += F @ Tdd0.ravel() + 2.0 * (T @ np.swapaxes(Qd, 1, 2)).reshape(idx.size, 16) @ Td.ravel()
+                h[idx] += F @ Tdd0.ravel() + 2.0 * (T @ np.swapaxes(Qd, 1, 2)).reshape(m, 16) @ Td.ravel()
         if want_dV:
             # V_g = -g~^T T m_r:  dV/dq_j = -g~^T A_j m_r,  dV/ddelta_l = -g~^T T m_psi,l
             dV -= (A @ m_r) @ gt
-            if idx.size:
+            if m:
                 dV[idx] -= (ld.m_psi @ T.T) @ gt
         if ld.has_rotary:
             R = T[:3, :3]
@@ -184,18 +187,17 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
     rhs = -h - dV
     if Q is not None:
         rhs = rhs + Q
-    try:
-        L = np.linalg.cholesky(M)
-    except np.linalg.LinAlgError:
-        raise SingularMassMatrixError(f"mass matrix is not positive definite: {diagnose_singular(model, q)}") from None
-    d = np.diag(L)
+    # Cholesky factor and solve in one LAPACK call; info > 0: not positive definite.
+    c, x, info = _dposv(M, rhs, lower=1)
+    if info != 0:
+        raise SingularMassMatrixError(f"mass matrix is not positive definite: {diagnose_singular(model, q)}")
+    d = np.diag(c)
     if d.min() < 1e-7 * d.max():
         raise SingularMassMatrixError(
             f"mass matrix is numerically singular (condition ~{(d.max() / d.min())**2:.1e}): "
             f"{diagnose_singular(model, q)}"
         )
-    y = np.linalg.solve(L, rhs)
-    return np.linalg.solve(L.T, y)
+    return x
 
 
 def energy(model, q: np.ndarray, qdot: np.ndarray) -> Energy:

@@ -40,17 +40,21 @@ class Frames(NamedTuple):
     Tdd0: np.ndarray | None
 
 
+_ROT_PLANE = [(1, 2), (2, 0), (0, 1)]
+
+
 def _rot(axis: int, a: float):
     """Elementary rotation about ``axis`` (4x4) with first and second derivatives."""
     c, s = np.cos(a), np.sin(a)
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    i, j = _ROT_PLANE[axis]
     R = np.eye(4)
     R1 = np.zeros((4, 4))
+    R2 = np.zeros((4, 4))
+    # R = [[c, -s], [s, c]] in the (i, j) plane; R1 = dR/da; R2 = d2R/da2 = -(R - identity on the axis).
     R[i, i] = R[j, j] = c
     R[i, j], R[j, i] = -s, s
     R1[i, i] = R1[j, j] = -s
     R1[i, j], R1[j, i] = -c, c
-    R2 = np.zeros((4, 4))
     R2[i, i] = R2[j, j] = -c
     R2[i, j], R2[j, i] = s, -s
     return R, R1, R2

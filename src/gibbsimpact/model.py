@@ -313,6 +313,8 @@ class Model:
             delta_index.append(np.array(idx, dtype=int))
         self._names = tuple(names)
         self._delta_index = tuple(delta_index)
+        # The same indices as slices (each link's modes are contiguous): cheap views in the kernel.
+        self._delta_slice = tuple(slice(int(d[0]), int(d[-1]) + 1) if d.size else slice(0, 0) for d in delta_index)
         self._theta_index = tuple(range(5, 5 + n))
         K = np.zeros((k, k))
         for d, ld in zip(delta_index, self._links):
@@ -327,6 +329,7 @@ class Model:
     link_data = property(lambda self: self._links, doc="Per-link LinkData.")
     coordinate_names = property(lambda self: self._names, doc="Names of q, length N.")
     delta_index = property(lambda self: self._delta_index, doc="Indices of each link's modal coordinates in q.")
+    delta_slice = property(lambda self: self._delta_slice, doc="The same as slices of q.")
     theta_index = property(lambda self: self._theta_index, doc="Index of theta_i in q, i = 1..n.")
     stiffness_matrix = property(lambda self: self._K, doc="Block-diagonal modal stiffness K (N, N) [N/m].")
     total_mass = property(lambda self: self._total_mass, doc="Total mass [kg].")
