@@ -210,18 +210,19 @@ def test_accumulation_of_impacts_stops_with_status():
         assert res.status == "zeno"
         assert "accumulation" in res.message
         est = float(res.message.split("estimated accumulation time ")[1].split(" s")[0])
-        assert res.t[-1] <= t_inf + 1e-4  # stopped at the accumulation, results kept up to it
-        assert res.t[-1] == pytest.approx(est, abs=1e-7)
+        # Stopped at the accumulation (within the last, band-limited micro-bounces),
+        # with every result up to the last impact kept.
+        assert res.t[-1] == res.impacts[-1].time
+        assert abs(res.t[-1] - t_inf) < 2e-6
         assert len(res.impacts) >= 10
         # Early impacts follow the geometric sequence exactly.
         k = np.arange(8)
         np.testing.assert_allclose(res.impact_times[:8], np.sqrt(2 * h / G) + 2 * v1 / G * e * (1 - e**k) / (1 - e), rtol=1e-9)
         errors[tol] = abs(est - t_inf) / t_inf
-    # Once bounces are lower than the contact band (~contact_tol) the sequence is
-    # band-limited; the estimate converges as the band shrinks (error ~ sqrt(contact_tol)).
-    assert errors[1e-9] < 1e-4
-    assert errors[1e-12] < 3e-6
-    assert errors[1e-12] < errors[1e-9] / 10
+    # The estimate extrapolates the most geometric pair of intervals, before the
+    # bounces become as small as the sink depth (~1e-14 m).
+    assert errors[1e-9] < 1e-6
+    assert errors[1e-12] < 1e-6
 
 
 def test_sphere_no_gravity_conserves_angular_momentum_and_energy():
@@ -264,7 +265,7 @@ def test_simultaneous_lcp_never_pulls():
 def test_bad_input_errors():
     model = two_link_circle_model()
     q, qd = two_link_circle_state(model)
-    with pytest.raises(ValueError, match="joint O2 .* outside wall 0"):
+    with pytest.raises(ValueError, match="joint O2 .* outside wall 1"):
         gi.simulate(model, q, qd, (0, 1), walls=[gi.Circle(0.4)])
     with pytest.raises(ValueError, match="restitution"):
         gi.simulate(model, q, qd, (0, 1), walls=[gi.Circle(1.5)], restitution=1.5)
@@ -281,3 +282,18 @@ def test_bad_input_errors():
     single = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 1.0)]))
     with pytest.raises(gi.SingularMassMatrixError, match="rotary_inertia"):
         gi.simulate(single, np.zeros(6), np.zeros(6), (0, 1))
+
+
+def test_low_bounces_after_a_sink_do_not_tunnel():
+    # Regression: with loose tolerances the solver's steps are longer than the last,
+    # tiny bounces; after an impact caught by the sink event the joint used to
+    # restart exactly on the next sink level and fall through the plane unnoticed.
+    e, h = 0.5, 0.01
+    model = rigid_rod(1.0, 1.0, gravity=(0.0, -G, 0.0))
+    res = gi.simulate(model, model.state(X1=-0.5, X2=h), np.zeros(6), (0.0, 1.0),
+                      walls=[gi.Plane((0, 0, 0), (0, 1, 0))], restitution=e, rtol=1e-8, atol=1e-10)
+    assert res.status == "zeno", res.message
+    assert res.joint_positions()[:, :, 1].min() > -1e-7
+    v1 = np.sqrt(2 * G * h)
+    t_inf = np.sqrt(2 * h / G) + 2 * e * v1 / (G * (1 - e))
+    assert res.t[-1] == pytest.approx(t_inf, rel=1e-3)

@@ -10,11 +10,13 @@ from .model import Chain, Link, Model
 from .modes import Mode, natural_frequency
 from .results import ImpactRecord, Result
 from .simulate import simulate
+from .case import Case, CaseError, load_case
+from .io import load_result
 from .walls import Circle, Plane, Sphere
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "Chain", "Circle", "Energy", "ImpactRecord", "Link", "Mode", "Model", "Plane", "Result",
-    "SingularMassMatrixError", "Sphere", "natural_frequency", "simulate", "__version__",
+    "Case", "CaseError", "Chain", "Circle", "Energy", "ImpactRecord", "Link", "Mode", "Model", "Plane", "Result",
+    "SingularMassMatrixError", "Sphere", "load_case", "load_result", "natural_frequency", "simulate", "__version__",
 ]

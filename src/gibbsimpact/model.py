@@ -298,6 +298,7 @@ class Model:
             raise ValueError(f"Model gravity={gravity!r} must be three finite numbers (m/s^2), e.g. (0, -9.81, 0)")
         n = chain.n_links
         self._chain = chain
+        self._quadrature = (int(quadrature[0]), int(quadrature[1]))
         self._gravity = g
         g.setflags(write=False)
         self._links = tuple(link_integrals(lk, quadrature) for lk in chain.links)
@@ -326,6 +327,7 @@ class Model:
     # -- read-only views ---------------------------------------------------
     chain = property(lambda self: self._chain, doc="The Chain.")
     gravity = property(lambda self: self._gravity, doc="Gravity (3,) [m/s^2].")
+    quadrature = property(lambda self: self._quadrature, doc="(panels, points) of the modal-integral rule.")
     link_data = property(lambda self: self._links, doc="Per-link LinkData.")
     coordinate_names = property(lambda self: self._names, doc="Names of q, length N.")
     delta_index = property(lambda self: self._delta_index, doc="Indices of each link's modal coordinates in q.")

@@ -116,3 +116,38 @@ class Result:
     def impact_times(self) -> np.ndarray:
         """(n_impacts,) [s]."""
         return np.array([r.time for r in self.impacts])
+
+    # -- output (thin delegations to gibbsimpact.io and gibbsimpact.plotting) --
+    def to_csv(self, directory) -> dict:
+        """Write ``timeseries.csv`` and ``impacts.csv`` into ``directory``; returns their paths.
+
+        See :func:`gibbsimpact.io.to_csv` for the columns.
+        """
+        from .io import to_csv
+
+        return to_csv(self, directory)
+
+    def save(self, path, metadata: dict | None = None):
+        """Store everything in an NPZ archive; ``gibbsimpact.load_result(path)`` reads it back exactly."""
+        from .io import save_result
+
+        return save_result(self, path, metadata)
+
+    def summary(self, case=None) -> dict:
+        """JSON-ready summary: versions, settings, impacts, energies, status, counters."""
+        from .io import summary
+
+        return summary(self, case)
+
+    def plot(self, kinds=None, directory=None, dpi: int = 120, case_name=None, n_points: int = 41) -> dict:
+        """Draw the figures (matplotlib); returns {name: Figure}.
+
+        kinds : subset of gibbsimpact.plotting.FIGURES, default all.
+        directory : if given, also save each figure as <directory>/<name>.png (figures stay open).
+        """
+        from .plotting import plot_result, save_figures
+
+        figs = plot_result(self, kinds=kinds, case_name=case_name, n_points=n_points)
+        if directory is not None:
+            save_figures(figs, directory, dpi=dpi, close=False)
+        return figs

@@ -1,0 +1,303 @@
+"""Command line: ``gibbsimpact run CASE.toml`` and ``gibbsimpact show CASE.toml``.
+
+Exit codes: 0 success; 2 bad input (invalid case file, bad option, unreadable
+file); 3 the simulation stopped early (status zeno, max_impacts, penetration
+or failed; the partial results are still written); 1 an unexpected error.
+Errors are reported on stderr as ``gibbsimpact: error: <reason>``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_STOPPED = 0, 1, 2, 3
+
+
+class _Progress:
+    """One self-overwriting status line on stderr, shown once a run has lasted ``delay`` seconds.
+
+    Silent when stderr is not a terminal (pipes, CI logs) or when disabled.
+    """
+
+    def __init__(self, t_span, enabled: bool, delay: float = 2.0, stream=None):
+        self.stream = stream or sys.stderr
+        self.enabled = enabled and hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.t0, self.t1 = t_span
+        self.delay = delay
+        self.started = time.monotonic()
+        self.shown = False
+
+    def __call__(self, t: float, n_impacts: int):
+        if not self.enabled:
+            return
+        elapsed = time.monotonic() - self.started
+        if elapsed < self.delay:
+            return
+        frac = (t - self.t0) / (self.t1 - self.t0) if self.t1 > self.t0 else 1.0
+        width = 24
+        bar = "#" * int(round(width * min(max(frac, 0.0), 1.0)))
+        self.stream.write(
+            f"\r  [{bar:<{width}}] t = {t:.4f} / {self.t1:g} s  impacts: {n_impacts}  elapsed {elapsed:5.1f} s "
+        )
+        self.stream.flush()
+        self.shown = True
+
+    def close(self):
+        if self.shown:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _error(msg: str, code: int) -> int:
+    print(f"gibbsimpact: error: {msg}", file=sys.stderr)
+    return code
+
+
+def _positive_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (v > 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number")
+    return v
+
+
+def _float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"{text!r} must be finite")
+    return v
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
+    p = argparse.ArgumentParser(
+        prog="gibbsimpact",
+        description="Free-flying flexible multi-link chains colliding with curved walls.",
+        epilog="Case-file format: docs/case-format.md. Exit codes: 0 ok, 2 bad input, 3 simulation stopped early.",
+    )
+    p.add_argument("--version", action="version", version=f"gibbsimpact {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    r = sub.add_parser("run", help="run a case and write CSV, JSON, NPZ and figures",
+                       description="Run CASE and write timeseries.csv, impacts.csv, summary.json, result.npz "
+                                   "and PNG figures into the output directory.")
+    r.add_argument("case", metavar="CASE.toml", help="case file")
+    r.add_argument("--out", metavar="DIR", help="output directory (default: [output] directory, else out/<case name>)")
+    r.add_argument("--t-end", type=_float, metavar="T", help="end time in s (overrides [time] t_end_s)")
+    r.add_argument("--rtol", type=_positive_float, help="relative tolerance (overrides [solver] rtol)")
+    r.add_argument("--atol", type=_positive_float, help="absolute tolerance (overrides [solver] atol)")
+    r.add_argument("--output-dt", type=_positive_float, metavar="DT",
+                   help="uniform output interval in s (overrides [solver] output_dt_s)")
+    r.add_argument("--no-plots", action="store_true", help="do not draw figures")
+    r.add_argument("--animate", action="store_true", help="also write animation.gif")
+    r.add_argument("--quiet", "-q", action="store_true", help="no progress line and no report on stdout")
+
+    s = sub.add_parser("show", help="describe a case: coordinates, frequencies, walls, initial energy and gaps",
+                       description="Describe the model of CASE in words without running it.")
+    s.add_argument("case", metavar="CASE.toml", help="case file")
+    return p
+
+
+def _load(path):
+    from .case import CaseError, load_case
+
+    try:
+        return load_case(path), None
+    except FileNotFoundError:
+        return None, _error(f"{path}: no such case file", EXIT_BAD_INPUT)
+    except IsADirectoryError:
+        return None, _error(f"{path}: is a directory, not a case file", EXIT_BAD_INPUT)
+    except CaseError as exc:
+        return None, _error(str(exc), EXIT_BAD_INPUT)
+    except OSError as exc:
+        return None, _error(f"{path}: cannot read: {exc.strerror or exc}", EXIT_BAD_INPUT)
+
+
+# --------------------------------------------------------------------------
+# show
+
+def describe_case(case) -> str:
+    """The model of a case in words (what ``gibbsimpact show`` prints)."""
+    import numpy as np
+
+    from .modes import natural_frequency
+    from .walls import describe
+
+    m = case.model
+    lines = [f"case {case.name}" + (f" ({case.path})" if case.path else "")]
+    if case.description:
+        lines.append(f"  {case.description}")
+    lines.append("")
+    lines.append(f"chain: {m.n_links} link(s), N = {m.n_dof} generalised coordinates, {2 * m.n_dof} first-order ODEs, "
+                 f"total mass {m.total_mass:g} kg")
+    lines.append("coordinates, in order (initial value, initial rate):")
+    for k, name in enumerate(m.coordinate_names):
+        unit = "rad" if name.startswith("theta") else "m"
+        extra = f" = {np.degrees(case.q0[k]):.6g} deg" if unit == "rad" and case.q0[k] != 0 else ""
+        lines.append(f"  {k + 1:2d}  {name:<12s} {case.q0[k]:>13.6g} {unit:<3s}{extra:<18s}"
+                     f" {case.qdot0[k]:>11.6g} {unit}/s")
+    lines.append("")
+    lines.append("links:")
+    for i, lk in enumerate(m.chain.links, start=1):
+        ei_y, ei_z = lk.EI
+        lines.append(f"  link {i}: l = {lk.length:g} m, mu = {lk.mass_per_length:g} kg/m, "
+                     f"EI_y = {ei_y:g} N m^2, EI_z = {ei_z:g} N m^2, rotary inertia (j_x, j_y, j_z) = "
+                     f"({', '.join(f'{j:g}' for j in lk.rotary_inertia)}) kg m")
+        if not lk.modes:
+            lines.append("    rigid (no modes)")
+        for k, md in zip(m.delta_index[i - 1], lk.modes):
+            # A y-mode (deflection v) bends against EI_z, a z-mode (w) against EI_y.
+            ei = ei_z if md.direction == "y" else ei_y
+            w = natural_frequency(md, lk.length, lk.mass_per_length, ei)
+            lines.append(f"    {m.coordinate_names[k]}: {md.kind} mode {md.number} in {md.direction}, "
+                         f"beta l = {md.beta_l:.6f}, omega = {w:.6g} rad/s (f = {w / (2 * np.pi):.6g} Hz, "
+                         f"period {2 * np.pi / w:.4g} s)")
+    lines.append("")
+    lines.append(f"gravity: ({', '.join(f'{g:g}' for g in m.gravity)}) m/s^2")
+    lines.append(f"restitution (global): {case.restitution:g}")
+    if case.walls:
+        lines.append("walls:")
+        for k, w in enumerate(case.walls, start=1):
+            e = f"restitution {w.restitution:g}" if w.restitution is not None else "global restitution"
+            lines.append(f"  walls[{k}]: {describe(w)}, {e}")
+    else:
+        lines.append("walls: none (free flight)")
+    E = case.initial_energy()
+    lines.append(f"initial energy: kinetic {E.kinetic:.9g} J, gravitational {E.gravity:.9g} J, "
+                 f"strain {E.strain:.9g} J, total {E.total:.9g} J")
+    if case.walls:
+        lines.append("initial gaps g (distance inside the wall, m):")
+        G = case.initial_gaps()
+        P = m.joint_positions(case.q0)
+        header = "  joint   position [m]                      " + "".join(f"  walls[{k + 1}]" for k in range(len(case.walls)))
+        lines.append(header)
+        for j in range(G.shape[1]):
+            pos = "(" + ", ".join(f"{c:+.5f}" for c in P[j]) + ")"
+            lines.append(f"  O{j + 1:<5d} {pos:<34s}" + "".join(f"  {G[k, j]:9.6g}" for k in range(len(case.walls))))
+    lines.append("")
+    t0, t1 = case.t_span
+    solver = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}" for k, v in case.solver.items())
+    lines.append(f"time: {t0:g} -> {t1:g} s; solver: {solver or 'defaults of gibbsimpact.simulate'}")
+    return "\n".join(lines)
+
+
+def cmd_show(args) -> int:
+    case, code = _load(args.case)
+    if case is None:
+        return code
+    print(describe_case(case))
+    return EXIT_OK
+
+
+# --------------------------------------------------------------------------
+# run
+
+def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None) -> dict:
+    """Write every output file of a run into ``out``; returns {name: Path}."""
+    from .io import save_result, to_csv, write_summary_json
+
+    log = log or (lambda s: None)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = dict(to_csv(result, out))
+    source = case.path.read_text() if case.path is not None and case.path.exists() else None
+    paths["result"] = save_result(result, out / "result.npz", metadata={"case": case.name, "case_toml": source})
+    if plots:
+        log("drawing figures ...")
+        from .plotting import plot_result, save_figures
+
+        figs = plot_result(result, case_name=case.name, n_points=case.output["points_per_link"])
+        paths.update(save_figures(figs, out, dpi=case.output["dpi"]))
+    if animate:
+        log("writing animation.gif ...")
+        from .plotting import animate as make_animation
+
+        paths["animation"] = make_animation(
+            result, out / "animation.gif", fps=case.output["animation_fps"], speed=case.output["animation_speed"],
+            n_points=case.output["points_per_link"], case_name=case.name,
+        )
+    # Last, so that it records the matplotlib version when figures were drawn.
+    paths["summary"] = write_summary_json(result, out / "summary.json", case)
+    return paths
+
+
+def cmd_run(args) -> int:
+    case, code = _load(args.case)
+    if case is None:
+        return code
+    overrides = {}
+    t0, t1 = case.t_span
+    if args.t_end is not None:
+        if not args.t_end > t0:
+            return _error(f"--t-end {args.t_end:g} must be after the case's t_start_s = {t0:g} s", EXIT_BAD_INPUT)
+        overrides["t_span"] = (t0, args.t_end)
+        t1 = args.t_end
+    for opt, kw in (("rtol", "rtol"), ("atol", "atol"), ("output_dt", "output_dt")):
+        v = getattr(args, opt)
+        if v is not None:
+            overrides[kw] = v
+    out = Path(args.out) if args.out else case.output_directory
+    say = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
+
+    from .dynamics import SingularMassMatrixError
+
+    progress = _Progress((t0, t1), enabled=not args.quiet)
+    say(f"gibbsimpact: running {case.name}: t = {t0:g} -> {t1:g} s, N = {case.model.n_dof}, "
+        f"{len(case.walls)} wall(s)")
+    try:
+        result = case.simulate(progress=progress, **overrides)
+    except (SingularMassMatrixError, ValueError) as exc:
+        progress.close()
+        return _error(f"{args.case}: {exc}", EXIT_BAD_INPUT)
+    except KeyboardInterrupt:
+        progress.close()
+        return _error("interrupted", 130)
+    progress.close()
+
+    plots = case.output["plots"] and not args.no_plots
+    animate = case.output["animate"] or args.animate
+    try:
+        paths = write_outputs(result, case, out, plots, animate, log=say)
+    except OSError as exc:
+        return _error(f"cannot write results to {out}: {exc.strerror or exc}", EXIT_BAD_INPUT)
+
+    E = result.energy()
+    say(f"status: {result.status} ({result.message})")
+    for k, rec in enumerate(result.impacts[:20], start=1):
+        joints = "+".join(f"O{j}" for j in rec.joints)
+        say(f"  impact {k}: t = {rec.time:.6f} s  {joints}")
+    if len(result.impacts) > 20:
+        say(f"  ... {len(result.impacts)} impacts in all (impacts.csv)")
+    say(f"energy: {E.total[0]:.9g} J -> {E.total[-1]:.9g} J; max relative drift in flight {result.energy_error:.2e}")
+    say(f"{result.nfev} right-hand-side evaluations, {result.wall_time:.2f} s; {len(paths)} files in {out}")
+    if result.status != "finished":
+        return _error(f"simulation stopped early ({result.status}): {result.message}; "
+                      f"partial results written to {out}", EXIT_STOPPED)
+    return EXIT_OK
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``gibbsimpact`` console script and ``python -m gibbsimpact``."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    handler = {"run": cmd_run, "show": cmd_show}[args.command]
+    try:
+        return handler(args)
+    except BrokenPipeError:
+        return EXIT_OK
+    except Exception as exc:  # noqa: BLE001 - one line instead of a traceback
+        return _error(f"unexpected {type(exc).__name__}: {exc} (please report this)", EXIT_INTERNAL)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

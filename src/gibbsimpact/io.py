@@ -1,0 +1,454 @@
+"""Writing and reading results: CSV tables, a JSON summary, and a lossless NPZ archive.
+
+Files (docs/case-format.md, "Output files"):
+
+* ``timeseries.csv``: one row per sample: t, phase, every coordinate and
+  velocity by name with its unit, the joint positions, the energies.
+* ``impacts.csv``: one row per contact (an impact with k simultaneous
+  contacts gives k rows sharing its ``impact`` number).
+* ``summary.json``: versions, settings, impacts, energies, status.
+* ``result.npz``: everything in a :class:`~gibbsimpact.results.Result`
+  (trajectory, every field of every impact, status, settings, counters, the
+  model and the walls), so that :func:`load_result` gives back an equal Result.
+
+Links, joints, walls and impacts are numbered from 1 in the files; in the
+Python API ``ImpactRecord.wall`` is the 0-based index into ``Result.walls``.
+Numbers are written with the shortest decimal text that reads back to the
+same double.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import platform
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .dynamics import Energy
+from .model import Chain, Link, Model
+from .modes import Mode
+from .results import ImpactRecord, Result
+from .walls import Circle, Plane, Sphere, describe
+
+__all__ = [
+    "FORMAT_VERSION", "load_result", "model_from_dict", "model_to_dict", "read_csv", "save_result",
+    "summary", "to_csv", "wall_from_dict", "wall_to_dict", "write_impacts_csv", "write_summary_json",
+    "write_timeseries_csv", "versions",
+]
+
+#: Version of the NPZ layout written by save_result.
+FORMAT_VERSION = 1
+
+
+# --------------------------------------------------------------------------
+# Names and units of the columns
+
+def _unit(name: str) -> str:
+    return "rad" if name.startswith("theta") else "m"
+
+
+def coordinate_columns(model) -> list[str]:
+    """Column names of q: ``X1_m ... theta_-1_rad ... delta_1_1_m``."""
+    return [f"{c}_{_unit(c)}" for c in model.coordinate_names]
+
+
+def velocity_columns(model) -> list[str]:
+    """Column names of qdot: ``X1_dot_m_per_s ... theta_1_dot_rad_per_s ...``."""
+    return [f"{c}_dot_{_unit(c)}_per_s" for c in model.coordinate_names]
+
+
+def _fmt(x) -> str:
+    """Shortest text that reads back to the same double (Python's repr)."""
+    return repr(float(x))
+
+
+# --------------------------------------------------------------------------
+# CSV
+
+def write_timeseries_csv(result: Result, path) -> Path:
+    """Write t, phase, q, qdot, joint positions and energies, one row per sample (K rows)."""
+    path = Path(path)
+    model = result.model
+    E = result.energy()
+    P = result.joint_positions()  # (K, n+1, 3)
+    header = ["t_s", "phase"] + coordinate_columns(model) + velocity_columns(model)
+    header += [f"O{j + 1}_X{a + 1}_m" for j in range(P.shape[1]) for a in range(3)]
+    header += ["kinetic_J", "gravity_J", "strain_J", "total_J"]
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        for k in range(len(result.t)):
+            row = [_fmt(result.t[k]), str(int(result.phase[k]))]
+            row += [_fmt(v) for v in result.q[k]] + [_fmt(v) for v in result.qdot[k]]
+            row += [_fmt(v) for v in P[k].ravel()]
+            row += [_fmt(E.kinetic[k]), _fmt(E.gravity[k]), _fmt(E.strain[k]), _fmt(E.total[k])]
+            w.writerow(row)
+    return path
+
+
+IMPACT_COLUMNS = [
+    "impact", "time_s", "n_contacts", "joint", "wall", "wall_description",
+    "normal_X1", "normal_X2", "normal_X3", "impulse_N_s", "v_before_m_per_s", "v_after_m_per_s", "restitution",
+    "kinetic_before_J", "gravity_before_J", "strain_before_J", "total_before_J",
+    "kinetic_after_J", "gravity_after_J", "strain_after_J", "total_after_J",
+]
+
+
+def write_impacts_csv(result: Result, path) -> Path:
+    """One row per contact: impact number, time, joint, wall, normal, impulse, normal velocities, energies."""
+    path = Path(path)
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(IMPACT_COLUMNS)
+        for i, rec in enumerate(result.impacts, start=1):
+            for c, (joint, wall) in enumerate(zip(rec.joints, rec.wall)):
+                w.writerow(
+                    [str(i), _fmt(rec.time), str(len(rec.joints)), str(int(joint)), str(int(wall) + 1),
+                     describe(result.walls[int(wall)])]
+                    + [_fmt(v) for v in np.asarray(rec.normals)[c]]
+                    + [_fmt(rec.impulses[c]), _fmt(rec.v_before[c]), _fmt(rec.v_after[c]), _fmt(rec.restitution[c])]
+                    + [_fmt(v) for v in rec.energy_before]
+                    + [_fmt(v) for v in rec.energy_after]
+                )
+    return path
+
+
+def to_csv(result: Result, directory) -> dict:
+    """Write ``timeseries.csv`` and ``impacts.csv`` into ``directory`` (created if needed).
+
+    Returns {"timeseries": Path, "impacts": Path}.
+    """
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    return {
+        "timeseries": write_timeseries_csv(result, d / "timeseries.csv"),
+        "impacts": write_impacts_csv(result, d / "impacts.csv"),
+    }
+
+
+def read_csv(path) -> dict:
+    """Read a CSV written here into {column: array}; numeric columns become float or int arrays."""
+    with Path(path).open(newline="") as fh:
+        rows = list(csv.reader(fh))
+    header, body = rows[0], rows[1:]
+    out = {}
+    for c, name in enumerate(header):
+        col = [r[c] for r in body]
+        try:
+            out[name] = np.array([int(v) for v in col], dtype=int)
+        except ValueError:
+            try:
+                out[name] = np.array([float(v) for v in col], dtype=float)
+            except ValueError:
+                out[name] = np.array(col, dtype=str)
+    return out
+
+
+# --------------------------------------------------------------------------
+# JSON summary
+
+def versions() -> dict:
+    """Versions of the package, Python, numpy, scipy (and matplotlib if imported)."""
+    import scipy
+
+    from . import __version__
+
+    v = {"gibbsimpact": __version__, "python": platform.python_version(), "numpy": np.__version__,
+         "scipy": scipy.__version__}
+    if "matplotlib" in sys.modules:
+        v["matplotlib"] = sys.modules["matplotlib"].__version__
+    return v
+
+
+def _json_safe(x):
+    """Plain JSON values: tuples -> lists, numpy -> Python, non-finite floats -> "inf"/"-inf"/null."""
+    if isinstance(x, dict):
+        return {str(k): _json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_json_safe(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _json_safe(x.tolist())
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        x = float(x)
+        if math.isnan(x):
+            return None
+        if math.isinf(x):
+            return "inf" if x > 0 else "-inf"
+        return x
+    if x is None or isinstance(x, str):
+        return x
+    return repr(x)
+
+
+def _energy_dict(E) -> dict:
+    return {"kinetic": float(E.kinetic), "gravity": float(E.gravity), "strain": float(E.strain),
+            "total": float(E.total)}
+
+
+def summary(result: Result, case=None) -> dict:
+    """The run in one JSON-ready dict (what summary.json holds).
+
+    Energies in J, times in s; ``max_relative_energy_error`` is Result.energy_error
+    (max over flight phases of |E(t) - E(phase start)| / scale).
+    """
+    model = result.model
+    E = result.energy()
+    d = {}
+    if case is not None:
+        d["case"] = case.name
+        d["case_file"] = str(case.path) if case.path is not None else None
+        d["description"] = case.description
+    d["versions"] = versions()
+    d["model"] = {
+        "n_links": model.n_links, "n_coordinates": model.n_dof, "n_odes": 2 * model.n_dof,
+        "coordinate_names": list(model.coordinate_names), "total_mass_kg": float(model.total_mass),
+        "gravity_m_per_s2": [float(g) for g in model.gravity],
+    }
+    d["walls"] = [describe(w) for w in result.walls]
+    d["settings"] = _json_safe(result.settings)
+    d["status"] = result.status
+    d["message"] = result.message
+    d["t_start_s"] = float(result.t[0])
+    d["t_final_s"] = float(result.t[-1])
+    d["n_impacts"] = len(result.impacts)
+    d["impact_times_s"] = [float(r.time) for r in result.impacts]
+    d["impact_joints"] = [[int(j) for j in r.joints] for r in result.impacts]
+    d["impacts"] = [
+        {"time_s": float(r.time), "joints": [int(j) for j in r.joints], "walls": [int(w) + 1 for w in r.wall],
+         "impulses_N_s": [float(v) for v in r.impulses],
+         "energy_before_J": float(r.energy_before.total), "energy_after_J": float(r.energy_after.total)}
+        for r in result.impacts
+    ]
+    d["energy_initial_J"] = {k: float(getattr(E, k)[0]) for k in Energy._fields}
+    d["energy_final_J"] = {k: float(getattr(E, k)[-1]) for k in Energy._fields}
+    d["max_relative_energy_error"] = _json_safe(result.energy_error)
+    d["wall_time_s"] = float(result.wall_time)
+    d["nfev"] = int(result.nfev)
+    d["n_steps"] = int(result.n_steps)
+    d["n_samples"] = int(len(result.t))
+    return _json_safe(d)
+
+
+def write_summary_json(result: Result, path, case=None) -> Path:
+    """Write :func:`summary` as indented JSON (strict: no NaN or Infinity literals)."""
+    path = Path(path)
+    path.write_text(json.dumps(summary(result, case), indent=2, allow_nan=False) + "\n")
+    return path
+
+
+# --------------------------------------------------------------------------
+# Model and walls as plain data
+
+def model_to_dict(model: Model) -> dict:
+    """Plain-data description of a model from which :func:`model_from_dict` rebuilds it.
+
+    Raises ValueError for links with callable mass_per_length or EI (not storable).
+    """
+    links = []
+    for i, lk in enumerate(model.chain.links, start=1):
+        if callable(lk.mass_per_length) or any(callable(e) for e in lk.EI):
+            raise ValueError(
+                f"link {i} has a callable mass_per_length or EI, which cannot be stored; "
+                "save the trajectory with to_csv instead"
+            )
+        links.append({
+            "length": lk.length, "mass_per_length": lk.mass_per_length, "EI": list(lk.EI),
+            "modes": [[m.kind, m.direction, int(m.number)] for m in lk.modes],
+            "rotary_inertia": list(lk.rotary_inertia),
+        })
+    d = {"links": links, "gravity": [float(g) for g in model.gravity]}
+    quad = getattr(model, "quadrature", None)
+    if quad is not None:
+        d["quadrature"] = [int(v) for v in quad]
+    return d
+
+
+def model_from_dict(d: dict) -> Model:
+    """Inverse of :func:`model_to_dict`."""
+    links = [
+        Link(length=lk["length"], mass_per_length=lk["mass_per_length"], EI=tuple(lk["EI"]),
+             modes=tuple(Mode(k, dr, n) for k, dr, n in lk["modes"]), rotary_inertia=tuple(lk["rotary_inertia"]))
+        for lk in d["links"]
+    ]
+    kw = {"quadrature": tuple(d["quadrature"])} if "quadrature" in d else {}
+    return Model(Chain(tuple(links)), gravity=tuple(d["gravity"]), **kw)
+
+
+def wall_to_dict(w) -> dict:
+    if isinstance(w, Circle):
+        return {"type": "circle", "radius": w.radius, "center": list(w.center), "restitution": w.restitution}
+    if isinstance(w, Sphere):
+        return {"type": "sphere", "radius": w.radius, "center": list(w.center), "restitution": w.restitution}
+    if isinstance(w, Plane):
+        return {"type": "plane", "point": list(w.point), "normal": list(w.normal_vector), "restitution": w.restitution}
+    raise ValueError(f"cannot store wall {w!r}")
+
+
+def wall_from_dict(d: dict):
+    if d["type"] == "circle":
+        return Circle(radius=d["radius"], center=tuple(d["center"]), restitution=d["restitution"])
+    if d["type"] == "sphere":
+        return Sphere(radius=d["radius"], center=tuple(d["center"]), restitution=d["restitution"])
+    w = Plane(point=tuple(d["point"]), normal=tuple(d["normal"]), restitution=d["restitution"])
+    # The stored normal is already unit length; keep its exact digits.
+    object.__setattr__(w, "normal_vector", tuple(float(v) for v in d["normal"]))
+    return w
+
+
+# --------------------------------------------------------------------------
+# Lossless NPZ
+
+def _tag(x):
+    """JSON with types kept: tuples, numpy arrays and scalars, non-finite floats."""
+    if isinstance(x, tuple):
+        return {"__tuple__": [_tag(v) for v in x]}
+    if isinstance(x, list):
+        return [_tag(v) for v in x]
+    if isinstance(x, dict):
+        if all(isinstance(k, str) for k in x):
+            return {"__dict__": {k: _tag(v) for k, v in x.items()}}
+        return {"__items__": [[_tag(k), _tag(v)] for k, v in x.items()]}
+    if isinstance(x, np.ndarray):
+        return {"__ndarray__": _tag(x.tolist()), "dtype": x.dtype.str, "shape": list(x.shape)}
+    if isinstance(x, np.generic):
+        return {"__npscalar__": _tag(x.item()), "dtype": x.dtype.str}
+    if isinstance(x, float):
+        if math.isfinite(x):
+            return x
+        return {"__float__": repr(x)}
+    if x is None or isinstance(x, (bool, int, str)):
+        return x
+    return {"__repr__": repr(x)}
+
+
+def _untag(x):
+    if isinstance(x, list):
+        return [_untag(v) for v in x]
+    if isinstance(x, dict):
+        if "__tuple__" in x:
+            return tuple(_untag(v) for v in x["__tuple__"])
+        if "__dict__" in x:
+            return {k: _untag(v) for k, v in x["__dict__"].items()}
+        if "__items__" in x:
+            return {_untag(k): _untag(v) for k, v in x["__items__"]}
+        if "__ndarray__" in x:
+            return np.array(_untag(x["__ndarray__"]), dtype=np.dtype(x["dtype"])).reshape(x["shape"])
+        if "__npscalar__" in x:
+            return np.dtype(x["dtype"]).type(_untag(x["__npscalar__"]))
+        if "__float__" in x:
+            return float(x["__float__"])
+        if "__repr__" in x:
+            return x["__repr__"]
+    return x
+
+
+def save_result(result: Result, path, metadata: dict | None = None) -> Path:
+    """Store a Result in a compressed NPZ archive that :func:`load_result` reads back exactly.
+
+    Parameters
+    ----------
+    result : Result
+    path : str or Path; ".npz" is appended when missing
+    metadata : optional dict of extra JSON-able information (e.g. the case name and source);
+        returned by ``load_result(path, with_metadata=True)``.
+    """
+    path = Path(path)
+    if path.suffix != ".npz":
+        path = path.with_name(path.name + ".npz")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    imps = result.impacts
+    N = result.model.n_dof
+    n_contacts = np.array([len(r.joints) for r in imps], dtype=np.int64)
+    cat = lambda f, shape: (np.concatenate([np.asarray(getattr(r, f), dtype=float).reshape(shape) for r in imps])  # noqa: E731
+                            if imps else np.zeros((0,) + shape[1:]))
+    arrays = {
+        "t": np.asarray(result.t), "q": np.asarray(result.q), "qdot": np.asarray(result.qdot),
+        "phase": np.asarray(result.phase),
+        "impact_time": np.array([float(r.time) for r in imps], dtype=float),
+        "impact_n_contacts": n_contacts,
+        "contact_joint": np.array([int(j) for r in imps for j in r.joints], dtype=np.int64),
+        "contact_wall": np.array([int(w) for r in imps for w in r.wall], dtype=np.int64),
+        "contact_normal": cat("normals", (-1, 3)),
+        "contact_impulse": cat("impulses", (-1,)),
+        "contact_v_before": cat("v_before", (-1,)),
+        "contact_v_after": cat("v_after", (-1,)),
+        "contact_restitution": cat("restitution", (-1,)),
+        "impact_qdot_before": np.array([r.qdot_before for r in imps], dtype=float).reshape(len(imps), N),
+        "impact_qdot_after": np.array([r.qdot_after for r in imps], dtype=float).reshape(len(imps), N),
+        "impact_energy_before": np.array([tuple(r.energy_before) for r in imps], dtype=float).reshape(len(imps), 4),
+        "impact_energy_after": np.array([tuple(r.energy_after) for r in imps], dtype=float).reshape(len(imps), 4),
+    }
+    meta = {
+        "format": "gibbsimpact.Result",
+        "format_version": FORMAT_VERSION,
+        "versions": versions(),
+        "model": model_to_dict(result.model),
+        "walls": [wall_to_dict(w) for w in result.walls],
+        "status": result.status,
+        "message": result.message,
+        "settings": _tag(result.settings),
+        "nfev": int(result.nfev),
+        "n_steps": int(result.n_steps),
+        "wall_time": _tag(float(result.wall_time)),
+        "energy_error": _tag(float(result.energy_error)),
+        "metadata": _tag(metadata or {}),
+    }
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez_compressed(path, **arrays)
+    return path
+
+
+def load_result(path, with_metadata: bool = False):
+    """Read a Result written by :func:`save_result` (or ``Result.save``), rebuilding its Model and walls.
+
+    Returns the Result, or (Result, metadata dict) with ``with_metadata=True``.
+    """
+    path = Path(path)
+    with np.load(path, allow_pickle=False) as z:
+        a = {k: z[k] for k in z.files}
+    try:
+        meta = json.loads(str(a.pop("meta")))
+    except KeyError:
+        raise ValueError(f"{path} is not a gibbsimpact result (no 'meta' entry)") from None
+    if meta.get("format") != "gibbsimpact.Result":
+        raise ValueError(f"{path} is not a gibbsimpact result")
+    if meta.get("format_version", 0) > FORMAT_VERSION:
+        raise ValueError(f"{path} was written by a newer gibbsimpact (format {meta['format_version']}); upgrade to read it")
+    model = model_from_dict(meta["model"])
+    walls = tuple(wall_from_dict(w) for w in meta["walls"])
+    impacts = []
+    start = 0
+    for i, k in enumerate(a["impact_n_contacts"]):
+        s = slice(start, start + int(k))
+        start += int(k)
+        impacts.append(ImpactRecord(
+            time=float(a["impact_time"][i]),
+            joints=tuple(int(j) for j in a["contact_joint"][s]),
+            wall=tuple(int(w) for w in a["contact_wall"][s]),
+            normals=a["contact_normal"][s],
+            impulses=a["contact_impulse"][s],
+            v_before=a["contact_v_before"][s],
+            v_after=a["contact_v_after"][s],
+            restitution=a["contact_restitution"][s],
+            qdot_before=a["impact_qdot_before"][i],
+            qdot_after=a["impact_qdot_after"][i],
+            energy_before=Energy(*(float(v) for v in a["impact_energy_before"][i])),
+            energy_after=Energy(*(float(v) for v in a["impact_energy_after"][i])),
+        ))
+    res = Result(
+        model=model, walls=walls, t=a["t"], q=a["q"], qdot=a["qdot"], phase=a["phase"], impacts=impacts,
+        status=meta["status"], message=meta["message"], settings=_untag(meta["settings"]),
+        nfev=int(meta["nfev"]), n_steps=int(meta["n_steps"]), wall_time=float(_untag(meta["wall_time"])),
+        energy_error=float(_untag(meta["energy_error"])),
+    )
+    if with_metadata:
+        return res, _untag(meta.get("metadata", {}))
+    return res

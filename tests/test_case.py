@@ -1,0 +1,306 @@
+"""Case files: the published cases load to the binding parameters; every kind of bad input
+gives its own message with the key path; several problems come in one CaseError."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gibbsimpact as gi
+from gibbsimpact.case import CaseError, case_from_dict
+
+CASES = Path(__file__).resolve().parents[1] / "cases"
+
+# A small valid case (two rigid links would be singular when straight; one flexible
+# link with rotary inertia is the smallest regular chain).
+GOOD = """
+name = "tiny"
+gravity_m_per_s2 = [0.0, -9.81, 0.0]
+restitution = 1.0
+
+[[links]]
+length_m = 1.0
+mass_per_length_kg_per_m = 1.0
+EI_N_m2 = 20.0
+rotary_inertia_kg_m = [5e-5, 2.5e-5, 2.5e-5]
+modes = [{ kind = "clamped-clamped", direction = "y" }]
+
+[[walls]]
+type = "circle"
+radius_m = 1.5
+
+[initial.coordinates]
+X1_m = -0.5
+
+[time]
+t_end_s = 0.1
+"""
+
+
+def write(tmp_path, text, name="case.toml"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def problems_of(tmp_path, text):
+    with pytest.raises(CaseError) as info:
+        gi.load_case(write(tmp_path, text))
+    return info.value
+
+
+def Rx(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def Ry(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def Rz(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+# -- the published cases ----------------------------------------------------
+
+def test_case1_parameters():
+    case = gi.load_case(CASES / "circle_two_link.toml")
+    m = case.model
+    assert case.name == "circle_two_link"
+    assert m.n_dof == 9 and m.n_links == 2
+    for lk in m.chain.links:
+        assert lk.length == 1.0 and lk.mass_per_length == 1.0 and lk.EI == (20.0, 20.0)
+        assert lk.modes == (gi.Mode("clamped-clamped", "y", 1),) and lk.rotary_inertia == (0.0, 0.0, 0.0)
+    assert np.array_equal(m.gravity, [0.0, -9.81, 0.0])
+    assert case.walls == (gi.Circle(radius=1.5, center=(0.0, 0.0)),)
+    assert case.restitution == 1.0
+    expected = m.state(X1=-math.cos(math.pi / 6), theta_1=-math.pi / 6, theta_2=math.pi / 3)
+    np.testing.assert_allclose(case.q0, expected, rtol=0, atol=1e-15)
+    assert not np.any(case.qdot0)
+    assert case.t_span == (0.0, 1.0)
+    assert case.solver == {"method": "DOP853", "rtol": 1e-10, "atol": 1e-12, "output_dt": 1e-3}
+    assert case.initial_energy().total == pytest.approx(-4.905, abs=1e-12)
+    # O1 and O3 on the X1 axis, O2 below: gaps R - |p|.
+    np.testing.assert_allclose(case.initial_gaps(), [[1.5 - math.cos(math.pi / 6), 1.0, 1.5 - math.cos(math.pi / 6)]],
+                               atol=1e-12)
+
+
+def test_case2_parameters_and_center_of_mass_placement():
+    case = gi.load_case(CASES / "sphere_single_link.toml")
+    m = case.model
+    assert m.n_dof == 8
+    (lk,) = m.chain.links
+    assert lk.EI == (20.0, 20.0)
+    np.testing.assert_allclose(lk.rotary_inertia, [1e-4 / 2, 1e-4 / 4, 1e-4 / 4], rtol=1e-15)
+    assert lk.modes == (gi.Mode("clamped-clamped", "y"), gi.Mode("clamped-clamped", "z"))
+    assert case.walls == (gi.Sphere(radius=1.0, center=(0.0, 0.0, 0.0)),)
+    R1 = Rx(0.3) @ Ry(0.2) @ Rz(0.5)
+    np.testing.assert_allclose(case.q0[:3], -R1 @ [0.5, 0.0, 0.0], atol=1e-15)
+    np.testing.assert_array_equal(case.q0[3:], [0.3, 0.2, 0.5, 0.0, 0.0])
+    np.testing.assert_array_equal(case.qdot0, [0.4, 0.8, 0.24, 0.0, 0.0, 2.0, 0.2, -0.1])
+    np.testing.assert_allclose(m.center_of_mass(case.q0), 0.0, atol=1e-15)
+    assert case.initial_energy().total == pytest.approx(1.807549, abs=5e-7)
+
+
+def test_degrees_alias_and_center_of_mass_velocity(tmp_path):
+    text = GOOD.replace("X1_m = -0.5", "theta_1_deg = 30.0\ntheta_m1_rad = 0.1") + """
+[initial]
+center_of_mass_m = [0.1, -0.2, 0.05]
+center_of_mass_velocity_m_per_s = [1.0, 2.0, -0.5]
+
+[initial.velocities]
+theta_1_deg_per_s = 90.0
+delta_1_1_m_per_s = 0.3
+"""
+    case = gi.load_case(write(tmp_path, text))
+    m = case.model
+    assert case.q0[5] == pytest.approx(math.radians(30.0), rel=1e-15)
+    assert case.q0[3] == 0.1
+    assert case.qdot0[5] == pytest.approx(math.pi / 2, rel=1e-15)
+    np.testing.assert_allclose(m.center_of_mass(case.q0), [0.1, -0.2, 0.05], atol=1e-15)
+    v_c = m.linear_momentum(case.q0, case.qdot0) / m.total_mass
+    np.testing.assert_allclose(v_c, [1.0, 2.0, -0.5], atol=1e-14)
+
+
+def test_cross_section_radius_gives_round_section_inertia(tmp_path):
+    text = GOOD.replace("rotary_inertia_kg_m = [5e-5, 2.5e-5, 2.5e-5]", "cross_section_radius_m = 0.01")
+    (lk,) = gi.load_case(write(tmp_path, text)).model.chain.links
+    np.testing.assert_allclose(lk.rotary_inertia, [5e-5, 2.5e-5, 2.5e-5], rtol=1e-12)
+
+
+def test_defaults_and_simulate_overrides(tmp_path):
+    case = gi.load_case(write(tmp_path, GOOD))
+    assert case.name == "tiny" and case.t_span == (0.0, 0.1) and case.solver == {}
+    assert case.output["plots"] is True and case.output["animate"] is False
+    assert case.output_directory == Path("out") / "tiny"
+    kw = case.simulate_kwargs(t_end=0.05, rtol=1e-6)
+    assert kw["t_span"] == (0.0, 0.05) and kw["rtol"] == 1e-6 and kw["walls"] == case.walls
+    res = case.simulate(t_end=0.01, rtol=1e-8, atol=1e-10)
+    assert res.status == "finished" and res.t[-1] == pytest.approx(0.01)
+
+
+def test_name_defaults_to_file_stem(tmp_path):
+    case = gi.load_case(write(tmp_path, GOOD.replace('name = "tiny"\n', ""), name="my_case.toml"))
+    assert case.name == "my_case"
+
+
+def test_case_from_dict_equals_file(tmp_path):
+    import tomllib
+
+    a = gi.load_case(write(tmp_path, GOOD))
+    b = case_from_dict(tomllib.loads(GOOD))
+    np.testing.assert_array_equal(a.q0, b.q0)
+
+
+# -- one message per kind of problem ----------------------------------------
+
+def test_unknown_key_names_path_and_suggestion(tmp_path):
+    err = problems_of(tmp_path, GOOD.replace("length_m = 1.0", "length_m = 1.0\nlenght_m = 2.0"))
+    assert err.problems == [("links[1].lenght_m", "unknown key (did you mean 'length_m'?)")]
+    assert "links[1].lenght_m: unknown key" in str(err)
+
+
+def test_unknown_top_level_and_wall_keys(tmp_path):
+    err = problems_of(tmp_path, "colour = 'red'\n" + GOOD.replace("radius_m = 1.5", "radius = 1.5"))
+    paths = [p for p, _ in err.problems]
+    assert "colour" in paths
+    assert "walls[1].radius" in paths
+    assert "walls[1].radius_m" in paths  # and the required key is then missing
+
+
+def test_missing_key(tmp_path):
+    err = problems_of(tmp_path, GOOD.replace("EI_N_m2 = 20.0\n", ""))
+    assert len(err.problems) == 1
+    path, msg = err.problems[0]
+    assert path == "links[1].EI_N_m2" and msg.startswith("missing")
+
+
+def test_missing_sections(tmp_path):
+    text = GOOD.split("[[links]]")[0].replace("gravity_m_per_s2 = [0.0, -9.81, 0.0]\n", "")
+    err = problems_of(tmp_path, text)
+    paths = [p for p, _ in err.problems]
+    assert paths == ["gravity_m_per_s2", "links", "time"]
+
+
+def test_wrong_type(tmp_path):
+    err = problems_of(tmp_path, GOOD.replace("length_m = 1.0", 'length_m = "1.0"'))
+    assert err.problems == [("links[1].length_m", "expected a number, got the string '1.0'")]
+
+
+def test_wrong_type_vector_and_bool(tmp_path):
+    text = GOOD.replace("gravity_m_per_s2 = [0.0, -9.81, 0.0]", "gravity_m_per_s2 = [0.0, -9.81]")
+    text = text.replace("restitution = 1.0", "restitution = true")
+    err = problems_of(tmp_path, text)
+    assert ("gravity_m_per_s2", "expected an array of 3 numbers, got an array of 2") in err.problems
+    assert ("restitution", "expected a number, got the boolean true") in err.problems
+
+
+def test_negative_length(tmp_path):
+    err = problems_of(tmp_path, GOOD.replace("length_m = 1.0", "length_m = -1.0"))
+    assert err.problems == [("links[1].length_m", "must be positive, got -1")]
+
+
+def test_joint_outside_wall(tmp_path):
+    err = problems_of(tmp_path, GOOD.replace("X1_m = -0.5", "X1_m = 1.0"))
+    assert len(err.problems) == 1
+    path, msg = err.problems[0]
+    assert path == "initial"
+    assert "joint O2" in msg and "outside walls[1]" in msg and "circle R=1.5" in msg and "by 0.5 m" in msg
+
+
+def test_several_problems_in_one_error(tmp_path):
+    text = GOOD.replace("length_m = 1.0", "length_m = -1.0")
+    text = text.replace("radius_m = 1.5", "radius_m = 1.5\ncolor = 'grey'")
+    text = text.replace("t_end_s = 0.1", 't_end_s = "soon"')
+    text = text.replace("EI_N_m2 = 20.0\n", "")
+    err = problems_of(tmp_path, text)
+    paths = [p for p, _ in err.problems]
+    assert paths == ["links[1].length_m", "links[1].EI_N_m2", "walls[1].color", "time.t_end_s"]
+    first = str(err).splitlines()[0]
+    assert first.endswith("case.toml: 4 problems:")
+    assert len(str(err).splitlines()) == 5
+
+
+def test_problems_in_second_link_and_mode(tmp_path):
+    text = GOOD + """
+[[links]]
+length_m = 1.0
+mass_per_length_kg_per_m = 0.0
+EI_N_m2 = [20.0, -1.0]
+modes = [{ kind = "free-free" }, { kind = "clamped-clamped", direction = "x" }]
+"""
+    err = problems_of(tmp_path, text)
+    d = dict(err.problems)
+    assert d["links[2].mass_per_length_kg_per_m"] == "must be positive, got 0"
+    assert d["links[2].EI_N_m2"].startswith("must be positive")
+    assert d["links[2].modes[1].kind"].startswith("unknown kind 'free-free'")
+    assert d["links[2].modes[2].direction"].startswith("unknown direction 'x'")
+
+
+def test_unknown_coordinate_and_missing_unit(tmp_path):
+    text = GOOD.replace("X1_m = -0.5", "X1_m = -0.5\ntheta_2_rad = 0.1\nX2 = 0.0\ntheta_1_m = 0.3")
+    err = problems_of(tmp_path, text)
+    d = dict(err.problems)
+    assert "unknown coordinate theta_2" in d["initial.coordinates.theta_2_rad"]
+    assert d["initial.coordinates.X2"] == "add the unit to the key: X2_m"
+    assert d["initial.coordinates.theta_1_m"] == "theta_1 takes unit rad or deg, not m"
+
+
+def test_coordinate_twice_and_com_conflict(tmp_path):
+    text = GOOD.replace("X1_m = -0.5", "X1_m = -0.5\ntheta_1_deg = 10\ntheta_1_rad = 0.2")
+    text = text.replace("[initial.coordinates]", "[initial]\ncenter_of_mass_m = [0, 0, 0]\n\n[initial.coordinates]")
+    err = problems_of(tmp_path, text)
+    d = dict(err.problems)
+    assert d["initial.coordinates.theta_1_rad"] == "sets theta_1 again (already set by theta_1_deg)"
+    # The conflict with X1_m is only judged once the coordinates themselves are valid.
+    text2 = GOOD.replace("[initial.coordinates]", "[initial]\ncenter_of_mass_m = [0, 0, 0]\n\n[initial.coordinates]")
+    err2 = problems_of(tmp_path, text2)
+    assert err2.problems[0][0] == "initial.center_of_mass_m" and "X1_m" in err2.problems[0][1]
+
+
+def test_ranges_and_choices(tmp_path):
+    text = GOOD.replace("restitution = 1.0", "restitution = 1.5")
+    text = text.replace('type = "circle"', 'type = "ellipse"')
+    text = text.replace("t_end_s = 0.1", "t_start_s = 0.2\nt_end_s = 0.1")
+    text += '\n[solver]\nmethod = "Euler"\nrtol = -1e-8\nzeno_count = 2.5\n'
+    err = problems_of(tmp_path, text)
+    d = dict(err.problems)
+    assert d["restitution"] == "must be in [0, 1] (1 = elastic, 0 = plastic), got 1.5"
+    assert d["walls[1].type"].startswith("unknown wall type 'ellipse'")
+    assert d["time.t_end_s"] == "must be after t_start_s = 0.2 s, got 0.1"
+    assert d["solver.method"].startswith("unknown method 'Euler'")
+    assert d["solver.rtol"] == "must be positive, got -1e-08"
+    assert d["solver.zeno_count"] == "expected an integer, got the number 2.5"
+
+
+def test_plane_wall_and_zero_normal(tmp_path):
+    text = GOOD.replace('type = "circle"\nradius_m = 1.5', 'type = "plane"\npoint_m = [0, -1, 0]\nnormal = [0, 0, 0]')
+    err = problems_of(tmp_path, text)
+    assert err.problems == [("walls[1].normal", "is the zero vector; give the direction into the free side")]
+    ok = gi.load_case(write(tmp_path, text.replace("normal = [0, 0, 0]", "normal = [0, 2, 0]")))
+    assert ok.walls[0].normal_vector == (0.0, 1.0, 0.0) and ok.walls[0].point == (0.0, -1.0, 0.0)
+
+
+def test_singular_mass_matrix_is_reported(tmp_path):
+    err = problems_of(tmp_path, GOOD.replace("rotary_inertia_kg_m = [5e-5, 2.5e-5, 2.5e-5]\n", ""))
+    (path, msg), = err.problems
+    assert path == "links" and "singular" in msg and "rotary_inertia" in msg
+
+
+def test_invalid_toml_and_missing_file(tmp_path):
+    err = problems_of(tmp_path, "name = \n")
+    assert "not valid TOML" in str(err)
+    with pytest.raises(FileNotFoundError):
+        gi.load_case(tmp_path / "nope.toml")
+
+
+def test_case_error_is_value_error():
+    assert issubclass(CaseError, ValueError)
+    with pytest.raises(ValueError):
+        case_from_dict({"links": 3})

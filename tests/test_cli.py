@@ -1,0 +1,245 @@
+"""Command line: both published cases run end to end and reproduce their first impacts;
+every output file is written; `show` describes the model; exit codes 0 / 2 / 3."""
+
+from __future__ import annotations
+
+import io as _io
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gibbsimpact import cli
+from gibbsimpact import io as gio
+from gibbsimpact import load_result
+from gibbsimpact.plotting import FIGURES
+
+CASES = Path(__file__).resolve().parents[1] / "cases"
+
+# A rigid link dropped flat on a plane with e = 0.5: the bounce intervals halve,
+# so with zeno_interval_s = 0.05 and zeno_count = 3 the run stops (status zeno)
+# after the 4th impact, at t ~ 0.124 s.
+ZENO = """
+name = "zeno_drop"
+gravity_m_per_s2 = [0.0, -9.81, 0.0]
+restitution = 0.5
+
+[[links]]
+length_m = 1.0
+mass_per_length_kg_per_m = 1.0
+EI_N_m2 = 20.0
+cross_section_radius_m = 0.01
+
+[[walls]]
+type = "plane"
+point_m = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+
+[initial.coordinates]
+X1_m = -0.5
+X2_m = 0.01
+
+[time]
+t_end_s = 1.0
+
+[solver]
+rtol = 1e-8
+atol = 1e-10
+zeno_interval_s = 0.05
+zeno_count = 3
+"""
+
+
+def nonblank(path):
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(path)
+    return img.ndim == 3 and float(img[..., :3].std()) > 0.01
+
+
+def run_main(argv, capsys):
+    code = cli.main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def case1_out(tmp_path_factory):
+    out = tmp_path_factory.mktemp("case1")
+    # Default tolerances of the case (rtol 1e-10): impact times are compared with the reference.
+    code = cli.main(["run", str(CASES / "circle_two_link.toml"), "--out", str(out), "--t-end", "0.5", "--quiet"])
+    return code, out
+
+
+@pytest.fixture(scope="module")
+def case2_out(tmp_path_factory):
+    out = tmp_path_factory.mktemp("case2")
+    code = cli.main(["run", str(CASES / "sphere_single_link.toml"), "--out", str(out), "--t-end", "0.6", "--quiet"])
+    return code, out
+
+
+@pytest.mark.parametrize("which", ["case1_out", "case2_out"])
+def test_run_writes_every_file(which, request):
+    code, out = request.getfixturevalue(which)
+    assert code == 0
+    for name in ("timeseries.csv", "impacts.csv", "summary.json", "result.npz"):
+        assert (out / name).stat().st_size > 0, name
+    for name in FIGURES:
+        assert nonblank(out / f"{name}.png"), name
+    assert not (out / "animation.gif").exists()
+
+
+def test_case1_reproduces_first_impacts(case1_out):
+    code, out = case1_out
+    s = json.loads((out / "summary.json").read_text())
+    assert s["case"] == "circle_two_link" and s["status"] == "finished"
+    assert s["t_final_s"] == 0.5
+    assert s["impact_joints"] == [[2], [1, 3]]
+    np.testing.assert_allclose(s["impact_times_s"], [0.451524, 0.474918], atol=1e-6)
+    assert s["energy_initial_J"]["total"] == pytest.approx(-4.905, abs=1e-9)
+    assert s["energy_final_J"]["total"] == pytest.approx(-4.905, abs=1e-6)
+    assert s["settings"]["rtol"] == 1e-10 and s["settings"]["output_dt"] == 1e-3
+    assert "matplotlib" in s["versions"]
+    cols = gio.read_csv(out / "impacts.csv")
+    assert cols["joint"].tolist() == [2, 1, 3]
+    res, meta = load_result(out / "result.npz", with_metadata=True)
+    assert meta["case"] == "circle_two_link" and "circle" in meta["case_toml"]
+    assert len(res.impacts) == 2 and res.t[-1] == 0.5
+
+
+def test_case2_reproduces_first_impact(case2_out):
+    code, out = case2_out
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "finished" and s["impact_joints"] == [[1]]
+    np.testing.assert_allclose(s["impact_times_s"], [0.540052], atol=1e-6)
+    assert s["energy_initial_J"]["total"] == pytest.approx(1.807549, abs=5e-7)
+    assert s["model"]["n_odes"] == 16
+
+
+def test_run_default_output_directory_and_report(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--t-end", "0.05", "--no-plots",
+                               "--rtol", "1e-8", "--atol", "1e-10", "--output-dt", "0.01"], capsys)
+    assert code == 0 and err == ""
+    d = tmp_path / "out" / "circle_two_link"
+    assert (d / "summary.json").exists() and not (d / "angles.png").exists()
+    assert "status: finished" in out and "0 impacts" not in err
+    s = json.loads((d / "summary.json").read_text())
+    assert s["settings"]["rtol"] == 1e-8 and s["settings"]["output_dt"] == 0.01
+    assert gio.read_csv(d / "timeseries.csv")["t_s"].tolist() == pytest.approx([0.0, 0.01, 0.02, 0.03, 0.04, 0.05])
+
+
+def test_quiet_prints_nothing(tmp_path, capsys):
+    code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--t-end", "0.01", "--no-plots", "--quiet",
+                               "--out", tmp_path], capsys)
+    assert code == 0 and out == "" and err == ""
+
+
+def test_stopped_early_exit_3_keeps_results_and_animates(tmp_path, capsys):
+    case = tmp_path / "zeno.toml"
+    case.write_text(ZENO)
+    code, out, err = run_main(["run", case, "--out", tmp_path / "o", "--animate", "--quiet"], capsys)
+    assert code == 3
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("gibbsimpact: error: simulation stopped early (zeno)")
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["status"] == "zeno" and s["n_impacts"] == 4
+    assert all(j == [1, 2] for j in s["impact_joints"])
+    assert nonblank(tmp_path / "o" / "configurations.png")
+    from PIL import Image
+
+    with Image.open(tmp_path / "o" / "animation.gif") as im:
+        assert im.n_frames > 1
+
+
+def test_max_impacts_exit_3(tmp_path, capsys):
+    text = (CASES / "circle_two_link.toml").read_text().replace("output_dt_s = 1e-3", "output_dt_s = 1e-2\nmax_impacts = 1")
+    case = tmp_path / "c.toml"
+    case.write_text(text)
+    code, out, err = run_main(["run", case, "--out", tmp_path / "o", "--no-plots", "-q", "--rtol", "1e-8"], capsys)
+    assert code == 3 and "(max_impacts)" in err
+    assert json.loads((tmp_path / "o" / "summary.json").read_text())["n_impacts"] == 1
+
+
+def test_bad_case_exit_2_names_every_problem(tmp_path, capsys):
+    text = (CASES / "circle_two_link.toml").read_text()
+    text = text.replace("radius_m = 1.5", "radius_m = 0.5").replace("length_m = 1.0", "length_m = -1.0", 1)
+    case = tmp_path / "bad.toml"
+    case.write_text(text)
+    code, out, err = run_main(["run", case, "--out", tmp_path / "o"], capsys)
+    assert code == 2 and out == ""
+    assert err.startswith("gibbsimpact: error: ") and "links[1].length_m: must be positive" in err
+    assert not (tmp_path / "o").exists()
+    # A valid chain outside a too small wall.
+    case.write_text((CASES / "circle_two_link.toml").read_text().replace("radius_m = 1.5", "radius_m = 0.5"))
+    code, out, err = run_main(["show", case], capsys)
+    assert code == 2
+    assert "joint O1" in err and "joint O3" in err and "outside walls[1]" in err
+
+
+def test_missing_file_and_bad_options_exit_2(tmp_path, capsys):
+    code, out, err = run_main(["run", tmp_path / "none.toml"], capsys)
+    assert code == 2 and err.strip() == f"gibbsimpact: error: {tmp_path / 'none.toml'}: no such case file"
+    code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--t-end", "-1", "--out", tmp_path], capsys)
+    assert code == 2 and "--t-end -1 must be after" in err
+    with pytest.raises(SystemExit) as info:
+        cli.main(["run", str(CASES / "circle_two_link.toml"), "--rtol", "-1"])
+    assert info.value.code == 2
+    with pytest.raises(SystemExit) as info:
+        cli.main([])
+    assert info.value.code == 2
+
+
+def test_show_describes_the_model(capsys):
+    code, out, err = run_main(["show", CASES / "circle_two_link.toml"], capsys)
+    assert code == 0
+    assert "N = 9 generalised coordinates, 18 first-order ODEs" in out
+    names = ["X1", "X2", "X3", "theta_-1", "theta_0", "theta_1", "theta_2", "delta_1_1", "delta_2_1"]
+    rows = [ln.split()[1] for ln in out.splitlines() if ln[:4].strip().isdigit()]
+    assert rows == names
+    assert "omega = 100.056 rad/s" in out  # 4.73004^2 sqrt(20 / 1)
+    assert "circle R=1.5 m centre (0, 0)" in out
+    assert "total -4.905 J" in out
+    gaps = [ln for ln in out.splitlines() if ln.strip().startswith("O")]
+    assert len(gaps) == 3 and gaps[1].split()[-1] == "1"
+    code, out, err = run_main(["show", CASES / "sphere_single_link.toml"], capsys)
+    assert code == 0 and "16 first-order ODEs" in out and "mode 1 in z" in out and "1.80754863 J" in out
+
+
+def test_progress_line_only_on_a_terminal():
+    class Tty(_io.StringIO):
+        def isatty(self):
+            return True
+
+    tty = Tty()
+    p = cli._Progress((0.0, 1.0), enabled=True, delay=0.0, stream=tty)
+    p(0.5, 2)
+    p.close()
+    assert "t = 0.5000 / 1 s" in tty.getvalue() and "impacts: 2" in tty.getvalue() and tty.getvalue().endswith("\n")
+    pipe = _io.StringIO()
+    p = cli._Progress((0.0, 1.0), enabled=True, delay=0.0, stream=pipe)
+    p(0.5, 2)
+    p.close()
+    assert pipe.getvalue() == ""
+    quiet = Tty()
+    p = cli._Progress((0.0, 1.0), enabled=False, delay=0.0, stream=quiet)
+    p(0.5, 2)
+    assert quiet.getvalue() == ""
+
+
+def test_module_and_console_script(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "gibbsimpact", "show", str(CASES / "sphere_single_link.toml")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0 and "sphere R=1 m" in r.stdout
+    r = subprocess.run([sys.executable, "-m", "gibbsimpact", "run", str(tmp_path / "x.toml")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1
+    exe = shutil.which("gibbsimpact")
+    if exe is None:
+        pytest.skip("console script not on PATH (package not installed)")
+    r = subprocess.run([exe, "--version"], capture_output=True, text=True)
+    assert r.returncode == 0 and r.stdout.startswith("gibbsimpact ")

@@ -1,0 +1,160 @@
+"""Result files: NPZ round trips exactly (every field, the model, the walls), CSV columns
+read back to the same doubles, summary.json is strict JSON with the required fields."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gibbsimpact as gi
+from gibbsimpact import io
+
+CASES = Path(__file__).resolve().parents[1] / "cases"
+
+
+@pytest.fixture(scope="module")
+def case():
+    return gi.load_case(CASES / "circle_two_link.toml")
+
+
+@pytest.fixture(scope="module")
+def result(case):
+    # t_end 0.5 s holds impact 1 (O2) and impact 2 (O1 and O3 together: two contacts).
+    res = case.simulate(t_end=0.5, rtol=1e-8, atol=1e-10, output_dt=5e-3)
+    assert [r.joints for r in res.impacts] == [(2,), (1, 3)]
+    return res
+
+
+def assert_same_result(a, b):
+    for name in ("t", "q", "qdot", "phase"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y), name
+    for name in ("status", "message", "settings", "nfev", "n_steps", "wall_time"):
+        assert getattr(a, name) == getattr(b, name), name
+    assert a.energy_error == b.energy_error or (math.isnan(a.energy_error) and math.isnan(b.energy_error))
+    assert a.walls == b.walls
+    assert a.model.coordinate_names == b.model.coordinate_names
+    assert np.array_equal(a.model.gravity, b.model.gravity)
+    assert a.model.chain == b.model.chain
+    assert len(a.impacts) == len(b.impacts)
+    for ra, rb in zip(a.impacts, b.impacts):
+        for f in ra._fields:
+            va, vb = getattr(ra, f), getattr(rb, f)
+            if isinstance(va, np.ndarray):
+                assert np.array_equal(va, vb), f
+            else:
+                assert va == vb and type(va) is type(vb), f
+
+
+def test_npz_round_trip_is_exact(result, tmp_path):
+    path = result.save(tmp_path / "r.npz")
+    back = gi.load_result(path)
+    assert_same_result(result, back)
+    # The rebuilt model gives the same dynamics, so derived quantities agree exactly.
+    ea, eb = result.energy(), back.energy()
+    assert all(np.array_equal(x, y) for x, y in zip(ea, eb))
+    assert np.array_equal(result.joint_positions(), back.joint_positions())
+    assert back.settings["max_step"] == math.inf and back.settings["wall_restitution"] == [None]
+
+
+def test_npz_metadata_and_suffix(result, tmp_path):
+    path = gi.Result.save(result, tmp_path / "noext", metadata={"case": "x", "numbers": (1, 2.5)})
+    assert path.name == "noext.npz"
+    back, meta = gi.load_result(path, with_metadata=True)
+    assert meta == {"case": "x", "numbers": (1, 2.5)}
+
+
+def test_npz_round_trip_without_impacts_and_3d_walls(tmp_path):
+    link = gi.Link(1.0, 1.0, (20.0, 30.0), modes=[gi.Mode("clamped-free", "z", 2)], rotary_inertia=(1e-4, 5e-5, 5e-5))
+    model = gi.Model([link], gravity=(0.0, 0.0, -9.81))
+    walls = (gi.Sphere(5.0, (0.1, 0.2, 0.3), restitution=0.7), gi.Plane((0, 0, -3.0), (0.0, 0.3, 1.0)))
+    res = gi.simulate(model, model.state(theta_0=0.3), model.state(X1=1.0, theta_1=1.0), (0.0, 0.02), walls,
+                      rtol=1e-8, atol=1e-10)
+    assert res.impacts == []
+    back = gi.load_result(res.save(tmp_path / "r"))
+    assert_same_result(res, back)
+    assert back.walls[1].normal_vector == res.walls[1].normal_vector
+
+
+def test_npz_rejects_foreign_files_and_callable_links(tmp_path):
+    np.savez(tmp_path / "other.npz", a=np.zeros(3))
+    with pytest.raises(ValueError, match="not a gibbsimpact result"):
+        gi.load_result(tmp_path / "other.npz")
+    link = gi.Link(1.0, lambda x: 1.0 + 0.0 * x, 20.0, rotary_inertia=(1e-4, 1e-4, 1e-4))
+    model = gi.Model([link])
+    res = gi.simulate(model, model.state(), model.state(), (0.0, 0.001))
+    with pytest.raises(ValueError, match="callable"):
+        res.save(tmp_path / "c.npz")
+
+
+def test_timeseries_csv_round_trip(result, tmp_path):
+    paths = result.to_csv(tmp_path)
+    cols = io.read_csv(paths["timeseries"])
+    m = result.model
+    assert np.array_equal(cols["t_s"], result.t)
+    assert np.array_equal(cols["phase"], result.phase)
+    for k, name in enumerate(m.coordinate_names):
+        unit = "rad" if name.startswith("theta") else "m"
+        assert np.array_equal(cols[f"{name}_{unit}"], result.q[:, k]), name
+        assert np.array_equal(cols[f"{name}_dot_{unit}_per_s"], result.qdot[:, k]), name
+    E = result.energy()
+    for f, col in zip(E._fields, ("kinetic_J", "gravity_J", "strain_J", "total_J")):
+        assert np.array_equal(cols[col], getattr(E, f))
+    P = result.joint_positions()
+    assert np.array_equal(cols["O3_X2_m"], P[:, 2, 1])
+    assert list(cols)[:3] == ["t_s", "phase", "X1_m"]
+
+
+def test_impacts_csv_one_row_per_contact(result, tmp_path):
+    cols = io.read_csv(result.to_csv(tmp_path)["impacts"])
+    assert list(cols) == io.IMPACT_COLUMNS
+    assert cols["impact"].tolist() == [1, 2, 2]
+    assert cols["joint"].tolist() == [2, 1, 3]
+    assert cols["wall"].tolist() == [1, 1, 1]
+    assert cols["n_contacts"].tolist() == [1, 2, 2]
+    rows = [(rec, c) for rec in result.impacts for c in range(len(rec.joints))]
+    for k, (rec, c) in enumerate(rows):
+        assert cols["time_s"][k] == rec.time
+        assert cols["impulse_N_s"][k] == rec.impulses[c]
+        assert cols["v_before_m_per_s"][k] == rec.v_before[c] and cols["v_after_m_per_s"][k] == rec.v_after[c]
+        assert [cols[f"normal_X{a}"][k] for a in (1, 2, 3)] == list(np.asarray(rec.normals)[c])
+        assert cols["total_before_J"][k] == rec.energy_before.total
+        assert cols["kinetic_after_J"][k] == rec.energy_after.kinetic
+    assert cols["wall_description"][0] == "circle R=1.5 m centre (0, 0)"
+
+
+def test_summary_json_is_strict_and_complete(result, case, tmp_path):
+    path = io.write_summary_json(result, tmp_path / "summary.json", case)
+
+    def no_constants(name):
+        raise AssertionError(f"non-standard JSON constant {name}")
+
+    d = json.loads(path.read_text(), parse_constant=no_constants)
+    assert d["case"] == "circle_two_link"
+    assert set(d["versions"]) >= {"gibbsimpact", "python", "numpy", "scipy"}
+    assert d["settings"]["rtol"] == 1e-8 and d["settings"]["max_step"] == "inf"
+    assert d["n_impacts"] == 2
+    assert d["impact_times_s"] == [r.time for r in result.impacts]
+    assert d["impact_joints"] == [[2], [1, 3]]
+    assert d["energy_initial_J"]["total"] == pytest.approx(-4.905, abs=1e-12)
+    assert d["energy_final_J"]["total"] == pytest.approx(-4.905, abs=1e-5)
+    assert d["max_relative_energy_error"] == result.energy_error
+    assert d["status"] == "finished" and d["message"] == result.message
+    for key in ("wall_time_s", "nfev", "n_steps", "model", "walls"):
+        assert key in d
+    assert d["model"]["n_odes"] == 18
+    assert result.summary(case) == d
+
+
+def test_tagged_json_keeps_types():
+    x = {"a": (1, 2.0, None), "b": [math.inf, -math.inf], "c": np.arange(3.0), "d": np.int64(4), "e": {1: "x"}}
+    back = io._untag(json.loads(json.dumps(io._tag(x))))
+    assert back["a"] == (1, 2.0, None) and isinstance(back["a"], tuple)
+    assert back["b"] == [math.inf, -math.inf]
+    assert np.array_equal(back["c"], x["c"]) and back["c"].dtype == x["c"].dtype
+    assert back["d"] == 4 and type(back["d"]) is np.int64
+    assert back["e"] == {1: "x"}
