@@ -297,3 +297,15 @@ def test_low_bounces_after_a_sink_do_not_tunnel():
     v1 = np.sqrt(2 * G * h)
     t_inf = np.sqrt(2 * h / G) + 2 * e * v1 / (G * (1 - e))
     assert res.t[-1] == pytest.approx(t_inf, rel=1e-3)
+
+
+def test_wall_restitution_overrides_global():
+    # Rod between a floor (e = 0.3 on the wall) and a ceiling (global e = 0.9).
+    v = 2.0
+    model = rigid_rod()
+    walls = [gi.Plane((0, 0, 0), (0, 1, 0), restitution=0.3), gi.Plane((0, 1.0, 0), (0, -1, 0))]
+    res = gi.simulate(model, model.state(X2=0.5), model.state(X2=-v), (0.0, 1.0), walls=walls, restitution=0.9)
+    assert [r.wall for r in res.impacts[:2]] == [(0, 0), (1, 1)]
+    np.testing.assert_allclose(res.impacts[0].v_after, [0.3 * v, 0.3 * v], rtol=1e-10)
+    np.testing.assert_allclose(res.impacts[1].v_after, [0.9 * 0.3 * v] * 2, rtol=1e-10)
+    np.testing.assert_allclose(res.impacts[1].restitution, [0.9, 0.9])

@@ -337,6 +337,12 @@ def load_case(path) -> Case:
     return case_from_dict(data, name=path.stem, source=str(path), path=path)
 
 
+def _build_each(tables, build):
+    """[build(k, table) ...], or _BAD if any entry is bad (every entry is still checked)."""
+    out = [build(k, t) for k, t in enumerate(tables)]
+    return _BAD if any(x is _BAD for x in out) else out
+
+
 def _link(r: _Reader, tbl, path: str):
     tbl = r.table(tbl, path, _LINK_KEYS, "a [[links]] table")
     if tbl is None:
@@ -519,12 +525,7 @@ def case_from_dict(data: dict, name: str = "case", source: str = "<case>", path=
         r.add("links", f"expected one or more [[links]] tables, got {_type_name(raw_links)}")
         links = _BAD
     else:
-        for k, lt in enumerate(raw_links):
-            lk = _link(r, lt, _join("links", k))
-            if lk is _BAD or links is _BAD:
-                links = _BAD
-            else:
-                links.append(lk)
+        links = _build_each(raw_links, lambda k, lt: _link(r, lt, _join("links", k)))
     model = None
     if links is not _BAD and gravity is not _BAD:
         model = Model(Chain(tuple(links)), gravity=tuple(gravity))
@@ -536,12 +537,7 @@ def case_from_dict(data: dict, name: str = "case", source: str = "<case>", path=
         r.add("walls", f"expected [[walls]] tables, got {_type_name(raw_walls)}")
         walls = _BAD
     else:
-        for k, wt in enumerate(raw_walls):
-            w = _wall(r, wt, _join("walls", k))
-            if w is _BAD or walls is _BAD:
-                walls = _BAD
-            else:
-                walls.append(w)
+        walls = _build_each(raw_walls, lambda k, wt: _wall(r, wt, _join("walls", k)))
 
     # Time.
     t_span = _BAD

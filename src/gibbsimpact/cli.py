@@ -57,16 +57,6 @@ def _error(msg: str, code: int) -> int:
     return code
 
 
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (v > 0 and math.isfinite(v)):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number")
-    return v
-
-
 def _float(text: str) -> float:
     try:
         v = float(text)
@@ -74,6 +64,13 @@ def _float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not math.isfinite(v):
         raise argparse.ArgumentTypeError(f"{text!r} must be finite")
+    return v
+
+
+def _positive_float(text: str) -> float:
+    v = _float(text)
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number")
     return v
 
 
