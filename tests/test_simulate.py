@@ -304,7 +304,7 @@ def test_wall_restitution_overrides_global():
     v = 2.0
     model = rigid_rod()
     walls = [gi.Plane((0, 0, 0), (0, 1, 0), restitution=0.3), gi.Plane((0, 1.0, 0), (0, -1, 0))]
-    res = gi.simulate(model, model.state(X2=0.5), model.state(X2=-v), (0.0, 1.0), walls=walls, restitution=0.9)
+    res = gi.simulate(model, model.state(X2=0.5), model.state(X2=-v), (0.0, 2.5), walls=walls, restitution=0.9)  # hits at 0.25 s and 1.92 s
     assert [r.wall for r in res.impacts[:2]] == [(0, 0), (1, 1)]
     np.testing.assert_allclose(res.impacts[0].v_after, [0.3 * v, 0.3 * v], rtol=1e-10)
     np.testing.assert_allclose(res.impacts[1].v_after, [0.9 * 0.3 * v] * 2, rtol=1e-10)
