@@ -97,6 +97,25 @@ def _check_inside(model, q, walls, contact_tol):
         raise ValueError("initial state q0 puts a joint outside a wall: " + "; ".join(bad) + ". Move the chain inside.")
 
 
+def _accumulation_time(times, intervals):
+    """Estimate of the accumulation time of a run of impacts, and the ratio used.
+
+    times : (k,) impact times [s]; intervals : (k,) the interval ending at each.
+    Geometric extrapolation t_inf = t_j + d_j r / (1 - r) from the most geometric
+    pair (smallest r = d_j / d_(j-1)): the latest intervals can be limited by the
+    contact band and tend to a constant.
+    """
+    d = np.asarray(intervals, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratios = d[1:] / d[:-1]
+    ok = np.isfinite(ratios) & (ratios > 0) & (ratios < 1)
+    if not np.any(ok):
+        return float(times[-1]), float("nan")
+    j = int(np.argmin(np.where(ok, ratios, np.inf)))
+    r = float(ratios[j])
+    return float(times[j + 1] + d[j + 1] * r / (1 - r)), r
+
+
 class _Clock:
     """Calls progress(t, n_impacts) at most every `every` seconds of wall time."""
 
@@ -237,8 +256,8 @@ def simulate(
         q, qd = y[:N], y[N:]
         if pending_impact and walls:
             g, nrm, Jac = contact_data(q)
-            # Candidates of this impact: every pair within the contact band. A pair
-            # caught by its "sink" event sits at g = -contact_tol, inside the band.
+            # Candidates of this impact: every pair within the contact band (a pair
+            # caught by its "sink" event sits just below its phase-start gap).
             near = g <= 2.0 * contact_tol
             rec = None
             if np.any(near):
@@ -275,16 +294,9 @@ def simulate(
                 if len(impacts) > 1:
                     recent_gaps.append(t - impacts[-2].time)
                     if len(recent_gaps) >= zeno_count and all(d < zeno_interval for d in recent_gaps[-zeno_count:]):
-                        # Geometric extrapolation t_inf = t_k + d_k r / (1 - r) from the
-                        # most geometric pair of the window (smallest ratio r = d_k/d_(k-1)):
-                        # the latest intervals can be limited by the contact band.
                         win = np.array(recent_gaps[-zeno_count:])
-                        times = np.array([rec_.time for rec_ in impacts[-zeno_count:]])
-                        ratios = win[1:] / np.where(win[:-1] > 0, win[:-1], np.nan)
-                        k = int(np.nanargmin(ratios)) if np.any(np.isfinite(ratios)) else -1
-                        ratio = float(ratios[k]) if k >= 0 else np.nan
+                        t_acc, ratio = _accumulation_time([r_.time for r_ in impacts[-zeno_count:]], win)
                         d1 = float(win[-1])
-                        t_acc = times[k + 1] + win[k + 1] * ratio / (1 - ratio) if 0 < ratio < 1 else t
                         status = STATUS_ZENO
                         message = (
                             f"accumulation of impacts: {zeno_count} consecutive impacts less than "
