@@ -309,3 +309,11 @@ def test_wall_restitution_overrides_global():
     np.testing.assert_allclose(res.impacts[0].v_after, [0.3 * v, 0.3 * v], rtol=1e-10)
     np.testing.assert_allclose(res.impacts[1].v_after, [0.9 * 0.3 * v] * 2, rtol=1e-10)
     np.testing.assert_allclose(res.impacts[1].restitution, [0.9, 0.9])
+
+
+def test_result_energy_matches_model_energy_at_every_sample(case1):
+    # simulate hands its per-sample energies to the Result; they must be the model's.
+    E = np.array(case1.energy()).T
+    ref = np.array([case1.model.energy(q, qd) for q, qd in zip(case1.q, case1.qdot)])
+    assert E.shape == ref.shape == (case1.t.size, 4)
+    np.testing.assert_array_equal(E, ref)

@@ -138,8 +138,8 @@ def _end_transform(ld, delta, delta_dot):
     E = Trans(l e_1 + sum_k t_k delta_k) Rot(sum_k phi_k delta_k)
     """
     m = delta.shape[0]
-    G = np.eye(4)
-    G[:3, 3] = ld.length * np.array([1.0, 0.0, 0.0]) + ld.end_t.T @ delta
+    G = ld.E0.copy()
+    G[:3, 3] += ld.end_t.T @ delta
     dG = np.zeros((m, 4, 4))
     dG[:, :3, 3] = ld.end_t
     if not np.any(ld.end_phi):
@@ -214,8 +214,7 @@ def frames(model, q: np.ndarray, qdot: np.ndarray | None = None) -> Frames:
         ld = model.link_data[i]
         idx = model.delta_index[i]
         if ld.end_is_rigid:
-            G = np.eye(4)
-            G[0, 3] = ld.length
+            G = ld.E0
             return T @ G, dT @ G, (Td @ G if vel else None), (Tdd0 @ G if vel else None)
         G, dG, Gd, Gdd0 = _end_transform(ld, q[idx], qdot[idx] if vel else None)
         dT_new = dT @ G
@@ -242,10 +241,9 @@ def frames(model, q: np.ndarray, qdot: np.ndarray | None = None) -> Frames:
 
 def _end_translation_rotation(ld, delta):
     """E(delta) (4, 4) without derivatives."""
-    G = np.eye(4)
-    G[0, 3] = ld.length
     if ld.end_is_rigid:
-        return G
+        return ld.E0
+    G = ld.E0.copy()
     G[:3, 3] += ld.end_t.T @ delta
     if np.any(ld.end_phi):
         G[:3, :3] = rodrigues(ld.end_phi.T @ delta)[0]
@@ -276,6 +274,12 @@ def joint_positions(model, q: np.ndarray) -> np.ndarray:
     return transforms(model, q)[:, :3, 3].copy()
 
 
+def joint_positions_and_jacobians(model, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """O_1 ... O_(n+1), shape (n+1, 3) [m], and d O_j / d q, shape (n+1, 3, N), from one recursion."""
+    fr = frames(model, q)
+    return fr.T[:, :3, 3].copy(), np.ascontiguousarray(np.swapaxes(fr.dT[:, :, :3, 3], 1, 2))
+
+
 def joint_jacobians(model, q: np.ndarray) -> np.ndarray:
     """d O_j / d q for j = 1 ... n+1, shape (n+1, 3, N)."""
-    return np.ascontiguousarray(np.swapaxes(frames(model, q).dT[:, :, :3, 3], 1, 2))
+    return joint_positions_and_jacobians(model, q)[1]

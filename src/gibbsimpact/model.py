@@ -182,6 +182,7 @@ class LinkData:
     * ``end_t[k]``: tip displacement per unit delta_k (3,); ``end_phi[k]``:
       tip rotation vector per unit delta_k (3,) = (0, -w', v') at x = l.
     * ``J_body = l diag(j_x, j_y, j_z)`` (3, 3) [kg m^2]
+    * ``E0 = Trans(l, 0, 0)`` (4, 4): the end transform of the undeformed link
     """
 
     length: float
@@ -196,6 +197,7 @@ class LinkData:
     end_t: np.ndarray
     end_phi: np.ndarray
     J_body: np.ndarray
+    E0: np.ndarray
     has_rotary: bool
     end_is_rigid: bool
 
@@ -257,7 +259,10 @@ def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE)
     end_t[np.abs(end_t) < 1e-12] = 0.0
     end_phi[np.abs(end_phi) < 1e-12 / l] = 0.0
     J_body = l * np.diag(link.rotary_inertia)
-    arrays = dict(P0=P0, C=C, D=D, m_r0=m_r0, m_psi=m_psi, M_dd=M_dd, K=K, end_t=end_t, end_phi=end_phi, J_body=J_body)
+    E0 = np.eye(4)
+    E0[0, 3] = l
+    arrays = dict(P0=P0, C=C, D=D, m_r0=m_r0, m_psi=m_psi, M_dd=M_dd, K=K, end_t=end_t, end_phi=end_phi,
+                  J_body=J_body, E0=E0)
     for a in arrays.values():
         a.setflags(write=False)
     return LinkData(

@@ -40,9 +40,9 @@ from numbers import Real
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from .dynamics import SingularMassMatrixError, _energy_from, forward_dynamics, mass_matrix
+from .dynamics import Energy, SingularMassMatrixError, _energy_from, forward_dynamics, mass_matrix
 from .impact import solve_impulses
-from .kinematics import frames, transforms
+from .kinematics import joint_positions_and_jacobians, transforms
 from .results import (
     STATUS_FAILED,
     STATUS_FINISHED,
@@ -233,14 +233,15 @@ def simulate(
 
     def contact_data(q):
         """Gaps (W, J), normals (W, J, 3), Jacobians (J, 3, N) at q."""
-        fr = frames(model, q)
-        p = fr.T[:, :3, 3]
-        Jac = np.swapaxes(fr.dT[:, :, :3, 3], 1, 2)
+        p, Jac = joint_positions_and_jacobians(model, q)
         g = np.array([w.gap(p) for w in walls]).reshape(len(walls), n_joints)
         nrm = np.array([w.normal(p) for w in walls]).reshape(len(walls), n_joints, 3)
         return g, nrm, Jac
 
     ts, qs, qds, phases = [np.array([t0])], [q0[None, :]], [qdot0[None, :]], [np.array([0])]
+    # Energy of every stored sample: needed for the flight-phase drift, then handed
+    # to the Result so res.energy() does not evaluate M at every sample again.
+    energies = [_energy_from(model, q0, qdot0, mass_matrix(model, q0))]
     impacts: list[ImpactRecord] = []
     energy_error = 0.0
     n_steps = 0
@@ -291,6 +292,7 @@ def simulate(
                 qs.append(q[None, :].copy())
                 qds.append(rec.qdot_after[None, :].copy())
                 phases.append(np.array([phase]))
+                energies.append(rec.energy_after)
                 if len(impacts) > 1:
                     recent_gaps.append(t - impacts[-2].time)
                     if len(recent_gaps) >= zeno_count and all(d < zeno_interval for d in recent_gaps[-zeno_count:]):
@@ -331,7 +333,7 @@ def simulate(
                 else:
                     events.append(make_event(w_i, j, 0.0, -1))
                     kinds.append(("hit", w_i, j))
-        E_start = _energy_from(model, y[:N], y[N:], mass_matrix(model, y[:N]))
+        E_start = energies[-1]  # the last stored sample is the state y of this phase start
         E_scale = max(abs(E_start.total), abs(E_start.kinetic) + abs(E_start.gravity) + abs(E_start.strain), 1e-300)
         try:
             sol = solve_ivp(
@@ -369,6 +371,7 @@ def simulate(
         # Energy drift over this flight phase, at the stored samples.
         for k in range(T.size):
             Ek = _energy_from(model, Y[:N, k], Y[N:, k], mass_matrix(model, Y[:N, k]))
+            energies.append(Ek)
             energy_error = max(energy_error, abs(Ek.total - E_start.total) / E_scale)
         if status == STATUS_FAILED:
             break
@@ -406,6 +409,7 @@ def simulate(
         phase=np.concatenate(phases), impacts=impacts, status=status, message=message, settings=settings,
         nfev=counters["nfev"], n_steps=n_steps, wall_time=time.perf_counter() - started,
         energy_error=float(energy_error),
+        _energy_cache=Energy(*(np.array(col) for col in zip(*energies))),
     )
     if progress is not None:
         progress(float(t_all[-1]), len(impacts))
