@@ -42,9 +42,12 @@ def check_newton_law(res):
         active = rec.impulses > 0
         assert np.all(rec.impulses >= 0)
         scale = np.max(np.abs(rec.v_before))
-        # Carrying an impulse: v+ = -e v-; not carrying: not penetrating.
-        np.testing.assert_allclose(rec.v_after[active], -rec.restitution[active] * rec.v_before[active],
-                                   rtol=0, atol=1e-10 * scale)
+        # Carrying an impulse: v+ = -e v- (one round); not carrying: not penetrating.
+        if rec.rounds == 1:
+            np.testing.assert_allclose(rec.v_after[active], -rec.restitution[active] * rec.v_before[active],
+                                       rtol=0, atol=1e-10 * scale)
+        assert np.all(rec.v_after >= -1e-10 * scale)
+        assert rec.energy_after.kinetic <= rec.energy_before.kinetic * (1 + 1e-12)
         assert np.all(rec.v_after[~active] >= -rec.restitution[~active] * rec.v_before[~active] - 1e-10 * scale)
         # Recomputed from scratch: n.J qdot+ at the impact configuration.
         k = np.searchsorted(res.t, rec.time)
@@ -297,6 +300,29 @@ def test_low_bounces_after_a_sink_do_not_tunnel():
     v1 = np.sqrt(2 * G * h)
     t_inf = np.sqrt(2 * h / G) + 2 * e * v1 / (G * (1 - e))
     assert res.t[-1] == pytest.approx(t_inf, rel=1e-3)
+
+
+def test_plastic_slide_along_a_circle_stops_in_bounded_time():
+    # Issue 12.3: O1 of a rigid rod slides along the inside of a circle (no gravity,
+    # e = 0). Each plastic impact leaves v_n = 0, the curved wall turns the path back
+    # into it, and the joint chatters at the sink depth ~1.6e-6 s apart (above
+    # zeno_interval): formerly 10,000 impacts and minutes of CPU for 16 ms. The
+    # rebounds never leave the contact band, so the accumulation is detected after
+    # zeno_count impacts whatever their interval.
+    rod = gi.Model(gi.Chain([gi.Link(0.5, 1.0, 20.0, rotary_inertia=(5e-5, 0, 0))]), gravity=(0, 0, 0))
+    q0 = rod.state(X2=-1.0 + 1e-12, theta_1=np.pi / 3)
+    qd0 = rod.state(X1=0.15)
+    res = gi.simulate(rod, q0, qd0, (0.0, 0.5), walls=[gi.Circle(1.0)], restitution=0.0)
+    assert res.status == "zeno", res.message
+    assert "joint O1 stayed within" in res.message and "wall 1" in res.message
+    assert 10 <= len(res.impacts) <= 11
+    d = np.diff(res.impact_times)
+    assert np.all(d > 1e-6)  # the interval rule alone would never have stopped it
+    assert res.t[-1] == res.impacts[-1].time < 1e-4
+    # Estimated accumulation time: when the contact closed (intervals do not shrink).
+    est = float(res.message.split("estimated accumulation time ")[1].split(" s")[0])
+    assert est == pytest.approx(res.impacts[0].time, abs=2e-6)
+    check_newton_law(res)
 
 
 def test_wall_restitution_overrides_global():

@@ -10,15 +10,37 @@ Integrating M qddot = ... over the vanishing impact time with q fixed:
     M (qdot+ - qdot-) = W Lambda                                     (1)
 
 With G = W^T M^-1 W (the inverse effective mass, m/(N s)), the post-impact
-normal velocities are v+ = v- + G Lambda. Newton's law with the "impulses
-push" condition is the linear complementarity problem
+normal velocities are v+ = v- + G Lambda, and the kinetic energy changes by
 
-    w = G Lambda + b >= 0,  Lambda >= 0,  w . Lambda = 0,
-    b_j = v-_j + e_j min(v-_j, 0)                                    (2)
+    T+ - T- = 1/2 (qdot+ + qdot-)^T M (qdot+ - qdot-)
+            = 1/2 sum_j Lambda_j (v+_j + v-_j)                        (2)
 
-so an approaching contact (v-_j < 0) gets v+_j = -e_j v-_j when it carries an
-impulse, and a contact that was not approaching only must not start to
-penetrate. For one contact this is Lambda = -(1 + e) v- / G.
+Newton's law with the "impulses push" condition, for a set S of contacts, is
+the linear complementarity problem
+
+    w = G_SS Lambda_S + b_S >= 0,  Lambda_S >= 0,  w . Lambda_S = 0,
+    b_j = v-_j + e_j min(v-_j, 0)                                    (3)
+
+so a contact that carries an impulse leaves with v+_j = -e_j v-_j. By (2) an
+impulse on a contact with v-_j <= 0 does work Lambda_j (1 - e_j) v-_j / 2 <= 0,
+but one on a contact that moves away (v-_j > 0), stopped at v+_j = 0, does
+positive work Lambda_j v-_j / 2: with e = 1 at the others the impact would
+create energy. So a contact moving away is never part of S.
+
+An impact is therefore solved in rounds at the same instant: each round
+solves (3) for S = the contacts that approach or rest (v_j <= 0, velocities
+of this round), contacts moving away keep Lambda_j = 0. If the round pushes
+one of them into the wall (v_j < 0), it approaches in the next round and
+obeys Newton's law there with that velocity. Each round does work <= 0, so
+the kinetic energy never rises, and every contact carrying an impulse in a
+round obeys Newton's law for that round. Simultaneous contacts that all
+approach stay one round (symmetric impacts stay symmetric); a single contact
+gets Lambda = -(1 + e) v- / G. A sequence that has not ended after
+max_rounds rounds (a chain jammed between walls with e = 1 can bounce
+between them without end) ends with one plastic round over all contacts,
+
+    b_S = v_S  (target v+ >= 0),  T+ - T- = -1/2 Lambda^T G Lambda <= 0   (4)
+
 """
 
 from __future__ import annotations
@@ -30,12 +52,13 @@ from scipy.optimize import nnls
 
 
 class ImpulseSolution(NamedTuple):
-    """qdot_after (N,), impulses Lambda (k,) [N s], normal velocities before/after (k,) [m/s]."""
+    """qdot_after (N,), impulses Lambda (k,) [N s], normal velocities before/after (k,) [m/s], rounds."""
 
     qdot_after: np.ndarray
     impulses: np.ndarray
     v_before: np.ndarray
     v_after: np.ndarray
+    rounds: tuple = ()
 
 
 def _solve_lcp(G: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -74,8 +97,23 @@ def _solve_lcp(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     return x
 
 
-def solve_impulses(M: np.ndarray, W: np.ndarray, qdot_before: np.ndarray, restitution) -> ImpulseSolution:
-    """Post-impact velocities and impulses from equations (1)-(2).
+class ImpulseRound(NamedTuple):
+    """One round of an impact: the contacts it solved and what it did to them.
+
+    contacts : (r,) indices into the impact's k contacts
+    impulses : (r,) [N s]; v_before, v_after : (r,) normal velocities of those contacts [m/s]
+    """
+
+    contacts: np.ndarray
+    impulses: np.ndarray
+    v_before: np.ndarray
+    v_after: np.ndarray
+
+
+def solve_impulses(
+    M: np.ndarray, W: np.ndarray, qdot_before: np.ndarray, restitution, max_rounds: int | None = None
+) -> ImpulseSolution:
+    """Post-impact velocities and impulses from equations (1)-(4).
 
     Parameters
     ----------
@@ -83,10 +121,13 @@ def solve_impulses(M: np.ndarray, W: np.ndarray, qdot_before: np.ndarray, restit
     W : (N, k) columns J_j^T n_j for the k contacts in the impact.
     qdot_before : (N,) velocities before the impact.
     restitution : float or (k,) coefficients e in [0, 1].
+    max_rounds : int or None, bound on the rounds of equation (3); default 10 k + 10.
+        Past it one plastic round (4) ends the impact.
 
     Returns
     -------
-    ImpulseSolution
+    ImpulseSolution: qdot_after (N,), total impulses (k,) [N s], normal
+    velocities before and after (k,) [m/s], and the rounds (tuple of ImpulseRound).
     """
     k = W.shape[1]
     e = np.broadcast_to(np.asarray(restitution, dtype=float), (k,))
@@ -95,7 +136,30 @@ def solve_impulses(M: np.ndarray, W: np.ndarray, qdot_before: np.ndarray, restit
     G = W.T @ MinvW
     G = 0.5 * (G + G.T)
     v_before = W.T @ qdot_before
-    b = v_before + e * np.minimum(v_before, 0.0)
-    Lam = _solve_lcp(G, b)
+    # Velocities within tol_v of zero count as zero: a contact moving away by
+    # less than that may carry an impulse, whose work is below tol_v * Lambda.
+    tol_v = 1e-13 * max(float(np.max(np.abs(v_before), initial=0.0)), 1e-300)
+    if max_rounds is None:
+        max_rounds = 10 * k + 10
+    v = v_before.copy()
+    Lam = np.zeros(k)
+    rounds = []
+    for r in range(max_rounds + 1):
+        if np.all(v >= -tol_v):
+            break
+        if r < max_rounds:
+            # (3): the contacts that approach or rest; those moving away sit this round out.
+            S = np.nonzero(v <= tol_v)[0]
+            b = v[S] + e[S] * np.minimum(v[S], 0.0)
+        else:
+            # (4): one plastic round over every contact ends a sequence that did not.
+            S = np.arange(k)
+            b = v.copy()
+        lam = _solve_lcp(G[np.ix_(S, S)], b)
+        Lam[S] += lam
+        # Velocities from qdot, not accumulated through G, so rounds do not drift.
+        v_new = W.T @ (qdot_before + MinvW @ Lam)
+        rounds.append(ImpulseRound(S, lam, v[S].copy(), v_new[S].copy()))
+        v = v_new
     qdot_after = qdot_before + MinvW @ Lam
-    return ImpulseSolution(qdot_after, Lam, v_before, W.T @ qdot_after)
+    return ImpulseSolution(qdot_after, Lam, v_before, W.T @ qdot_after, tuple(rounds))

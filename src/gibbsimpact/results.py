@@ -33,6 +33,9 @@ class ImpactRecord(NamedTuple):
     restitution : (k,) coefficients used
     qdot_before, qdot_after : (N,) generalised velocities
     energy_before, energy_after : Energy [J]
+    rounds : int, rounds of Newton's law the impact took (gibbsimpact.impact): 1
+        when every contact carrying an impulse approached; more when an impulse
+        pushed a contact that was moving away back into the wall
     """
 
     time: float
@@ -47,6 +50,7 @@ class ImpactRecord(NamedTuple):
     qdot_after: np.ndarray
     energy_before: Energy
     energy_after: Energy
+    rounds: int = 1
 
 
 @dataclass(eq=False)
@@ -65,6 +69,7 @@ class Result:
     message : str, why the run ended
     settings : dict, the solver settings used (method, rtol, atol, restitution, ...)
     nfev : int, right-hand-side evaluations; n_steps : int, accepted steps
+    n_examined : int, steps whose dense output was searched for a gap dip (flight.py)
     wall_time : float [s]
     energy_error : float, max over flight phases of |E(t) - E(phase start)| / scale,
         scale = max(|E_start|, |kinetic| + |gravity| + |strain| at phase start)
@@ -82,6 +87,7 @@ class Result:
     settings: dict = field(default_factory=dict)
     nfev: int = 0
     n_steps: int = 0
+    n_examined: int = 0
     wall_time: float = 0.0
     energy_error: float = float("nan")
     _energy_cache: Energy | None = field(default=None, repr=False)

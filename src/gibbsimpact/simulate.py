@@ -1,15 +1,21 @@
 """The one module that owns the integrate - detect - impact loop (formulation.md section 7).
 
-Flight phases are integrated by ``scipy.integrate.solve_ivp`` with one terminal
-event per (joint, wall) pair, ``g_w(O_j(q(t)))``, direction -1. At an event the
-impact set is every joint within ``contact_tol`` of a wall; the impulses come
-from :func:`gibbsimpact.impact.solve_impulses` and integration restarts.
+A run alternates two stages until t_end or a stop:
+
+* **flight** (:func:`gibbsimpact.flight.integrate_phase`): scipy's ODE solver
+  steps the equations of motion; one terminal event per (joint, wall) pair,
+  ``g_w(O_j(q(t)))``, direction -1, located at step ends *and inside steps*
+  (a dip of a gap between two accepted steps is found from the dense output,
+  see flight.py);
+* **impact** (:func:`_impact_stage`): every joint within the contact band
+  ``g <= 2 contact_tol`` at the event time is a contact of one impact; the
+  impulses come from :func:`gibbsimpact.impact.solve_impulses` (rounds of
+  Newton's law, never raising the kinetic energy).
 
 Event-loop rules (each one has a test in tests/test_simulate.py):
 
 * Simultaneous contacts: all candidates with g <= 2 contact_tol at the event
-  time enter one impulse problem (approaching ones with Newton's law, the
-  others only with "must not start to penetrate").
+  time enter one impulse problem.
 * Restart: a candidate with g <= 2 contact_tol at the start of a phase (the
   contact band) is watched by two events instead of g = 0: ``g = min(g_start,
   0) - sink_depth`` with sink_depth = max(1e-6 contact_tol, 64 eps (1 + max|p|))
@@ -17,19 +23,30 @@ Event-loop rules (each one has a test in tests/test_simulate.py):
   gap at the phase start so the event function starts positive, above
   round-off, even right after a sink) and
   ``g - 3 contact_tol`` (direction +1: it has left the band; the phase ends
-  and the normal event is re-armed). So an impact never re-fires at its own time and
-  a point cannot slip through the wall unnoticed. After each phase the gaps
-  at all accepted steps are checked; a gap below -penetration_tol stops the
-  run with status "penetration".
+  and the normal event is re-armed). So an impact never re-fires at its own
+  time and a point cannot slip through the wall unnoticed. Gaps at every
+  accepted step and in-step sample are checked; a gap below -penetration_tol
+  stops the run with status "penetration".
 * Grazing: an event whose candidates have normal velocity
   v_n >= -grazing_velocity carries no impulse; it is not an impact. (A pair
   caught by its sink event is still stopped if v_n < 0.)
 * Stall guard: 100 consecutive events without progress in time stop the run
   with status "failed" instead of hanging.
-* Accumulation of impacts (Zeno): when ``zeno_count`` consecutive impacts each
-  follow the previous one by less than ``zeno_interval`` seconds, the run
-  stops with status "zeno" and an estimate of the accumulation time; the
-  results so far are kept.
+* Accumulation of impacts (:class:`_Accumulation`), status "zeno", results
+  so far kept, two rules:
+  (a) a contact whose rebounds no longer leave the contact band: zeno_count
+      consecutive impacts of one (joint, wall) pair without its "leave"
+      event in between. Its rebound height v+^2 / (2 a_n) is then below
+      3 contact_tol (a few nanometres): the impacts have become resting or
+      sliding contact. This rule follows the decay of the rebound velocity,
+      so it holds for any interval between the impacts: a geometric
+      accumulation (e < 1) reaches it once its bounces are nanometres high,
+      a plastic slide (e = 0, chattering at the sink depth) at once;
+  (b) zeno_count consecutive impacts each less than zeno_interval after the
+      previous one (impacts that alternate between pairs).
+  The message gives the estimated accumulation time: geometric extrapolation
+  of the intervals when they shrink (ratio < 0.9), else the time the contact
+  closed.
 """
 
 from __future__ import annotations
@@ -38,9 +55,9 @@ import time
 from numbers import Real
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from .dynamics import Energy, SingularMassMatrixError, _energy_from, forward_dynamics, mass_matrix
+from .flight import SOLVERS, EventSpec, integrate_phase
 from .impact import solve_impulses
 from .kinematics import joint_positions_and_jacobians, transforms
 from .results import (
@@ -54,7 +71,7 @@ from .results import (
 )
 from .walls import WALL_TYPES, describe
 
-_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA", "RK23")
+_METHODS = tuple(SOLVERS)
 
 
 def _positive(name, v, allow_inf=False):
@@ -130,6 +147,161 @@ class _Clock:
                 self.progress(float(t), self.n_impacts)
 
 
+class _Contacts:
+    """Gaps, normals and Jacobians of every (wall, joint) pair: g (W, J) [m], n (W, J, 3), J (J, 3, N)."""
+
+    def __init__(self, model, walls):
+        self.model, self.walls = model, walls
+        self.N, self.n_joints = model.n_dof, model.n_joints
+        self._key, self._g = None, None
+
+    def gaps(self, q: np.ndarray) -> np.ndarray:
+        """g (W, J) [m]; cached per q (every event function of a step sees the same q)."""
+        key = q.tobytes()
+        if key != self._key:
+            p = transforms(self.model, q)[:, :3, 3]
+            self._g = np.array([w.gap(p) for w in self.walls]).reshape(len(self.walls), self.n_joints)
+            self._key = key
+        return self._g
+
+    def full(self, q: np.ndarray):
+        p, Jac = joint_positions_and_jacobians(self.model, q)
+        g = np.array([w.gap(p) for w in self.walls]).reshape(len(self.walls), self.n_joints)
+        nrm = np.array([w.normal(p) for w in self.walls]).reshape(len(self.walls), self.n_joints, 3)
+        return g, nrm, Jac
+
+
+def _impact_stage(model, contacts, e_wall, t, q, qd, contact_tol, grazing_velocity, sink_pair):
+    """The impact at (t, q, qd), if there is one.
+
+    Returns (record or None, near (W, J) bool: the pairs in the contact band g <= 2 contact_tol).
+    """
+    g, nrm, Jac = contacts.full(q)
+    # Candidates: every pair within the contact band (a pair caught by its "sink"
+    # event sits just below its phase-start gap).
+    near = g <= 2.0 * contact_tol
+    if not np.any(near):
+        return None, near
+    pairs = np.argwhere(near)  # (k, 2): wall, joint
+    normals = nrm[pairs[:, 0], pairs[:, 1]]
+    Wmat = np.einsum("kc,kcn->nk", normals, Jac[pairs[:, 1]])
+    v_before = Wmat.T @ qd
+    # An impact: some candidate approaches faster than grazing, or the pair whose
+    # "sink" event fired is still approaching (it must be stopped).
+    sinking = sink_pair is not None and np.any(
+        (pairs[:, 0] == sink_pair[0]) & (pairs[:, 1] == sink_pair[1]) & (v_before < 0)
+    )
+    if not (np.any(v_before < -grazing_velocity) or sinking):
+        return None, near
+    M = mass_matrix(model, q)
+    e_k = e_wall[pairs[:, 0]]
+    sol = solve_impulses(M, Wmat, qd, e_k)
+    rec = ImpactRecord(
+        time=t, joints=tuple(int(j) + 1 for j in pairs[:, 1]), wall=tuple(int(w) for w in pairs[:, 0]),
+        normals=normals, impulses=sol.impulses, v_before=sol.v_before, v_after=sol.v_after,
+        restitution=e_k, qdot_before=qd.copy(), qdot_after=sol.qdot_after.copy(),
+        energy_before=_energy_from(model, q, qd, M), energy_after=_energy_from(model, q, sol.qdot_after, M),
+        rounds=len(sol.rounds),
+    )
+    return rec, near
+
+
+def _phase_events(near, g_start, contact_tol, sink_depth):
+    """EventSpec of one phase and the kind of each event ("hit", "sink", "leave").
+
+    near : (W, J) pairs in the contact band at the phase start; g_start : (W, J) their gaps [m].
+    """
+    rows, kinds = [], []
+    for w_i, j in np.ndindex(near.shape):
+        if near[w_i, j]:
+            # Sink level min(g_start, 0) - sink_depth: the event function starts at
+            # sink_depth > 0 (above the gap's round-off), so a bounce lower than one
+            # solver step that falls back is still a sign change (never tunnels).
+            rows.append((w_i, j, sink_depth - min(float(g_start[w_i, j]), 0.0), -1.0))
+            kinds.append(("sink", w_i, j))
+            rows.append((w_i, j, -3.0 * contact_tol, 1.0))
+            kinds.append(("leave", w_i, j))
+        else:
+            rows.append((w_i, j, 0.0, -1.0))
+            kinds.append(("hit", w_i, j))
+    a = np.array(rows, dtype=float).reshape(-1, 4)
+    return EventSpec(a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]), kinds
+
+
+class _Accumulation:
+    """Detects an accumulation of impacts (rules (a) and (b) of the module docstring)."""
+
+    def __init__(self, shape, zeno_count, zeno_interval, contact_tol):
+        self.count, self.interval, self.tol = zeno_count, zeno_interval, contact_tol
+        self.streak = np.zeros(shape, dtype=int)  # consecutive in-band impacts per (wall, joint)
+        self.times: list[float] = []
+
+    def left_band(self, w_i, j):
+        self.streak[w_i, j] = 0
+
+    def add(self, rec, in_band_before) -> str | None:
+        """Register an impact; in_band_before (W, J): pairs that stayed in the band since the last impact.
+
+        Returns the stop message, or None.
+        """
+        self.times.append(rec.time)
+        for w_i, j, lam in zip(rec.wall, rec.joints, rec.impulses):
+            if lam > 0:
+                self.streak[w_i, j - 1] = self.streak[w_i, j - 1] + 1 if in_band_before[w_i, j - 1] else 0
+        k = self.count
+        times = np.array(self.times[-(k + 1):])
+        d = np.diff(times)
+        if np.max(self.streak) >= k:
+            w_i, j = np.unravel_index(int(np.argmax(self.streak)), self.streak.shape)
+            why = (f"joint O{j + 1} stayed within {3 * self.tol:.3g} m of wall {w_i + 1} through {k} consecutive "
+                   "impacts (its rebounds no longer leave the contact band)")
+        elif d.size >= k and np.all(d[-k:] < self.interval):
+            why = f"{k} consecutive impacts less than {self.interval:g} s apart"
+        else:
+            return None
+        d = d[-k:]
+        t_acc, ratio = _accumulation_time(times[-d.size:], d)
+        if not ratio < 0.9:
+            # Intervals that do not shrink: the contact is closed (resting or sliding) since then.
+            t_acc, ratio = float(times[-d.size - 1] if times.size > d.size else times[0]), ratio
+        return (f"accumulation of impacts: {why}; last interval {d[-1]:.3g} s, interval ratio {ratio:.3g}; "
+                f"estimated accumulation time {t_acc:.9g} s. Resting contact is not modelled yet; "
+                "results up to here are kept")
+
+
+class _Recorder:
+    """Stored samples (t, q, qdot, phase), their energies, and the flight-phase energy drift."""
+
+    def __init__(self, model, t0, q0, qdot0):
+        self.model = model
+        self.t, self.q, self.qd, self.phase = [np.array([t0])], [q0[None, :]], [qdot0[None, :]], [np.array([0])]
+        # Energy of every stored sample: needed for the flight-phase drift, then handed
+        # to the Result so res.energy() does not evaluate M at every sample again.
+        self.energies = [_energy_from(model, q0, qdot0, mass_matrix(model, q0))]
+        self.energy_error = 0.0
+
+    def impact(self, rec, q, phase):
+        self.t.append(np.array([rec.time]))
+        self.q.append(q[None, :].copy())
+        self.qd.append(rec.qdot_after[None, :].copy())
+        self.phase.append(np.array([phase]))
+        self.energies.append(rec.energy_after)
+
+    def flight(self, T, Y, phase):
+        """Samples T (K,), Y (K, 2N) of a flight phase that started at the last stored sample."""
+        N = self.model.n_dof
+        E_start = self.energies[-1]
+        scale = max(abs(E_start.total), abs(E_start.kinetic) + abs(E_start.gravity) + abs(E_start.strain), 1e-300)
+        self.t.append(T)
+        self.q.append(Y[:, :N])
+        self.qd.append(Y[:, N:])
+        self.phase.append(np.full(T.size, phase))
+        for y in Y:
+            Ek = _energy_from(self.model, y[:N], y[N:], mass_matrix(self.model, y[:N]))
+            self.energies.append(Ek)
+            self.energy_error = max(self.energy_error, abs(Ek.total - E_start.total) / scale)
+
+
 def simulate(
     model,
     q0,
@@ -159,15 +331,15 @@ def simulate(
     t_span : (t0, t_end) [s]
     walls : sequence of Circle, Sphere, Plane
     restitution : float in [0, 1], used for walls whose own ``restitution`` is None
-    rtol, atol : solve_ivp tolerances
-    method : solve_ivp method ("DOP853" recommended: explicit, high order)
+    rtol, atol : solver tolerances (solve_ivp's meaning)
+    method : scipy ODE solver ("DOP853" recommended: explicit, high order)
     output_dt : float [s] or None; None stores every accepted step, a float
         stores uniform samples from the dense output (plus every impact's both sides)
-    max_step : float [s], solve_ivp's maximal step
+    max_step : float [s], the solver's maximal step
     contact_tol : float [m], gap within which joints belong to one impact
     grazing_velocity : float [m/s], an event with v_n >= -grazing_velocity is no impact
     penetration_tol : float [m], a gap below -penetration_tol between events stops the run
-    zeno_interval : float [s], zeno_count : int — the accumulation criterion
+    zeno_interval : float [s], zeno_count : int — the accumulation criteria
     max_impacts : int, impact budget
     progress : callable(t, n_impacts) or None
 
@@ -194,7 +366,6 @@ def simulate(
         raise SingularMassMatrixError(f"initial state q0: {exc}") from None
 
     N = model.n_dof
-    n_joints = model.n_joints
     e_wall = np.array([restitution if w.restitution is None else w.restitution for w in walls])
     settings = dict(
         method=method, rtol=rtol, atol=atol, restitution=float(restitution),
@@ -204,109 +375,42 @@ def simulate(
         t_span=[t0, t_end],
     )
     clock = _Clock(progress)
-    counters = {"nfev": 0}
+    counters = {"nfev": 0, "n_steps": 0, "n_examined": 0}
 
     def rhs(t, y):
         counters["nfev"] += 1
         clock.tick(t)
         return np.concatenate((y[N:], forward_dynamics(model, y[:N], y[N:])))
 
-    # Gaps of all (joint, wall) pairs, cached per state: every event function of
-    # one step is evaluated at the same (t, y).
-    cache = {"key": None, "g": None}
-
-    def gaps(y):
-        key = y.tobytes()
-        if cache["key"] != key:
-            p = transforms(model, y[:N])[:, :3, 3]
-            cache["g"] = np.array([w.gap(p) for w in walls]).reshape(len(walls), n_joints)
-            cache["key"] = key
-        return cache["g"]
-
-    def make_event(w_i, j, offset, direction):
-        def ev(t, y):
-            return gaps(y)[w_i, j] + offset
-
-        ev.terminal = True
-        ev.direction = direction
-        return ev
-
-    def contact_data(q):
-        """Gaps (W, J), normals (W, J, 3), Jacobians (J, 3, N) at q."""
-        p, Jac = joint_positions_and_jacobians(model, q)
-        g = np.array([w.gap(p) for w in walls]).reshape(len(walls), n_joints)
-        nrm = np.array([w.normal(p) for w in walls]).reshape(len(walls), n_joints, 3)
-        return g, nrm, Jac
-
-    ts, qs, qds, phases = [np.array([t0])], [q0[None, :]], [qdot0[None, :]], [np.array([0])]
-    # Energy of every stored sample: needed for the flight-phase drift, then handed
-    # to the Result so res.energy() does not evaluate M at every sample again.
-    energies = [_energy_from(model, q0, qdot0, mass_matrix(model, q0))]
+    contacts = _Contacts(model, walls)
+    # |dg/dq| <= 1 + 2 sum l: a translation moves a joint 1:1, a rotation by at most its lever arm.
+    lipschitz = 1.0 + 2.0 * sum(ld.length for ld in model.link_data)
+    recorder = _Recorder(model, t0, q0, qdot0)
+    accumulation = _Accumulation((len(walls), model.n_joints), int(zeno_count), zeno_interval, contact_tol)
     impacts: list[ImpactRecord] = []
-    energy_error = 0.0
-    n_steps = 0
     status, message = STATUS_FINISHED, f"reached t_end = {t_end:g} s"
     t, y, phase = t0, np.concatenate((q0, qdot0)), 0
-    near = np.zeros((len(walls), n_joints), dtype=bool)
+    near = np.zeros((len(walls), model.n_joints), dtype=bool)
     pending_impact = True  # check the initial state for an impact in progress
-    recent_gaps: list[float] = []
     sink_pair = None  # (wall, joint) whose sink event ended the last phase
     stalled = 0  # consecutive phases that made no progress in time
 
     while True:
-        q, qd = y[:N], y[N:]
+        # Stage 1: impact, when the last phase ended at an event (or at the start).
         if pending_impact and walls:
-            g, nrm, Jac = contact_data(q)
-            # Candidates of this impact: every pair within the contact band (a pair
-            # caught by its "sink" event sits just below its phase-start gap).
-            near = g <= 2.0 * contact_tol
-            rec = None
-            if np.any(near):
-                pairs = np.argwhere(near)  # (k, 2): wall, joint
-                normals = nrm[pairs[:, 0], pairs[:, 1]]
-                Wmat = np.einsum("kc,kcn->nk", normals, Jac[pairs[:, 1]])
-                v_before = Wmat.T @ qd
-                # An impact: some candidate approaches faster than grazing, or the
-                # pair whose "sink" event fired is still approaching (it must be stopped).
-                sinking = sink_pair is not None and np.any(
-                    (pairs[:, 0] == sink_pair[0]) & (pairs[:, 1] == sink_pair[1]) & (v_before < 0)
-                )
-                if np.any(v_before < -grazing_velocity) or sinking:
-                    M = mass_matrix(model, q)
-                    e_k = e_wall[pairs[:, 0]]
-                    sol = solve_impulses(M, Wmat, qd, e_k)
-                    E_before = _energy_from(model, q, qd, M)
-                    E_after = _energy_from(model, q, sol.qdot_after, M)
-                    rec = ImpactRecord(
-                        time=t, joints=tuple(int(j) + 1 for j in pairs[:, 1]), wall=tuple(int(w) for w in pairs[:, 0]),
-                        normals=normals, impulses=sol.impulses, v_before=sol.v_before, v_after=sol.v_after,
-                        restitution=e_k, qdot_before=qd.copy(), qdot_after=sol.qdot_after.copy(),
-                        energy_before=E_before, energy_after=E_after,
-                    )
+            q, qd = y[:N], y[N:]
+            in_band_before = near
+            rec, near = _impact_stage(model, contacts, e_wall, t, q, qd, contact_tol, grazing_velocity, sink_pair)
             if rec is not None:
                 impacts.append(rec)
                 clock.n_impacts = len(impacts)
                 y = np.concatenate((q, rec.qdot_after))
                 phase += 1
-                ts.append(np.array([t]))
-                qs.append(q[None, :].copy())
-                qds.append(rec.qdot_after[None, :].copy())
-                phases.append(np.array([phase]))
-                energies.append(rec.energy_after)
-                if len(impacts) > 1:
-                    recent_gaps.append(t - impacts[-2].time)
-                    if len(recent_gaps) >= zeno_count and all(d < zeno_interval for d in recent_gaps[-zeno_count:]):
-                        win = np.array(recent_gaps[-zeno_count:])
-                        t_acc, ratio = _accumulation_time([r_.time for r_ in impacts[-zeno_count:]], win)
-                        d1 = float(win[-1])
-                        status = STATUS_ZENO
-                        message = (
-                            f"accumulation of impacts: {zeno_count} consecutive impacts less than "
-                            f"{zeno_interval:g} s apart (last interval {d1:.3g} s, interval ratio {ratio:.3g}); "
-                            f"estimated accumulation time {t_acc:.9g} s. Sustained contact is not modelled; "
-                            "results up to here are kept"
-                        )
-                        break
+                recorder.impact(rec, q, phase)
+                stop = accumulation.add(rec, in_band_before)
+                if stop is not None:
+                    status, message = STATUS_ZENO, stop
+                    break
                 if len(impacts) >= max_impacts:
                     status, message = STATUS_MAX_IMPACTS, f"stopped after max_impacts = {max_impacts} impacts at t = {t:.9g} s"
                     break
@@ -314,102 +418,59 @@ def simulate(
         if t >= t_end:
             break
 
-        # Events of this phase: normal ones, or the sink/leave pair for near contacts.
-        events, kinds = [], []
-        g_start = gaps(y) if walls else None
+        # Stage 2: flight until the first event or t_end.
+        g_start = contacts.gaps(y[:N])
         sink_depth = max(1e-6 * contact_tol, 64 * np.finfo(float).eps * (1.0 + float(np.abs(y[:3]).max())))
-        for w_i in range(len(walls)):
-            for j in range(n_joints):
-                if near[w_i, j]:
-                    # Sink level min(g_start, 0) - sink_depth: the event function starts at
-                    # sink_depth > 0 (above the gap's round-off), so a bounce lower than one
-                    # solver step that falls back is still a sign change (never tunnels),
-                    # and a joint that keeps bouncing sinks by only sink_depth per impact
-                    # (the geometric sequence of an accumulation is kept down to ~1e-7 m/s).
-                    events.append(make_event(w_i, j, sink_depth - min(float(g_start[w_i, j]), 0.0), -1))
-                    kinds.append(("sink", w_i, j))
-                    events.append(make_event(w_i, j, -3.0 * contact_tol, 1))
-                    kinds.append(("leave", w_i, j))
-                else:
-                    events.append(make_event(w_i, j, 0.0, -1))
-                    kinds.append(("hit", w_i, j))
-        E_start = energies[-1]  # the last stored sample is the state y of this phase start
-        E_scale = max(abs(E_start.total), abs(E_start.kinetic) + abs(E_start.gravity) + abs(E_start.strain), 1e-300)
+        events, kinds = _phase_events(near, g_start, contact_tol, sink_depth)
         try:
-            sol = solve_ivp(
-                rhs, (t, t_end), y, method=method, rtol=rtol, atol=atol, max_step=max_step,
-                events=events or None, dense_output=output_dt is not None,
+            out = integrate_phase(
+                rhs, t, y, t_end, events, contacts.gaps, method=method, rtol=rtol, atol=atol, max_step=max_step,
+                output_dt=output_dt, t_origin=t0, lipschitz=lipschitz, slack=contact_tol,
             )
         except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
             status, message = STATUS_FAILED, f"integration failed after t = {t:.9g} s: {exc}"
             break
-        n_steps += len(sol.t) - 1
-        if sol.status == -1:
-            status, message = STATUS_FAILED, f"solve_ivp failed after t = {t:.9g} s: {sol.message}"
-        fired = [k for k, te in enumerate(sol.t_events or []) if len(te)]
-        if fired:
-            t_new = float(sol.t_events[fired[0]][0])
-            y_new = np.asarray(sol.y_events[fired[0]][0], dtype=float)
-        else:
-            t_new, y_new = float(sol.t[-1]), sol.y[:, -1]
-        # Samples of this phase (excluding its start, already stored).
-        if output_dt is not None:
-            grid = t0 + output_dt * np.arange(np.floor((t - t0) / output_dt) + 1, np.ceil((t_new - t0) / output_dt))
-            grid = grid[(grid > t) & (grid < t_new)]
-            Y = np.concatenate((sol.sol(grid), y_new[:, None]), axis=1) if grid.size else y_new[:, None]
-            T = np.append(grid, t_new)
-        else:
-            T, Y = sol.t[1:].copy(), sol.y[:, 1:].copy()
-            if T.size == 0 or T[-1] != t_new:
-                T, Y = np.append(T, t_new), np.concatenate((Y, y_new[:, None]), axis=1)
-            else:
-                Y[:, -1] = y_new
-        ts.append(T)
-        qs.append(Y[:N].T)
-        qds.append(Y[N:].T)
-        phases.append(np.full(T.size, phase))
-        # Energy drift over this flight phase, at the stored samples.
-        for k in range(T.size):
-            Ek = _energy_from(model, Y[:N, k], Y[N:, k], mass_matrix(model, Y[:N, k]))
-            energies.append(Ek)
-            energy_error = max(energy_error, abs(Ek.total - E_start.total) / E_scale)
-        if status == STATUS_FAILED:
+        counters["n_steps"] += out.n_steps
+        counters["n_examined"] += out.n_examined
+        if out.sample_t.size:
+            recorder.flight(out.sample_t, out.sample_y, phase)
+        if out.failed is not None:
+            status, message = STATUS_FAILED, f"the ODE solver failed after t = {t:.9g} s: {out.failed}"
             break
-        # Between events no joint may be beyond a wall (checked at every accepted step).
-        if walls:
-            worst = min(float(gaps(sol.y[:, k].copy()).min()) for k in range(sol.y.shape[1]))
-            if worst < -penetration_tol:
-                status = STATUS_PENETRATION
-                message = (
-                    f"a joint went {-worst:.3g} m beyond a wall between events in the phase starting at "
-                    f"t = {t:.9g} s without an event firing; tighten rtol or set max_step"
-                )
-                break
-        t_prev, (t, y) = t, (t_new, y_new)
+        # Between events no joint may be beyond a wall (step ends and in-step samples).
+        if out.min_gap < -penetration_tol:
+            status = STATUS_PENETRATION
+            message = (
+                f"a joint went {-out.min_gap:.3g} m beyond a wall between events in the phase starting at "
+                f"t = {t:.9g} s without an event firing; tighten rtol or set max_step"
+            )
+            break
+        t_prev, (t, y) = t, (out.t, out.y)
         if not np.all(np.isfinite(y)):
             status, message = STATUS_FAILED, f"state became non-finite at t = {t:.9g} s"
             break
-        if not fired:
+        if out.event is None:
             break
-        kind, w_i, j = kinds[fired[0]]
+        kind, w_i, j = kinds[out.event]
         sink_pair = (w_i, j) if kind == "sink" else None
         if kind == "leave":
             near[w_i, j] = False  # re-arm the normal event of this pair; no impact
+            accumulation.left_band(w_i, j)
         else:
             pending_impact = True
-        stalled = stalled + 1 if t_new - t_prev <= 1e-14 * max(1.0, abs(t_new)) else 0
+        stalled = stalled + 1 if t - t_prev <= 1e-14 * max(1.0, abs(t)) else 0
         if stalled >= 100:
             status = STATUS_FAILED
             message = f"event loop stalled at t = {t:.9g} s: 100 consecutive events without progress in time"
             break
 
-    t_all = np.concatenate(ts)
+    t_all = np.concatenate(recorder.t)
     res = Result(
-        model=model, walls=walls, t=t_all, q=np.concatenate(qs), qdot=np.concatenate(qds),
-        phase=np.concatenate(phases), impacts=impacts, status=status, message=message, settings=settings,
-        nfev=counters["nfev"], n_steps=n_steps, wall_time=time.perf_counter() - started,
-        energy_error=float(energy_error),
-        _energy_cache=Energy(*(np.array(col) for col in zip(*energies))),
+        model=model, walls=walls, t=t_all, q=np.concatenate(recorder.q), qdot=np.concatenate(recorder.qd),
+        phase=np.concatenate(recorder.phase), impacts=impacts, status=status, message=message, settings=settings,
+        nfev=counters["nfev"], n_steps=counters["n_steps"], n_examined=counters["n_examined"],
+        wall_time=time.perf_counter() - started, energy_error=float(recorder.energy_error),
+        _energy_cache=Energy(*(np.array(col) for col in zip(*recorder.energies))),
     )
     if progress is not None:
         progress(float(t_all[-1]), len(impacts))

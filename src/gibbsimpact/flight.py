@@ -1,0 +1,312 @@
+"""One flight phase: scipy's ODE steps with event location that sees inside a step (formulation.md sections 5, 7).
+
+The phase integrates y = (q, qdot), shape (2N,), with a ``scipy.integrate``
+``OdeSolver`` (DOP853, RK45, Radau, ...) and stops at the first event. Every
+event is a level of the gap matrix g (W, J) [m] of (wall, joint) pairs:
+
+    E_k(y) = g[w_k, j_k](q) + offset_k,    direction d_k in {-1, +1}
+
+An event of direction -1 fires where E_k falls through zero, +1 where it
+rises through zero. ``solve_ivp`` looks only at the signs of E_k at the ends
+of each accepted step, so a joint that crosses a wall and comes back within
+one step is never seen. Here, at every accepted step [t_a, t_b] with
+h = t_b - t_a:
+
+1. Sign change of E_k between t_a and t_b (as solve_ivp): the event is in the step.
+2. In-step check, for the events of direction -1 without a sign change: E_k
+   at s = 1/4, 1/2, 3/4 of the step, from a quintic Hermite interpolant of q
+   built on (q, qdot, qddot) at both ends (no extra right-hand side), or from
+   the dense output when the step already has one. Between samples spaced
+   h/4 the piecewise-linear interpolant of E_k misses at most
+   max|E''| (h/4)^2 / 8, and max|E''| (h/4)^2 ~ max|second difference D_i|,
+   so the dip below the samples is bounded by
+
+       a = max_i |D_i| / 2                        (a safety factor of 4)
+         + L_q max|q_quintic - q_cubic|           (interpolation error, cubic as its bound)
+         + slack                                  (contact_tol)
+
+   with L_q = 1 + 2 sum l_i [m/unit] a bound on |dg/dq|. Only a step with
+   min_i E_k(s_i) - a < 0 (some pair comes within a few interpolation errors
+   of its level) is examined further: the solver's dense output (for DOP853
+   three more right-hand sides) is sampled at 16 points and the smallest
+   sample is refined by a bounded Brent minimisation. A minimum below zero
+   is an event.
+3. Root: the first crossing is bracketed by the first negative sample (or the
+   minimum) and found by brentq on the dense output, xtol = rtol = 4 eps,
+   exactly as solve_ivp does. The earliest root over all events ends the
+   phase.
+
+The cost when nothing is near a wall is three joint-position evaluations per
+step (no right-hand side): about 3 % of a DOP853 step of the published cases.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, NamedTuple
+
+import numpy as np
+from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
+from scipy.optimize import brentq, minimize_scalar
+
+SOLVERS = {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA, "RK23": RK23}
+
+_EPS = np.finfo(float).eps
+_S_CHECK = np.array([0.25, 0.5, 0.75])  # in-step sample points, fractions of the step
+_N_DENSE = 16  # dense-output samples of an examined step
+
+
+class EventSpec(NamedTuple):
+    """K event functions E_k = g[wall_k, joint_k] + offset_k [m] of direction direction_k (+1 / -1)."""
+
+    wall: np.ndarray
+    joint: np.ndarray
+    offset: np.ndarray
+    direction: np.ndarray
+
+    def values(self, g: np.ndarray) -> np.ndarray:
+        """E (K,) [m] from a gap matrix g (W, J) [m]."""
+        return g[self.wall, self.joint] + self.offset
+
+
+class PhaseOutcome(NamedTuple):
+    """What one flight phase produced.
+
+    t, y : end of the phase [s], state (2N,) there (the event point, or t_end)
+    event : index into the EventSpec of the event that ended the phase, or None
+    in_step : True when that event was found by the in-step check (no sign change at step ends)
+    sample_t : (K,) stored sample times after the phase start [s], the last one is t
+    sample_y : (K, 2N) states at sample_t
+    min_gap : smallest gap over all pairs at step ends and in-step samples [m]
+    n_steps : accepted steps; n_examined : steps whose dense output was examined for a dip
+    failed : None, or the solver's message when it failed
+    """
+
+    t: float
+    y: np.ndarray
+    event: int | None
+    in_step: bool
+    sample_t: np.ndarray
+    sample_y: np.ndarray
+    min_gap: float
+    n_steps: int
+    n_examined: int
+    failed: str | None
+
+
+def hermite_positions(s: np.ndarray, h: float, ya: np.ndarray, fa: np.ndarray, yb: np.ndarray, fb: np.ndarray):
+    """Quintic and cubic Hermite interpolants of q at fractions s (m,) of a step of length h [s].
+
+    ya, yb : (2N,) states (q, qdot) at the step ends; fa, fb : (2N,) their derivatives (qdot, qddot).
+    Returns (q5, q3), each (m, N): the quintic on (q, qdot, qddot) at both
+    ends, and the cubic on (q, qdot) whose difference from q5 bounds q5's error.
+    """
+    N = ya.shape[0] // 2
+    qa, va, aa = ya[:N], ya[N:], fa[N:]
+    qb, vb, ab = yb[:N], yb[N:], fb[N:]
+    s = np.asarray(s, dtype=float)[:, None]
+    s2, s3, s4, s5 = s * s, s**3, s**4, s**5
+    # Quintic Hermite basis on [0, 1]: values, first and second derivatives at both ends.
+    h0 = 1 - 10 * s3 + 15 * s4 - 6 * s5
+    h1 = s - 6 * s3 + 8 * s4 - 3 * s5
+    h2 = 0.5 * s2 - 1.5 * s3 + 1.5 * s4 - 0.5 * s5
+    h3 = 0.5 * s3 - s4 + 0.5 * s5
+    h4 = -4 * s3 + 7 * s4 - 3 * s5
+    h5 = 10 * s3 - 15 * s4 + 6 * s5
+    q5 = h0 * qa + h1 * h * va + h2 * h * h * aa + h3 * h * h * ab + h4 * h * vb + h5 * qb
+    # Cubic Hermite basis.
+    c0 = 1 - 3 * s2 + 2 * s3
+    c1 = s - 2 * s2 + s3
+    c2 = -s2 + s3
+    c3 = 3 * s2 - 2 * s3
+    q3 = c0 * qa + c1 * h * va + c2 * h * vb + c3 * qb
+    return q5, q3
+
+
+def dip_allowance(E: np.ndarray) -> np.ndarray:
+    """How far E can dip below its samples between them: max |second difference| / 2.
+
+    E : (K, 5) event values at s = 0, 1/4, 1/2, 3/4, 1 of a step [m] -> (K,) [m].
+    """
+    D = E[:, :-2] - 2.0 * E[:, 1:-1] + E[:, 2:]
+    return 0.5 * np.max(np.abs(D), axis=1)
+
+
+def _first_crossing(fun, sol, t_a: float, t_b: float, E_a: float, E_b: float) -> float | None:
+    """First t in [t_a, t_b] where fun(t, sol(t)) falls through zero, or None.
+
+    E_a = fun at t_a (> 0); E_b at t_b. Samples the dense output, refines the
+    smallest sample by a bounded minimisation, then brentq on the first
+    bracket.
+    """
+    ts = np.linspace(t_a, t_b, _N_DENSE + 2)
+    Es = np.empty(ts.size)
+    Es[0], Es[-1] = E_a, E_b
+    Ys = sol(ts[1:-1])
+    for i in range(1, ts.size - 1):
+        Es[i] = fun(ts[i], Ys[:, i - 1])
+    neg = np.nonzero(Es <= 0)[0]
+    if neg.size:
+        i = int(neg[0])
+        if i == ts.size - 1 and neg.size == 1:
+            lo, hi = t_a, t_b  # a plain sign change: the bracket solve_ivp uses
+        else:
+            lo, hi = ts[i - 1], ts[i]
+    else:
+        i = int(np.argmin(Es))
+        lo_b, hi_b = ts[max(i - 1, 0)], ts[min(i + 1, ts.size - 1)]
+        res = minimize_scalar(lambda t: fun(t, sol(t)), bounds=(lo_b, hi_b), method="bounded",
+                              options={"xatol": 1e-3 * (hi_b - lo_b) * _EPS ** 0.5})
+        if not res.fun <= 0:
+            return None
+        lo, hi = lo_b, float(res.x)  # fun(lo) > 0: lo is a sample before the first negative value
+    return brentq(lambda t: fun(t, sol(t)), lo, hi, xtol=4 * _EPS, rtol=4 * _EPS)
+
+
+def integrate_phase(
+    rhs: Callable,
+    t0: float,
+    y0: np.ndarray,
+    t_end: float,
+    events: EventSpec,
+    gap_matrix: Callable,
+    *,
+    method: str,
+    rtol: float,
+    atol: float,
+    max_step: float,
+    output_dt: float | None,
+    t_origin: float,
+    lipschitz: float,
+    slack: float,
+) -> PhaseOutcome:
+    """Integrate from (t0, y0) to the first event or t_end.
+
+    Parameters
+    ----------
+    rhs : f(t, y) -> (2N,), the first-order form of the equations of motion
+    t0, t_end : [s]; y0 : (2N,)
+    events : EventSpec of the K event functions of this phase
+    gap_matrix : g(q) -> (W, J) gaps [m] of every (wall, joint) pair
+    method, rtol, atol, max_step : the solver and its tolerances (solve_ivp's meaning)
+    output_dt : [s] or None. None stores every accepted step; a float stores
+        the points of the grid t_origin + k output_dt inside the phase
+    lipschitz : L_q, bound on |dg/dq| [m per unit of q]
+    slack : [m], extra margin of the in-step check (contact_tol)
+
+    Returns
+    -------
+    PhaseOutcome
+    """
+    N = y0.shape[0] // 2
+    solver = SOLVERS[method](rhs, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step)
+    down = events.direction < 0
+    up = events.direction > 0
+
+    def derivative(t, y):
+        f = getattr(solver, "f", None)
+        return f if f is not None else rhs(t, y)
+
+    def E_of(t, y):
+        return events.values(gap_matrix(y[:N]))
+
+    def E_single(k):
+        return lambda t, y: float(events.values(gap_matrix(y[:N]))[k])
+
+    g0 = gap_matrix(y0[:N])
+    E_prev = events.values(g0)
+    min_gap = float(g0.min()) if g0.size else np.inf
+    t_a, y_a, f_a = t0, y0.copy(), derivative(t0, y0)
+    sample_t, sample_y = [], []
+    n_steps = n_examined = 0
+    event, in_step, failed = None, False, None
+
+    while solver.status == "running":
+        message = solver.step()
+        if solver.status == "failed":
+            failed = message
+            break
+        n_steps += 1
+        t_b, y_b = solver.t, solver.y.copy()
+        f_b = derivative(t_b, y_b)
+        h = t_b - t_a
+        g_b = gap_matrix(y_b[:N])
+        E_b = events.values(g_b)
+        step_min = float(g_b.min()) if g_b.size else np.inf
+        dense = None
+
+        grid = np.empty(0)
+        if output_dt is not None:
+            # Grid points in (t_a, t_b]; the phase end itself is stored once, below.
+            k = np.arange(np.floor((t_a - t_origin) / output_dt), np.floor((t_b - t_origin) / output_dt) + 2)
+            grid = t_origin + output_dt * k
+            grid = grid[(grid > t_a) & ((grid <= t_b) if solver.status == "running" else (grid < t_b))]
+            if grid.size:
+                dense = solver.dense_output()
+
+        # 1. Sign changes at the step ends (solve_ivp's rule).
+        crossed = (down & (E_prev >= 0) & (E_b <= 0)) | (up & (E_prev <= 0) & (E_b >= 0))
+        # 2. In-step dips of the direction -1 events without a sign change.
+        candidates = np.nonzero(down & ~crossed & (E_prev > 0) & (E_b > 0))[0] if np.any(down) else np.empty(0, int)
+        examine = np.zeros(E_b.shape, dtype=bool)
+        if candidates.size:
+            if dense is not None:
+                q_in = dense(t_a + _S_CHECK * h)[:N].T
+                err = 0.0
+            else:
+                q_in, q3 = hermite_positions(_S_CHECK, h, y_a, f_a, y_b, f_b)
+                err = lipschitz * float(np.max(np.abs(q_in - q3)))
+            g_in = [gap_matrix(qi) for qi in q_in]
+            step_min = min(step_min, min(float(g.min()) for g in g_in))
+            E_in = np.stack([events.values(g) for g in g_in], axis=1)  # (K, 3)
+            E5 = np.concatenate((E_prev[:, None], E_in, E_b[:, None]), axis=1)[candidates]
+            low = E5.min(axis=1) - dip_allowance(E5) - err - slack
+            examine[candidates[low < 0]] = True
+        roots = {}
+        if np.any(crossed) or np.any(examine):
+            if dense is None:
+                dense = solver.dense_output()
+            for k in np.nonzero(crossed)[0]:
+                if up[k]:
+                    roots[int(k)] = (brentq(lambda t: E_single(k)(t, dense(t)), t_a, t_b,
+                                            xtol=4 * _EPS, rtol=4 * _EPS), False)
+                else:
+                    roots[int(k)] = (_first_crossing(E_single(k), dense, t_a, t_b, E_prev[k], E_b[k]), False)
+            if np.any(examine):
+                n_examined += 1
+                for k in np.nonzero(examine)[0]:
+                    tk = _first_crossing(E_single(k), dense, t_a, t_b, E_prev[k], E_b[k])
+                    if tk is not None:
+                        roots[int(k)] = (tk, True)
+        if roots:
+            event = min(roots, key=lambda k: roots[k][0])
+            t_ev, in_step = roots[event]
+            y_ev = dense(t_ev)
+            if grid.size:
+                grid = grid[grid < t_ev]
+            if grid.size:
+                sample_t.append(grid)
+                sample_y.append(dense(grid).T)
+            # Gaps over the step up to the event (in-step samples beyond it are not part of the phase).
+            sample_t.append(np.array([t_ev]))
+            sample_y.append(y_ev[None, :])
+            return PhaseOutcome(t_ev, y_ev, event, in_step, np.concatenate(sample_t), np.concatenate(sample_y),
+                                min_gap, n_steps, n_examined, None)
+        min_gap = min(min_gap, step_min)  # the step of an event counts only up to the event, checked by its root
+        if output_dt is None:
+            sample_t.append(np.array([t_b]))
+            sample_y.append(y_b[None, :])
+        else:
+            if grid.size:
+                sample_t.append(grid)
+                sample_y.append(dense(grid).T)
+            if solver.status == "finished":
+                sample_t.append(np.array([t_b]))
+                sample_y.append(y_b[None, :])
+        t_a, y_a, f_a, E_prev = t_b, y_b, f_b, E_b
+
+    t_last = sample_t[-1][-1] if sample_t else t0
+    y_last = sample_y[-1][-1] if sample_y else y0
+    if failed is not None and not sample_t:
+        sample_t, sample_y = [np.empty(0)], [np.empty((0, y0.shape[0]))]
+    return PhaseOutcome(float(t_last), np.asarray(y_last), None, False, np.concatenate(sample_t),
+                        np.concatenate(sample_y), min_gap, n_steps, n_examined, failed)

@@ -1,0 +1,108 @@
+"""Event location inside a step (flight.py): grazing passes between accepted steps are impacts."""
+
+import numpy as np
+import pytest
+
+import gibbsimpact as gi
+from gibbsimpact.flight import dip_allowance, hermite_positions
+
+L_ROD = 1.0
+
+
+def spinning_rod():
+    # Rigid (no modes), no gravity: with qdot0 below the centre (0.1, 0) stays put and
+    # the rod spins at 10 rad/s about it, so O1 circles (0.1, 0) with radius 0.5 and
+    # |O1| peaks at 0.6 m at t = pi/20 s.
+    link = gi.Link(L_ROD, 1.0, (20.0, 20.0), modes=[], rotary_inertia=(5e-5, 2.5e-5, 2.5e-5))
+    model = gi.Model(gi.Chain([link]), gravity=(0.0, 0.0, 0.0))
+    q0 = np.array([0.1, -0.5, 0.0, 0.0, 0.0, np.pi / 2])
+    qd0 = np.array([5.0, 0.0, 0.0, 0.0, 0.0, 10.0])
+    return model, q0, qd0
+
+
+def first_crossing_time(R):
+    # |O1|^2 = 0.26 - 0.1 cos(theta), theta = pi/2 + 10 t.
+    return (np.arccos((0.26 - R * R) / 0.1) - np.pi / 2) / 10.0
+
+
+def closed_form_gap(R, t):
+    """R - |O1(t)| of the undisturbed spinning rod [m]."""
+    return R - np.sqrt(0.26 - 0.1 * np.cos(np.pi / 2 + 10.0 * t))
+
+
+def test_reproducer_grazing_pass_inside_one_step_is_an_impact():
+    # Issue 12.1: O1 passes 1e-4 m beyond a circle of radius 0.5999 m within one
+    # accepted step (the rigid rod's steps are ~20 ms long); the signs at the step
+    # ends never change.
+    model, q0, qd0 = spinning_rod()
+    R = 0.5999
+    res = gi.simulate(model, q0, qd0, (0.0, 0.2), walls=[gi.Circle(R)], restitution=1.0, output_dt=1e-4)
+    assert res.status == "finished", res.message
+    assert res.n_steps < 20  # the pass is much shorter than a step
+    assert len(res.impacts) == 1
+    (rec,) = res.impacts
+    assert rec.joints == (1,)
+    assert rec.time == pytest.approx(first_crossing_time(R), abs=1e-9)
+    assert abs(closed_form_gap(R, rec.time)) < 1e-10
+    # v_n = -d|O1|/dt = -0.1 sin(theta) theta_dot / (2 R) at the crossing.
+    theta = np.pi / 2 + 10.0 * rec.time
+    assert rec.v_before[0] == pytest.approx(-0.1 * np.sin(theta) * 10.0 / (2 * R), rel=1e-6)
+    # No joint beyond the wall at any sample of the dense output.
+    g = R - np.linalg.norm(res.joint_positions()[:, :, :2], axis=2)
+    assert g.min() > -1e-12
+    E = res.energy().total
+    assert np.max(np.abs(E - E[0])) <= 1e-9 * E[0]
+
+
+@pytest.mark.parametrize("depth", [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 2e-9])
+def test_grazing_scan_every_pass_deeper_than_contact_tol_is_an_impact(depth):
+    model, q0, qd0 = spinning_rod()
+    R = 0.6 - depth
+    res = gi.simulate(model, q0, qd0, (0.0, 0.2), walls=[gi.Circle(R)], restitution=1.0, contact_tol=1e-9)
+    assert res.status == "finished", res.message
+    assert len(res.impacts) >= 1, f"pass {depth:g} m deep was missed"
+    assert res.impacts[0].joints == (1,)
+    # The first crossing, located to the integration accuracy: the closed-form gap
+    # there is zero to 1e-10 m (in time that is 1e-10 m / v_n, large for a shallow pass).
+    t_imp = res.impacts[0].time
+    assert abs(closed_form_gap(R, t_imp)) < 1e-10
+    assert t_imp <= first_crossing_time(R) + 1e-6
+    g = R - np.linalg.norm(res.joint_positions()[:, :, :2], axis=2)
+    assert g.min() > -1e-12
+
+
+def test_grazing_scan_passes_that_stay_inside_are_no_impacts():
+    model, q0, qd0 = spinning_rod()
+    for clearance in (1e-6, 1e-8):
+        res = gi.simulate(model, q0, qd0, (0.0, 0.2), walls=[gi.Circle(0.6 + clearance)])
+        assert res.status == "finished" and res.impacts == [], (clearance, res.impacts)
+
+
+def test_hermite_interpolants_are_exact_for_their_degree():
+    # Quintic Hermite on (q, qdot, qddot) reproduces any quintic, the cubic on (q, qdot) any cubic.
+    from numpy.polynomial import Polynomial
+
+    rng = np.random.default_rng(0)
+    t_a, h = 0.3, 0.05
+    s = np.array([0.0, 0.2, 0.5, 0.9, 1.0])
+    for degree, pick in ((5, 0), (3, 1)):
+        P = [Polynomial(rng.normal(size=degree + 1)) for _ in range(2)]  # N = 2 coordinates
+
+        def state(t):
+            y = np.array([p(t) for p in P] + [p.deriv()(t) for p in P])
+            f = np.array([p.deriv()(t) for p in P] + [p.deriv(2)(t) for p in P])
+            return y, f
+
+        ya, fa = state(t_a)
+        yb, fb = state(t_a + h)
+        q = hermite_positions(s, h, ya, fa, yb, fb)[pick]
+        np.testing.assert_allclose(q, [[p(t_a + si * h) for p in P] for si in s], atol=1e-13)
+
+
+def test_dip_allowance_bounds_a_parabola_between_samples():
+    # E(s) = (s - s0)^2 - c: the piecewise-linear interpolant through s = k/4 misses
+    # the minimum by at most (1/4)^2 / 4; the allowance (max|D|/2 = (1/4)^2) covers it.
+    for s0 in np.linspace(0, 1, 41):
+        s = np.linspace(0, 1, 5)
+        E = ((s - s0) ** 2)[None, :]
+        assert E.min() - dip_allowance(E)[0] <= 0.0 + 1e-15
