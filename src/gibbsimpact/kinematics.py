@@ -68,6 +68,15 @@ def skew(v) -> np.ndarray:
 _K_UNIT = np.array([skew(e) for e in np.eye(3)])  # (3, 3, 3): skew(e_i)
 
 
+_SERIES_N = np.arange(14)
+_SERIES_SIGN = (-1.0) ** _SERIES_N
+_SERIES_A = np.array([1.0 / np.prod(np.arange(1, 2 * k + 2, dtype=float)) for k in _SERIES_N])  # 1/(2n+1)!
+_SERIES_B = _SERIES_A / (2 * _SERIES_N + 2)  # 1/(2n+2)!
+_SERIES_A_SIGNED, _SERIES_B_SIGNED = _SERIES_SIGN * _SERIES_A, _SERIES_SIGN * _SERIES_B
+_SERIES_N1 = np.maximum(_SERIES_N - 1, 0)
+_SERIES_N2 = np.maximum(_SERIES_N - 2, 0)
+
+
 def _rodrigues_coefficients(s: float):
     """a(s) = sin(t)/t, b(s) = (1 - cos t)/t^2 with t = sqrt(s), and their s-derivatives.
 
@@ -77,17 +86,12 @@ def _rodrigues_coefficients(s: float):
     a_ss = (-a/2 - 3 a_s)/(2s), b_ss = (a_s - 4 b_s)/(2s) otherwise.
     """
     if s < 1.0:
-        n = np.arange(14)
-        fa = np.array([1.0 / np.prod(np.arange(1, 2 * k + 2, dtype=float)) for k in n])  # 1/(2n+1)!
-        fb = fa / (2 * n + 2)  # 1/(2n+2)!
-        sign = (-1.0) ** n
+        n = _SERIES_N
         p0 = s**n
-        p1 = np.where(n >= 1, n * s ** np.maximum(n - 1, 0), 0.0)
-        p2 = np.where(n >= 2, n * (n - 1) * s ** np.maximum(n - 2, 0), 0.0)
-        return (
-            float(np.sum(sign * fa * p0)), float(np.sum(sign * fa * p1)), float(np.sum(sign * fa * p2)),
-            float(np.sum(sign * fb * p0)), float(np.sum(sign * fb * p1)), float(np.sum(sign * fb * p2)),
-        )
+        p1 = n * s**_SERIES_N1
+        p2 = n * (n - 1) * s**_SERIES_N2
+        A, B = _SERIES_A_SIGNED, _SERIES_B_SIGNED
+        return float(A @ p0), float(A @ p1), float(A @ p2), float(B @ p0), float(B @ p1), float(B @ p2)
     t = np.sqrt(s)
     a = np.sin(t) / t
     b = (1.0 - np.cos(t)) / s
@@ -96,6 +100,20 @@ def _rodrigues_coefficients(s: float):
     a_ss = (-0.5 * a - 3 * a_s) / (2 * s)
     b_ss = (a_s - 4 * b_s) / (2 * s)
     return a, a_s, a_ss, b, b_s, b_ss
+
+
+def rotation(phi) -> np.ndarray:
+    """R = I + a K + b K^2 (3, 3) for the rotation vector phi (3,) [rad], no derivatives."""
+    phi = np.asarray(phi, dtype=float)
+    s = float(phi @ phi)
+    if s < 1.0:
+        p0 = s**_SERIES_N
+        a, b = float(_SERIES_A_SIGNED @ p0), float(_SERIES_B_SIGNED @ p0)
+    else:
+        t = np.sqrt(s)
+        a, b = np.sin(t) / t, (1.0 - np.cos(t)) / s
+    K = skew(phi)
+    return np.eye(3) + a * K + b * (K @ K)
 
 
 def rodrigues(phi) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -246,7 +264,7 @@ def _end_translation_rotation(ld, delta):
     G = ld.E0.copy()
     G[:3, 3] += ld.end_t.T @ delta
     if np.any(ld.end_phi):
-        G[:3, :3] = rodrigues(ld.end_phi.T @ delta)[0]
+        G[:3, :3] = rotation(ld.end_phi.T @ delta)
     return G
 
 

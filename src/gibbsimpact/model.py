@@ -18,7 +18,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .modes import Mode, shape
+from .elements import MAX_ELEMENTS, element_quadrature, hermite_shape
+from .modes import MODE_DIRECTIONS, Mode, shape
 
 #: Axis index in the link frame of each mode direction.
 _AXIS = {"y": 1, "z": 2}
@@ -41,7 +42,7 @@ def _positive_scalar_or_callable(name: str, value):
 
 @dataclass(frozen=True)
 class Link:
-    """One flexible link: an Euler-Bernoulli beam with assumed modes.
+    """One flexible link: an Euler-Bernoulli beam with assumed modes or Hermite finite elements.
 
     Parameters
     ----------
@@ -55,7 +56,14 @@ class Link:
         is ``(EI_y, EI_z)``: ``EI_z`` resists the y-deflection v (in-plane),
         ``EI_y`` the z-deflection w. Callables of x are allowed in each place.
     modes : sequence of Mode
-        Assumed modes; empty for a rigid link.
+        Assumed modes; empty (and ``elements=0``) for a rigid link.
+    elements : int
+        n_e >= 1 Hermite cubic finite elements (formulation.md section 9), clamped
+        at the link frame: 2 n_e elastic coordinates per bending direction,
+        (deflection [m], slope [rad]) at nodes 1 .. n_e. 0: none. Exclusive with ``modes``.
+    element_directions : tuple of "y", "z"
+        Bending directions discretised by the elements: ("y",) in-plane only
+        (default), ("y", "z") for a spatial chain (the z set uses EI_y).
     rotary_inertia : (float, float, float)
         ``(j_x, j_y, j_z)`` [kg m]: rotary inertia of the cross-section per unit
         length about the link-frame axes. The link frame then carries
@@ -67,6 +75,8 @@ class Link:
     EI: float | tuple | Callable = 1.0
     modes: tuple = ()
     rotary_inertia: tuple = (0.0, 0.0, 0.0)
+    elements: int = 0
+    element_directions: tuple = ("y",)
 
     def __post_init__(self):
         if isinstance(self.length, bool) or not isinstance(self.length, Real) or not np.isfinite(self.length) or self.length <= 0:
@@ -97,6 +107,26 @@ class Link:
         if len(set(modes)) != len(modes):
             raise ValueError(f"Link modes={modes!r} lists the same mode twice: its mass matrix would be singular")
         object.__setattr__(self, "modes", modes)
+        ne = self.elements
+        if isinstance(ne, bool) or not isinstance(ne, (int, np.integer)) or not 0 <= ne <= MAX_ELEMENTS:
+            raise ValueError(f"Link elements={ne!r} must be an integer in [0, {MAX_ELEMENTS}] (0: no finite elements)")
+        object.__setattr__(self, "elements", int(ne))
+        if ne and modes:
+            raise ValueError(
+                f"Link elements={ne} and modes={modes!r} both given; a link is discretised either by "
+                "assumed modes or by finite elements: drop one"
+            )
+        dirs = (self.element_directions,) if isinstance(self.element_directions, str) else self.element_directions
+        try:
+            dirs = tuple(dirs)
+        except TypeError:
+            dirs = None
+        if not dirs or any(d not in MODE_DIRECTIONS for d in dirs) or len(set(dirs)) != len(dirs):
+            raise ValueError(
+                f"Link element_directions={self.element_directions!r} must be ('y',), ('z',) or ('y', 'z'): "
+                "'y' is in-plane bending v, 'z' out-of-plane bending w"
+            )
+        object.__setattr__(self, "element_directions", dirs)
         j = np.asarray(self.rotary_inertia, dtype=float) if not isinstance(self.rotary_inertia, str) else None
         if j is None or j.shape != (3,) or not np.all(np.isfinite(j)) or np.any(j < 0):
             raise ValueError(
@@ -202,18 +232,43 @@ class LinkData:
     end_is_rigid: bool
 
 
-def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE) -> LinkData:
-    """Precompute the modal integrals of ``link`` with composite Gauss-Legendre."""
+def _basis(link: Link, x: np.ndarray):
+    """The link's shape functions: directions (m,), psi and psi'' at x (m, K), psi and psi' at l (m,)."""
     l = link.length
-    x, w = gauss_legendre(l, *quadrature)
+    if link.elements:
+        ne = link.elements
+        one = [hermite_shape(ne, l, x, d) for d in (0, 2)] + [hermite_shape(ne, l, [l], d)[:, 0] for d in (0, 1)]
+        dirs = [d for d in link.element_directions for _ in range(2 * ne)]
+        return dirs, *(np.concatenate([a] * len(link.element_directions)) for a in one)
+    m = len(link.modes)
+    dirs = [md.direction for md in link.modes]
+    psi = np.array([shape(md, l, x, 0) for md in link.modes]).reshape(m, x.size)
+    psi2 = np.array([shape(md, l, x, 2) for md in link.modes]).reshape(m, x.size)
+    end_v = np.array([float(shape(md, l, np.array([l]), 0)[0]) for md in link.modes])
+    end_dv = np.array([float(shape(md, l, np.array([l]), 1)[0]) for md in link.modes])
+    return dirs, psi, psi2, end_v, end_dv
+
+
+def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE) -> LinkData:
+    """Precompute the modal integrals of ``link`` with composite Gauss-Legendre.
+
+    A finite-element link uses a rule aligned with its element nodes
+    (elements.element_quadrature) instead of ``quadrature``.
+    """
+    l = link.length
+    x, w = gauss_legendre(l, *(element_quadrature(link.elements) if link.elements else quadrature))
     mu = np.asarray(_as_function(link.mass_per_length)(x), dtype=float) * np.ones_like(x)
     if np.any(~np.isfinite(mu)) or np.any(mu <= 0):
         raise ValueError("Link mass_per_length(x) must be positive and finite on [0, length]")
     EI_fun = {"y": _as_function(link.EI_z), "z": _as_function(link.EI_y)}
-    m = len(link.modes)
-    axes = [_AXIS[md.direction] for md in link.modes]
-    psi = np.array([shape(md, l, x, 0) for md in link.modes]).reshape(m, x.size)
-    psi2 = np.array([shape(md, l, x, 2) for md in link.modes]).reshape(m, x.size)
+    directions, psi, psi2, end_v, end_dv = _basis(link, x)
+    m = len(directions)
+    axes = [_AXIS[d] for d in directions]
+    ei = {}
+    for d in set(directions):
+        ei[d] = np.asarray(EI_fun[d](x), dtype=float) * np.ones_like(x)
+        if np.any(~np.isfinite(ei[d])) or np.any(ei[d] <= 0):
+            raise ValueError("Link EI(x) must be positive and finite on [0, length]")
     wm = w * mu
 
     mass = wm.sum()
@@ -236,24 +291,19 @@ def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE)
         m_psi[k, ak] = int_psi[k]
         for j, aj in enumerate(axes):
             D[k, j, ak, aj] = int_psipsi[k, j]
-            if link.modes[k].direction == link.modes[j].direction:
-                ei = np.asarray(EI_fun[link.modes[k].direction](x), dtype=float) * np.ones_like(x)
-                if np.any(~np.isfinite(ei)) or np.any(ei <= 0):
-                    raise ValueError("Link EI(x) must be positive and finite on [0, length]")
-                K[k, j] = np.sum(w * ei * psi2[k] * psi2[j])
+            if directions[k] == directions[j]:
+                K[k, j] = np.sum(w * ei[directions[k]] * psi2[k] * psi2[j])
     M_dd = np.einsum("klaa->kl", D)
 
     end_t = np.zeros((m, 3))
     end_phi = np.zeros((m, 3))
-    for k, md in enumerate(link.modes):
-        v_l = float(shape(md, l, np.array([l]), 0)[0])
-        dv_l = float(shape(md, l, np.array([l]), 1)[0])
-        end_t[k, axes[k]] = v_l
+    for k, direction in enumerate(directions):
+        end_t[k, axes[k]] = end_v[k]
         # phi = (theta_x, -w'(l), v'(l))
-        if md.direction == "y":
-            end_phi[k, 2] = dv_l
+        if direction == "y":
+            end_phi[k, 2] = end_dv[k]
         else:
-            end_phi[k, 1] = -dv_l
+            end_phi[k, 1] = -end_dv[k]
     # Clamped-clamped and pinned-pinned shapes vanish at x = l to round-off;
     # treat |value| < 1e-12 as exact zeros so the tip transform is constant.
     end_t[np.abs(end_t) < 1e-12] = 0.0
@@ -310,9 +360,9 @@ class Model:
         names = ["X1", "X2", "X3", "theta_-1", "theta_0"] + [f"theta_{i}" for i in range(1, n + 1)]
         delta_index = []
         k = len(names)
-        for i, lk in enumerate(chain.links, start=1):
+        for i, (lk, ld) in enumerate(zip(chain.links, self._links), start=1):
             idx = []
-            for j, md in enumerate(lk.modes, start=1):
+            for j in range(1, ld.K.shape[0] + 1):
                 names.append(f"delta_{i}_{j}")
                 idx.append(k)
                 k += 1
