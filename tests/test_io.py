@@ -80,6 +80,22 @@ def test_npz_round_trip_without_impacts_and_3d_walls(tmp_path):
     assert back.walls[1].normal_vector == res.walls[1].normal_vector
 
 
+def test_round_trip_of_a_driven_damped_fe_run(tmp_path):
+    # FE link, damping, inputs: the model, the work columns and the impact rounds come back.
+    link = gi.Link(1.0, 1.0, 10.0, elements=2, damping=0.05)
+    model = gi.Model([link, link], gravity=(0.0, -9.81, 0.0))
+    res = gi.simulate(model, model.state(X2=0.05, theta_2=0.4), model.state(X2=-1.0, theta_2=1.0), (0.0, 0.06),
+                      walls=[gi.Plane((0, 0, 0), (0, 1, 0))], inputs={"theta_2": 0.2}, rtol=1e-8, atol=1e-10)
+    assert res.impacts and res.work is not None
+    back = gi.load_result(res.save(tmp_path / "fe"))
+    assert_same_result(res, back)
+    assert back.model.chain.links[0].elements == 2 and back.model.chain.links[0].damping == 0.05
+    assert np.array_equal(back.work, res.work)
+    csv_path = res.to_csv(tmp_path)["timeseries"]
+    header = csv_path.read_text().splitlines()[0].split(",")
+    assert header[-2:] == ["work_inputs_J", "work_damping_J"]
+
+
 def test_npz_rejects_foreign_files_and_callable_links(tmp_path):
     np.savez(tmp_path / "other.npz", a=np.zeros(3))
     with pytest.raises(ValueError, match="not a gibbsimpact result"):

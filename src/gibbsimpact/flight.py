@@ -93,16 +93,18 @@ class PhaseOutcome(NamedTuple):
     failed: str | None
 
 
-def hermite_positions(s: np.ndarray, h: float, ya: np.ndarray, fa: np.ndarray, yb: np.ndarray, fb: np.ndarray):
+def hermite_positions(s: np.ndarray, h: float, ya: np.ndarray, fa: np.ndarray, yb: np.ndarray, fb: np.ndarray,
+                      N: int | None = None):
     """Quintic and cubic Hermite interpolants of q at fractions s (m,) of a step of length h [s].
 
-    ya, yb : (2N,) states (q, qdot) at the step ends; fa, fb : (2N,) their derivatives (qdot, qddot).
+    ya, yb : (2N + extra,) states (q, qdot, ...) at the step ends; fa, fb : their
+    derivatives (qdot, qddot, ...); N : number of coordinates (default len(ya) // 2).
     Returns (q5, q3), each (m, N): the quintic on (q, qdot, qddot) at both
     ends, and the cubic on (q, qdot) whose difference from q5 bounds q5's error.
     """
-    N = ya.shape[0] // 2
-    qa, va, aa = ya[:N], ya[N:], fa[N:]
-    qb, vb, ab = yb[:N], yb[N:], fb[N:]
+    N = ya.shape[0] // 2 if N is None else N
+    qa, va, aa = ya[:N], ya[N:2 * N], fa[N:2 * N]
+    qb, vb, ab = yb[:N], yb[N:2 * N], fb[N:2 * N]
     s = np.asarray(s, dtype=float)[:, None]
     s2, s3, s4, s5 = s * s, s**3, s**4, s**5
     # Quintic Hermite basis on [0, 1]: values, first and second derivatives at both ends.
@@ -178,6 +180,7 @@ def integrate_phase(
     t_origin: float,
     lipschitz: float,
     slack: float,
+    n_q: int | None = None,
 ) -> PhaseOutcome:
     """Integrate from (t0, y0) to the first event or t_end.
 
@@ -192,12 +195,13 @@ def integrate_phase(
         the points of the grid t_origin + k output_dt inside the phase
     lipschitz : L_q, bound on |dg/dq| [m per unit of q]
     slack : [m], extra margin of the in-step check (contact_tol)
+    n_q : N, the number of coordinates: y = (q, qdot, extra states); default len(y0) // 2
 
     Returns
     -------
     PhaseOutcome
     """
-    N = y0.shape[0] // 2
+    N = y0.shape[0] // 2 if n_q is None else n_q
     solver = SOLVERS[method](rhs, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step)
     down = events.direction < 0
     up = events.direction > 0
@@ -253,7 +257,7 @@ def integrate_phase(
                 q_in = dense(t_a + _S_CHECK * h)[:N].T
                 err = 0.0
             else:
-                q_in, q3 = hermite_positions(_S_CHECK, h, y_a, f_a, y_b, f_b)
+                q_in, q3 = hermite_positions(_S_CHECK, h, y_a, f_a, y_b, f_b, N)
                 err = lipschitz * float(np.max(np.abs(q_in - q3)))
             g_in = [gap_matrix(qi) for qi in q_in]
             step_min = min(step_min, min(float(g.min()) for g in g_in))

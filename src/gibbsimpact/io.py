@@ -78,6 +78,8 @@ def write_timeseries_csv(result: Result, path) -> Path:
     header = ["t_s", "phase"] + coordinate_columns(model) + velocity_columns(model)
     header += [f"O{j + 1}_X{a + 1}_m" for j in range(P.shape[1]) for a in range(3)]
     header += ["kinetic_J", "gravity_J", "strain_J", "total_J"]
+    if result.work is not None:
+        header += ["work_inputs_J", "work_damping_J"]
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
@@ -86,6 +88,8 @@ def write_timeseries_csv(result: Result, path) -> Path:
             row += [_fmt(v) for v in result.q[k]] + [_fmt(v) for v in result.qdot[k]]
             row += [_fmt(v) for v in P[k].ravel()]
             row += [_fmt(E.kinetic[k]), _fmt(E.gravity[k]), _fmt(E.strain[k]), _fmt(E.total[k])]
+            if result.work is not None:
+                row += [_fmt(result.work[k, 0]), _fmt(result.work[k, 1])]
             w.writerow(row)
     return path
 
@@ -233,6 +237,9 @@ def summary(result: Result, case=None) -> dict:
     d["wall_time_s"] = float(result.wall_time)
     d["nfev"] = int(result.nfev)
     d["n_steps"] = int(result.n_steps)
+    d["n_steps_examined_for_dips"] = int(result.n_examined)
+    if result.work is not None:
+        d["work_final_J"] = {"inputs": float(result.work[-1, 0]), "damping": float(result.work[-1, 1])}
     d["n_samples"] = int(len(result.t))
     return _json_safe(d)
 
@@ -263,6 +270,8 @@ def model_to_dict(model: Model) -> dict:
             "length": lk.length, "mass_per_length": lk.mass_per_length, "EI": list(lk.EI),
             "modes": [[m.kind, m.direction, int(m.number)] for m in lk.modes],
             "rotary_inertia": list(lk.rotary_inertia),
+            "elements": int(lk.elements), "element_directions": list(lk.element_directions),
+            "damping": float(lk.damping),
         })
     d = {"links": links, "gravity": [float(g) for g in model.gravity]}
     quad = getattr(model, "quadrature", None)
@@ -275,7 +284,9 @@ def model_from_dict(d: dict) -> Model:
     """Inverse of :func:`model_to_dict`."""
     links = [
         Link(length=lk["length"], mass_per_length=lk["mass_per_length"], EI=tuple(lk["EI"]),
-             modes=tuple(Mode(k, dr, n) for k, dr, n in lk["modes"]), rotary_inertia=tuple(lk["rotary_inertia"]))
+             modes=tuple(Mode(k, dr, n) for k, dr, n in lk["modes"]), rotary_inertia=tuple(lk["rotary_inertia"]),
+             elements=int(lk.get("elements", 0)), element_directions=tuple(lk.get("element_directions", ("y",))),
+             damping=float(lk.get("damping", 0.0)))
         for lk in d["links"]
     ]
     kw = {"quadrature": tuple(d["quadrature"])} if "quadrature" in d else {}
@@ -385,7 +396,10 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         "impact_qdot_after": np.array([r.qdot_after for r in imps], dtype=float).reshape(len(imps), N),
         "impact_energy_before": np.array([tuple(r.energy_before) for r in imps], dtype=float).reshape(len(imps), 4),
         "impact_energy_after": np.array([tuple(r.energy_after) for r in imps], dtype=float).reshape(len(imps), 4),
+        "impact_rounds": np.array([int(r.rounds) for r in imps], dtype=np.int64),
     }
+    if result.work is not None:
+        arrays["work"] = np.asarray(result.work, dtype=float)
     meta = {
         "format": "gibbsimpact.Result",
         "format_version": FORMAT_VERSION,
@@ -397,6 +411,7 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         "settings": _tag(result.settings),
         "nfev": int(result.nfev),
         "n_steps": int(result.n_steps),
+        "n_examined": int(result.n_examined),
         "wall_time": _tag(float(result.wall_time)),
         "energy_error": _tag(float(result.energy_error)),
         "metadata": _tag(metadata or {}),
@@ -442,12 +457,14 @@ def load_result(path, with_metadata: bool = False):
             qdot_after=a["impact_qdot_after"][i],
             energy_before=Energy(*(float(v) for v in a["impact_energy_before"][i])),
             energy_after=Energy(*(float(v) for v in a["impact_energy_after"][i])),
+            rounds=int(a["impact_rounds"][i]) if "impact_rounds" in a else 1,
         ))
     res = Result(
         model=model, walls=walls, t=a["t"], q=a["q"], qdot=a["qdot"], phase=a["phase"], impacts=impacts,
         status=meta["status"], message=meta["message"], settings=_untag(meta["settings"]),
-        nfev=int(meta["nfev"]), n_steps=int(meta["n_steps"]), wall_time=float(_untag(meta["wall_time"])),
-        energy_error=float(_untag(meta["energy_error"])),
+        nfev=int(meta["nfev"]), n_steps=int(meta["n_steps"]), n_examined=int(meta.get("n_examined", 0)),
+        wall_time=float(_untag(meta["wall_time"])), energy_error=float(_untag(meta["energy_error"])),
+        work=a.get("work"),
     )
     if with_metadata:
         return res, _untag(meta.get("metadata", {}))

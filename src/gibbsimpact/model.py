@@ -64,6 +64,10 @@ class Link:
     element_directions : tuple of "y", "z"
         Bending directions discretised by the elements: ("y",) in-plane only
         (default), ("y", "z") for a spatial chain (the z set uses EI_y).
+    damping : float
+        zeta >= 0, structural damping ratio of the link's first elastic mode:
+        stiffness-proportional damping Q = -beta K delta_dot with beta = 2 zeta / omega_1
+        (gibbsimpact.forces). 0 (default): undamped. Needs modes or elements.
     rotary_inertia : (float, float, float)
         ``(j_x, j_y, j_z)`` [kg m]: rotary inertia of the cross-section per unit
         length about the link-frame axes. The link frame then carries
@@ -77,6 +81,7 @@ class Link:
     rotary_inertia: tuple = (0.0, 0.0, 0.0)
     elements: int = 0
     element_directions: tuple = ("y",)
+    damping: float = 0.0
 
     def __post_init__(self):
         if isinstance(self.length, bool) or not isinstance(self.length, Real) or not np.isfinite(self.length) or self.length <= 0:
@@ -127,6 +132,12 @@ class Link:
                 "'y' is in-plane bending v, 'z' out-of-plane bending w"
             )
         object.__setattr__(self, "element_directions", dirs)
+        z = self.damping
+        if isinstance(z, bool) or not isinstance(z, Real) or not np.isfinite(z) or not 0.0 <= z <= 10.0:
+            raise ValueError(f"Link damping={z!r} must be a damping ratio in [0, 10] (e.g. 0.02 for 2 %)")
+        if z > 0 and not (modes or ne):
+            raise ValueError(f"Link damping={z!r} needs elastic coordinates: give the link modes or elements")
+        object.__setattr__(self, "damping", float(z))
         j = np.asarray(self.rotary_inertia, dtype=float) if not isinstance(self.rotary_inertia, str) else None
         if j is None or j.shape != (3,) or not np.all(np.isfinite(j)) or np.any(j < 0):
             raise ValueError(

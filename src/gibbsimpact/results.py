@@ -71,8 +71,11 @@ class Result:
     nfev : int, right-hand-side evaluations; n_steps : int, accepted steps
     n_examined : int, steps whose dense output was searched for a gap dip (flight.py)
     wall_time : float [s]
-    energy_error : float, max over flight phases of |E(t) - E(phase start)| / scale,
-        scale = max(|E_start|, |kinetic| + |gravity| + |strain| at phase start)
+    energy_error : float, max over flight phases of |E(t) - E(start) - (W(t) - W(start))| / scale,
+        scale = max(|E_start|, |kinetic| + |gravity| + |strain| at phase start, max |W(t) - W(start)|),
+        W = 0 without inputs and damping (then it is the energy drift)
+    work : (K, 2) [J] or None: work of the inputs and of the structural damping
+        since t_span[0] at every sample (None for an undriven, undamped run)
     """
 
     model: object
@@ -90,6 +93,7 @@ class Result:
     n_examined: int = 0
     wall_time: float = 0.0
     energy_error: float = float("nan")
+    work: np.ndarray | None = None
     _energy_cache: Energy | None = field(default=None, repr=False)
 
     @property

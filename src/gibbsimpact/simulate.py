@@ -58,6 +58,7 @@ import numpy as np
 
 from .dynamics import Energy, SingularMassMatrixError, _energy_from, forward_dynamics, mass_matrix
 from .flight import SOLVERS, EventSpec, integrate_phase
+from .forces import damping_matrix, generalized_force
 from .impact import solve_impulses
 from .kinematics import joint_positions_and_jacobians, transforms
 from .results import (
@@ -270,11 +271,17 @@ class _Accumulation:
 
 
 class _Recorder:
-    """Stored samples (t, q, qdot, phase), their energies, and the flight-phase energy drift."""
+    """Stored samples (t, q, qdot, phase, work), their energies, and the flight-phase energy balance.
+
+    work : (K, 2) [J] the work of the inputs and of the damping since t0 (zeros
+    for an undriven, undamped run). In a flight phase E(t) - E(start) equals
+    W(t) - W(start) up to the integration error, which is what energy_error measures.
+    """
 
     def __init__(self, model, t0, q0, qdot0):
         self.model = model
         self.t, self.q, self.qd, self.phase = [np.array([t0])], [q0[None, :]], [qdot0[None, :]], [np.array([0])]
+        self.work = [np.zeros((1, 2))]
         # Energy of every stored sample: needed for the flight-phase drift, then handed
         # to the Result so res.energy() does not evaluate M at every sample again.
         self.energies = [_energy_from(model, q0, qdot0, mass_matrix(model, q0))]
@@ -285,21 +292,26 @@ class _Recorder:
         self.q.append(q[None, :].copy())
         self.qd.append(rec.qdot_after[None, :].copy())
         self.phase.append(np.array([phase]))
+        self.work.append(self.work[-1][-1:].copy())
         self.energies.append(rec.energy_after)
 
     def flight(self, T, Y, phase):
-        """Samples T (K,), Y (K, 2N) of a flight phase that started at the last stored sample."""
+        """Samples T (K,), Y (K, 2N [+ 2]) of a flight phase that started at the last stored sample."""
         N = self.model.n_dof
         E_start = self.energies[-1]
-        scale = max(abs(E_start.total), abs(E_start.kinetic) + abs(E_start.gravity) + abs(E_start.strain), 1e-300)
+        W_start = self.work[-1][-1].sum()
+        W = Y[:, 2 * N:2 * N + 2] if Y.shape[1] > 2 * N else np.zeros((T.size, 2))
+        scale = max(abs(E_start.total), abs(E_start.kinetic) + abs(E_start.gravity) + abs(E_start.strain),
+                    float(np.max(np.abs(W.sum(axis=1) - W_start), initial=0.0)), 1e-300)
         self.t.append(T)
         self.q.append(Y[:, :N])
-        self.qd.append(Y[:, N:])
+        self.qd.append(Y[:, N:2 * N])
         self.phase.append(np.full(T.size, phase))
-        for y in Y:
-            Ek = _energy_from(self.model, y[:N], y[N:], mass_matrix(self.model, y[:N]))
+        self.work.append(W)
+        for y, w in zip(Y, W.sum(axis=1)):
+            Ek = _energy_from(self.model, y[:N], y[N:2 * N], mass_matrix(self.model, y[:N]))
             self.energies.append(Ek)
-            self.energy_error = max(self.energy_error, abs(Ek.total - E_start.total) / scale)
+            self.energy_error = max(self.energy_error, abs(Ek.total - E_start.total - (w - W_start)) / scale)
 
 
 def simulate(
@@ -321,6 +333,7 @@ def simulate(
     zeno_count: int = 10,
     max_impacts: int = 10000,
     progress=None,
+    inputs=None,
 ) -> Result:
     """Simulate flight phases and impacts from (q0, qdot0) over t_span.
 
@@ -342,6 +355,11 @@ def simulate(
     zeno_interval : float [s], zeno_count : int — the accumulation criteria
     max_impacts : int, impact budget
     progress : callable(t, n_impacts) or None
+    inputs : applied generalised forces Q_in (gibbsimpact.forces): None, a callable
+        Q(t, q, qdot) -> (N,), a constant (N,) vector, or {coordinate name: number or
+        f(t, q, qdot)} (a torque [N m] on an angle, a force [N] on a translation).
+        With inputs or damped links (``Link.damping``) the run also integrates their
+        work W (Result.work) and energy_error measures E(t) - E(start) - (W(t) - W(start)).
 
     Returns
     -------
@@ -366,6 +384,10 @@ def simulate(
         raise SingularMassMatrixError(f"initial state q0: {exc}") from None
 
     N = model.n_dof
+    Q_in = generalized_force(model, inputs, t0, q0, qdot0)
+    C_damp = damping_matrix(model)
+    damped = bool(np.any(C_damp))
+    driven = Q_in is not None or damped
     e_wall = np.array([restitution if w.restitution is None else w.restitution for w in walls])
     settings = dict(
         method=method, rtol=rtol, atol=atol, restitution=float(restitution),
@@ -380,7 +402,14 @@ def simulate(
     def rhs(t, y):
         counters["nfev"] += 1
         clock.tick(t)
-        return np.concatenate((y[N:], forward_dynamics(model, y[:N], y[N:])))
+        q, qd = y[:N], y[N:2 * N]
+        if not driven:
+            return np.concatenate((qd, forward_dynamics(model, q, qd)))
+        # (1) of forces.py: M qddot = Q_in + Q_damp - h - dV/dq, and the work rates qdot.Q.
+        Qi = Q_in(t, q, qd) if Q_in is not None else np.zeros(N)
+        Qd = -(C_damp @ qd) if damped else np.zeros(N)
+        qdd = forward_dynamics(model, q, qd, Qi + Qd)
+        return np.concatenate((qd, qdd, [qd @ Qi, qd @ Qd]))
 
     contacts = _Contacts(model, walls)
     # |dg/dq| <= 1 + 2 sum l: a translation moves a joint 1:1, a rotation by at most its lever arm.
@@ -389,7 +418,7 @@ def simulate(
     accumulation = _Accumulation((len(walls), model.n_joints), int(zeno_count), zeno_interval, contact_tol)
     impacts: list[ImpactRecord] = []
     status, message = STATUS_FINISHED, f"reached t_end = {t_end:g} s"
-    t, y, phase = t0, np.concatenate((q0, qdot0)), 0
+    t, y, phase = t0, np.concatenate((q0, qdot0, np.zeros(2 if driven else 0))), 0
     near = np.zeros((len(walls), model.n_joints), dtype=bool)
     pending_impact = True  # check the initial state for an impact in progress
     sink_pair = None  # (wall, joint) whose sink event ended the last phase
@@ -398,13 +427,13 @@ def simulate(
     while True:
         # Stage 1: impact, when the last phase ended at an event (or at the start).
         if pending_impact and walls:
-            q, qd = y[:N], y[N:]
+            q, qd = y[:N], y[N:2 * N]
             in_band_before = near
             rec, near = _impact_stage(model, contacts, e_wall, t, q, qd, contact_tol, grazing_velocity, sink_pair)
             if rec is not None:
                 impacts.append(rec)
                 clock.n_impacts = len(impacts)
-                y = np.concatenate((q, rec.qdot_after))
+                y = np.concatenate((q, rec.qdot_after, y[2 * N:]))
                 phase += 1
                 recorder.impact(rec, q, phase)
                 stop = accumulation.add(rec, in_band_before)
@@ -425,7 +454,7 @@ def simulate(
         try:
             out = integrate_phase(
                 rhs, t, y, t_end, events, contacts.gaps, method=method, rtol=rtol, atol=atol, max_step=max_step,
-                output_dt=output_dt, t_origin=t0, lipschitz=lipschitz, slack=contact_tol,
+                output_dt=output_dt, t_origin=t0, lipschitz=lipschitz, slack=contact_tol, n_q=N,
             )
         except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
             status, message = STATUS_FAILED, f"integration failed after t = {t:.9g} s: {exc}"
@@ -471,6 +500,7 @@ def simulate(
         nfev=counters["nfev"], n_steps=counters["n_steps"], n_examined=counters["n_examined"],
         wall_time=time.perf_counter() - started, energy_error=float(recorder.energy_error),
         _energy_cache=Energy(*(np.array(col) for col in zip(*recorder.energies))),
+        work=np.concatenate(recorder.work) if driven else None,
     )
     if progress is not None:
         progress(float(t_all[-1]), len(impacts))
