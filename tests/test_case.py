@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.case import CaseError, case_from_dict
+from gibbsimpact.case import RANGES, CaseError, case_from_dict
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 
@@ -203,7 +203,7 @@ def test_wrong_type_vector_and_bool(tmp_path):
 
 def test_negative_length(tmp_path):
     err = problems_of(tmp_path, GOOD.replace("length_m = 1.0", "length_m = -1.0"))
-    assert err.problems == [("links[1].length_m", "must be positive, got -1")]
+    assert err.problems == [("links[1].length_m", "must be in [1e-6, 1e6] m (a micrometre to 1000 km), got -1")]
 
 
 def test_joint_outside_wall(tmp_path):
@@ -237,8 +237,8 @@ modes = [{ kind = "free-free" }, { kind = "clamped-clamped", direction = "x" }]
 """
     err = problems_of(tmp_path, text)
     d = dict(err.problems)
-    assert d["links[2].mass_per_length_kg_per_m"] == "must be positive, got 0"
-    assert d["links[2].EI_N_m2"].startswith("must be positive")
+    assert d["links[2].mass_per_length_kg_per_m"] == "must be in [1e-12, 1e9] kg/m, got 0"
+    assert d["links[2].EI_N_m2"].startswith("every component must be in [1e-15, 1e15] N m^2")
     assert d["links[2].modes[1].kind"].startswith("unknown kind 'free-free'")
     assert d["links[2].modes[2].direction"].startswith("unknown direction 'x'")
 
@@ -275,14 +275,14 @@ def test_ranges_and_choices(tmp_path):
     assert d["walls[1].type"].startswith("unknown wall type 'ellipse'")
     assert d["time.t_end_s"] == "must be after t_start_s = 0.2 s, got 0.1"
     assert d["solver.method"].startswith("unknown method 'Euler'")
-    assert d["solver.rtol"] == "must be positive, got -1e-08"
+    assert d["solver.rtol"] == "must be in [1e-13, 0.1] (solve_ivp cannot go below 2.2e-14), got -1e-8"
     assert d["solver.zeno_count"] == "expected an integer, got the number 2.5"
 
 
 def test_plane_wall_and_zero_normal(tmp_path):
     text = GOOD.replace('type = "circle"\nradius_m = 1.5', 'type = "plane"\npoint_m = [0, -1, 0]\nnormal = [0, 0, 0]')
     err = problems_of(tmp_path, text)
-    assert err.problems == [("walls[1].normal", "is the zero vector; give the direction into the free side")]
+    assert err.problems == [("walls[1].normal", "is the zero vector; give a direction")]
     ok = gi.load_case(write(tmp_path, text.replace("normal = [0, 0, 0]", "normal = [0, 2, 0]")))
     assert ok.walls[0].normal_vector == (0.0, 1.0, 0.0) and ok.walls[0].point == (0.0, -1.0, 0.0)
 
@@ -304,3 +304,182 @@ def test_case_error_is_value_error():
     assert issubclass(CaseError, ValueError)
     with pytest.raises(ValueError):
         case_from_dict({"links": 3})
+
+
+# -- ranges: every numeric key, both bounds (docs/case-format.md lists them) ---
+
+def with_key(range_key, value):
+    """GOOD as a dict with the key of RANGES entry ``range_key`` set to ``value`` (one
+    component of an array key), the rest adjusted so that nothing else is in the way
+    (the chain inside its wall, a regular mass matrix). Returns (dict, key path)."""
+    import tomllib
+
+    d = tomllib.loads(GOOD)
+    link, coords = d["links"][0], d["initial"]["coordinates"]
+    section, _, key = range_key.rpartition(".")
+    if section not in ("walls", "links.modes") and key != "EI_N_m2":
+        # A rigid link in free flight: extreme sizes and states need no wall and no frequency limit.
+        del d["walls"], link["modes"]
+    if section == "":
+        d[key] = [0.0, value, 0.0] if key == "gravity_m_per_s2" else value
+        return d, key
+    if section == "links":
+        if key == "rotary_inertia_kg_m":
+            value = [value, 2.5e-5, 2.5e-5] if value > 0 else [5e-5, value, 2.5e-5]
+        if key == "length_m":
+            link["rotary_inertia_kg_m"] = [(0.3 * value) ** 2] * 3  # a stubby section keeps M regular
+        if key == "cross_section_radius_m":
+            del link["rotary_inertia_kg_m"]
+            link["length_m"] = min(1.0, 1e3 * value)
+        link[key] = value
+        return d, f"links[1].{key}"
+    if section == "links.modes":
+        link["modes"][0][key] = value
+        return d, f"links[1].modes[1].{key}"
+    if section == "walls":
+        wall = d["walls"][0]
+        if key == "radius_m":
+            wall[key] = value  # a chain of the wall's size inside it
+            link["length_m"] = value
+            link["rotary_inertia_kg_m"] = [(0.3 * value) ** 2] * 3
+            coords["X1_m"] = -value / 2
+            if value < 1e-2:
+                del link["modes"]
+        elif key == "center_m":
+            wall[key] = [value, 0.0]
+            coords["X1_m"] = value - 1.0 if value > 0 else value  # the link from X1 to X1 + 1
+        elif key in ("point_m", "normal"):
+            side = 1.0 if key == "normal" or value < 0 else -1.0  # the free side towards the origin
+            wall.clear()
+            wall.update(type="plane", point_m=[0.0, value if key == "point_m" else 0.0, 0.0],
+                        normal=[0.0, side * (value if key == "normal" else 1.0), 0.0])
+            coords["X2_m"] = wall["point_m"][1] + side
+            d["walls"] = [wall]
+        else:
+            wall[key] = value
+        return d, f"walls[1].{key}"
+    if section == "initial":
+        coords.pop("X1_m")
+        d["initial"][key] = [value, 0.0, 0.0]
+        return d, f"initial.{key}"
+    if section in ("initial.coordinates", "initial.velocities"):
+        unit = key[2:]
+        name = f"{'X1' if unit in ('m', 'm_per_s') else 'theta_1'}_{unit}"
+        coords.pop("X1_m")
+        d["initial"].setdefault(section.split(".")[1], {})[name] = value
+        return d, f"{section}.{name}"
+    if section == "time":
+        d["time"] = {"t_start_s": value, "t_end_s": value + 1.0} if key == "t_start_s" else {
+            "t_start_s": value - 1.0, "t_end_s": value}
+        return d, f"time.{key}"
+    if section == "solver":
+        d["solver"] = {key: value}
+        if key in ("output_dt_s", "max_step_s"):
+            d["time"]["t_end_s"] = 1e-9  # 1e6 samples at the smallest interval
+        return d, f"solver.{key}"
+    assert section == "output", range_key
+    d["output"] = {key: value}
+    return d, f"output.{key}"
+
+
+def just_inside(rng, side):
+    bound = rng.low if side == "low" else rng.high
+    return int(bound) if rng.integer else bound
+
+
+def just_outside(rng, side):
+    if rng.integer:
+        return int(rng.low) - 1 if side == "low" else int(rng.high) + 1
+    return math.nextafter(rng.low, -math.inf) if side == "low" else math.nextafter(rng.high, math.inf)
+
+
+BOUNDS = [(k, side) for k in RANGES for side in ("low", "high")]
+
+
+@pytest.mark.parametrize("range_key,side", BOUNDS, ids=[f"{k}-{s}" for k, s in BOUNDS])
+def test_every_range_bound_is_enforced(range_key, side):
+    rng = RANGES[range_key]
+    # Just inside loads; only the t_start upper and t_end lower bounds leave no room for the other time.
+    d, path = with_key(range_key, just_inside(rng, side))
+    if (range_key, side) in (("time.t_start_s", "high"), ("time.t_end_s", "low")):
+        with pytest.raises(CaseError) as info:
+            case_from_dict(d)
+        assert path not in dict(info.value.problems)
+    else:
+        case_from_dict(d)
+    # Just outside names the key and the range.
+    d, path = with_key(range_key, just_outside(rng, side))
+    with pytest.raises(CaseError) as info:
+        case_from_dict(d)
+    problems = dict(info.value.problems)
+    assert path in problems, info.value.problems
+    assert str(rng) in problems[path]
+
+
+def test_docs_give_every_range():
+    docs = (Path(__file__).resolve().parents[1] / "docs" / "case-format.md").read_text()
+    rows = [ln for ln in docs.splitlines() if ln.startswith("|")]
+    for range_key, rng in RANGES.items():
+        leaf = range_key.rpartition(".")[2].lstrip("*")
+        interval = str(rng).split("]")[0] + "]"
+        assert any(f"`{leaf}`" in row and interval in row for row in rows), (range_key, interval)
+
+
+def test_integers_beyond_the_double_range_are_too_large(tmp_path):
+    huge = "1" + "0" * 400
+    text = GOOD.replace("length_m = 1.0", f"length_m = {huge}").replace("[0.0, -9.81, 0.0]", f"[0.0, -{huge}, 0.0]")
+    text = text.replace('direction = "y"', f'direction = "y", number = {huge}')
+    d = dict(problems_of(tmp_path, text).problems)
+    assert d["links[1].length_m"] == ("too large for a number: must be in [1e-6, 1e6] m (a micrometre to 1000 km), "
+                                      "got 1e400")
+    assert d["gravity_m_per_s2"].startswith("too large for a number: must be in [-1e4, 1e4] m/s^2")
+    assert d["links[1].modes[1].number"].startswith("too large for a number: must be in [1, 50]")
+
+
+def test_nan_and_inf(tmp_path):
+    text = GOOD.replace("length_m = 1.0", "length_m = nan").replace("t_end_s = 0.1", "t_end_s = inf")
+    d = dict(problems_of(tmp_path, text).problems)
+    assert d["links[1].length_m"].endswith("got nan") and d["time.t_end_s"].endswith("got inf")
+    case = gi.load_case(write(tmp_path, GOOD + "\n[solver]\nmax_step_s = inf\n"))
+    assert case.solver["max_step"] == math.inf  # no limit: the one key where inf is a value
+
+
+def test_mode_frequency_limit(tmp_path):
+    # omega = (beta l)^2 sqrt(EI / (mu l^4)) <= 1e12 rad/s, reported at EI_N_m2.
+    mode = gi.Mode("clamped-clamped", "y", 1)
+    l = 1e-4
+    ei_limit = (1e12 / mode.beta_l**2) ** 2 * l**4  # mu = 1 kg/m
+    text = GOOD.replace("length_m = 1.0", f"length_m = {l!r}").replace("X1_m = -0.5", "X1_m = -5e-5")
+    text = text.replace("rotary_inertia_kg_m = [5e-5, 2.5e-5, 2.5e-5]", "rotary_inertia_kg_m = [1e-9, 1e-9, 1e-9]")
+    gi.load_case(write(tmp_path, text.replace("EI_N_m2 = 20.0", f"EI_N_m2 = {ei_limit * 0.999!r}")))
+    err = problems_of(tmp_path, text.replace("EI_N_m2 = 20.0", f"EI_N_m2 = {ei_limit * 1.001!r}"))
+    (path, msg), = err.problems
+    assert path == "links[1].EI_N_m2" and "modes[1] (clamped-clamped number 1 in y)" in msg
+    assert "omega = 1.0005e12 rad/s" in msg and "above 1e12 rad/s" in msg
+
+
+@pytest.mark.parametrize("key,kw", [("output_dt_s", "output_dt"), ("max_step_s", "max_step")])
+def test_at_most_1e7_samples_or_steps(tmp_path, key, kw):
+    # t_end_s = 0.1 s: 1e7 intervals of 1e-8 s.
+    case = gi.load_case(write(tmp_path, GOOD + f"\n[solver]\n{key} = 1e-8\n"))
+    assert case.solver[kw] == 1e-8
+    err = problems_of(tmp_path, GOOD + f"\n[solver]\n{key} = 0.99e-8\n")
+    (path, msg), = err.problems
+    assert path == f"solver.{key}"
+    assert msg.startswith(f"(time.t_end_s - time.t_start_s) / solver.{key} = 0.1 s / 9.9e-9 s = 1.0101e7 ")
+    assert msg.endswith(f"make solver.{key} at least 1e-8 s or shorten the time span")
+
+
+def test_simulate_overrides_are_held_to_the_ranges(tmp_path):
+    case = gi.load_case(write(tmp_path, GOOD))
+    with pytest.raises(CaseError) as info:
+        case.simulate(t_end=-1.0, rtol=1.0, method="Euler")
+    d = dict(info.value.problems)
+    assert set(d) == {"t_end", "rtol", "method"}
+    assert d["rtol"] == "must be in [1e-13, 0.1] (solve_ivp cannot go below 2.2e-14), got 1"
+    assert d["t_end"] == "must be after time.t_start_s = 0 s, got -1"
+    with pytest.raises(CaseError) as info:
+        case.simulate_kwargs(output_dt=1e-12)
+    (path, msg), = info.value.problems
+    assert path == "output_dt" and msg.startswith("(time.t_end_s - time.t_start_s) / output_dt = 0.1 s / 1e-12 s")
+    assert case.simulate_kwargs(t_end=0.5, output_dt=None)["output_dt"] is None

@@ -4,6 +4,7 @@ every output file is written; `show` describes the model; exit codes 0 / 2 / 3."
 from __future__ import annotations
 
 import io as _io
+import math
 import json
 import shutil
 import subprocess
@@ -172,7 +173,7 @@ def test_bad_case_exit_2_names_every_problem(tmp_path, capsys):
     case.write_text(text)
     code, out, err = run_main(["run", case, "--out", tmp_path / "o"], capsys)
     assert code == 2 and out == ""
-    assert err.startswith("gibbsimpact: error: ") and "links[1].length_m: must be positive" in err
+    assert err.startswith("gibbsimpact: error: ") and "links[1].length_m: must be in [1e-6, 1e6] m" in err
     assert not (tmp_path / "o").exists()
     # A valid chain outside a too small wall.
     case.write_text((CASES / "circle_two_link.toml").read_text().replace("radius_m = 1.5", "radius_m = 0.5"))
@@ -183,11 +184,14 @@ def test_bad_case_exit_2_names_every_problem(tmp_path, capsys):
 
 def test_missing_file_and_bad_options_exit_2(tmp_path, capsys):
     code, out, err = run_main(["run", tmp_path / "none.toml"], capsys)
-    assert code == 2 and err.strip() == f"gibbsimpact: error: {tmp_path / 'none.toml'}: no such case file"
+    assert code == 2 and err.strip() == (f"gibbsimpact: error: CASE.toml: '{tmp_path / 'none.toml'}': no such file; "
+                                         "give the path of a case file (e.g. cases/circle_two_link.toml)")
     code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--t-end", "-1", "--out", tmp_path], capsys)
-    assert code == 2 and "--t-end -1 must be after" in err
+    assert code == 2 and err == "gibbsimpact: error: options: --t-end: must be after time.t_start_s = 0 s, got -1\n"
+    code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--rtol", "-1", "--out", tmp_path], capsys)
+    assert code == 2 and "--rtol: must be in [1e-13, 0.1]" in err
     with pytest.raises(SystemExit) as info:
-        cli.main(["run", str(CASES / "circle_two_link.toml"), "--rtol", "-1"])
+        cli.main(["run", str(CASES / "circle_two_link.toml"), "--rtol", "small"])
     assert info.value.code == 2
     with pytest.raises(SystemExit) as info:
         cli.main([])
@@ -243,3 +247,133 @@ def test_module_and_console_script(tmp_path):
         pytest.skip("console script not on PATH (package not installed)")
     r = subprocess.run([exe, "--version"], capture_output=True, text=True)
     assert r.returncode == 0 and r.stdout.startswith("gibbsimpact ")
+
+
+# -- case files that used to crash or get through: exit 2, the key named, nothing before ----
+
+# (id, text in circle_two_link.toml, replacement, key path named in the error)
+ISSUE_FILES = [
+    ("length_beyond_double", "length_m = 1.0", "length_m = 1" + "0" * 400, "links[1].length_m"),
+    ("length_1e-300", "length_m = 1.0", "length_m = 1e-300", "links[1].length_m"),
+    ("mode_number_1e12", "number = 1 }", "number = 1000000000000 }", "links[1].modes[1].number"),
+    ("output_dt_1e-12", "output_dt_s = 1e-3", "output_dt_s = 1e-12", "solver.output_dt_s"),
+    ("dpi_1e6", "animate = false", "animate = false\ndpi = 1000000", "output.dpi"),
+    ("points_per_link_1e9", "animate = false", "animate = false\npoints_per_link = 1000000000",
+     "output.points_per_link"),
+    ("EI_1e300", "EI_N_m2 = 20.0", "EI_N_m2 = 1e300", "links[1].EI_N_m2"),
+    ("rtol_1e308", "rtol = 1e-10", "rtol = 1e308", "solver.rtol"),
+]
+
+
+def issue_file(tmp_path, old, new):
+    text = (CASES / "circle_two_link.toml").read_text()
+    assert old in text
+    path = tmp_path / "issue.toml"
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+@pytest.mark.parametrize("old,new,key", [f[1:] for f in ISSUE_FILES], ids=[f[0] for f in ISSUE_FILES])
+def test_issue_files_exit_2_naming_the_key(tmp_path, capsys, old, new, key):
+    import warnings
+
+    path = issue_file(tmp_path, old, new)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        code, out, err = run_main(["run", path, "--out", tmp_path / "o", "--no-plots", "-q"], capsys)
+    assert code == 2 and out == "" and not caught, [str(w.message) for w in caught]
+    assert err.count("\n") == 1 and err.startswith(f"gibbsimpact: error: {path}: {key}: ")
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("which", ["length_beyond_double", "EI_1e300"])
+def test_issue_files_stderr_of_the_process_is_the_error_line(tmp_path, which):
+    # A separate process: what reaches the terminal, numpy warnings included.
+    _, old, new, key = next(f for f in ISSUE_FILES if f[0] == which)
+    path = issue_file(tmp_path, old, new)
+    r = subprocess.run([sys.executable, "-m", "gibbsimpact", "run", str(path), "--out", str(tmp_path / "o")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.count("\n") == 1 and r.stderr.startswith(f"gibbsimpact: error: {path}: {key}: ")
+    assert "Warning" not in r.stderr
+
+
+def test_empty_case_argument_exit_2(capsys):
+    code, out, err = run_main(["run", ""], capsys)
+    assert code == 2 and out == ""
+    assert err == ("gibbsimpact: error: CASE.toml: '' is not a file; "
+                   "give the path of a case file (e.g. cases/circle_two_link.toml)\n")
+
+
+def test_directory_and_unreadable_case_exit_2(tmp_path, capsys, monkeypatch):
+    code, out, err = run_main(["show", tmp_path], capsys)
+    assert code == 2 and err.startswith(f"gibbsimpact: error: CASE.toml: '{tmp_path}' is a directory, not a case file")
+    path = tmp_path / "locked.toml"
+    path.write_text((CASES / "circle_two_link.toml").read_text())
+
+    def denied(self):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(Path, "read_bytes", denied)  # chmod 000 does not stop root
+    code, out, err = run_main(["run", path], capsys)
+    assert code == 2 and err == f"gibbsimpact: error: CASE.toml: '{path}': cannot read (Permission denied)\n"
+
+
+# Options out of their case-file range, and the sample limit with the case's output_dt_s = 1e-3 s.
+BAD_OPTIONS = [
+    (["--t-end", "1e10"], "--t-end: must be in [-1e9, 1e9] s"),
+    (["--t-end", "nan"], "--t-end: must be in [-1e9, 1e9] s"),
+    (["--t-end", "1e5"], "solver.output_dt_s: (--t-end - time.t_start_s) / solver.output_dt_s = 1e5 s / 0.001 s"),
+    (["--rtol", "1e308"], "--rtol: must be in [1e-13, 0.1]"),
+    (["--rtol", "1e-14"], "--rtol: must be in [1e-13, 0.1]"),
+    (["--atol", "0"], "--atol: must be in [1e-20, 1]"),
+    (["--atol", "inf"], "--atol: must be in [1e-20, 1]"),
+    (["--output-dt", "0"], "--output-dt: must be in [1e-15, 1e9] s"),
+    (["--output-dt", "1e-12"], "--output-dt: (time.t_end_s - time.t_start_s) / --output-dt = 1 s / 1e-12 s"),
+]
+
+
+@pytest.mark.parametrize("opts,message", BAD_OPTIONS, ids=[" ".join(o) for o, _ in BAD_OPTIONS])
+def test_options_held_to_the_case_ranges(tmp_path, capsys, opts, message):
+    code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--out", tmp_path / "o", *opts], capsys)
+    assert code == 2 and out == "" and err == f"gibbsimpact: error: options: {message}" + err.split(message, 1)[1]
+    assert err.count("\n") == 1 and not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("kw,option", [("t_end", "--t-end"), ("rtol", "--rtol"), ("atol", "--atol"),
+                                       ("output_dt", "--output-dt")])
+def test_option_bounds_are_the_case_file_ranges(kw, option):
+    from gibbsimpact import load_case
+    from gibbsimpact.case import OVERRIDE_KEYS, RANGES
+
+    case = load_case(CASES / "circle_two_link.toml")
+    rng = RANGES[OVERRIDE_KEYS[kw]]
+    # Room for the sample limit: 1e7 samples at the smallest interval; every step stored for any t_end.
+    other = {"t_end": 1e-8} if kw == "output_dt" else {"output_dt": None}
+    names = {kw: option}
+    low = rng.low if kw != "t_end" else 1e-9  # t_end must also be after t_start = 0
+    for inside in (low, rng.high):
+        assert case.override_problems(names=names, **{**other, kw: inside}) == [], inside
+    for outside in (math.nextafter(rng.low, -math.inf), math.nextafter(rng.high, math.inf)):
+        problems = case.override_problems(names=names, **{**other, kw: outside})
+        assert [p for p, _ in problems] == [option] and str(rng) in problems[0][1], problems
+
+
+def test_run_warnings_are_summed_up_after_the_error_line(tmp_path, capsys, monkeypatch):
+    from gibbsimpact.case import Case
+
+    real = Case.simulate
+
+    def overflowing(self, **kw):
+        np.float64(1e308) * 10.0  # RuntimeWarning: overflow encountered in scalar multiply
+        return real(self, **kw)
+
+    monkeypatch.setattr(Case, "simulate", overflowing)
+    case = tmp_path / "zeno.toml"
+    case.write_text(ZENO)
+    code, out, err = run_main(["run", case, "--out", tmp_path / "o", "--no-plots", "--quiet"], capsys)
+    lines = err.splitlines()
+    assert code == 3 and len(lines) == 2
+    assert lines[0].startswith("gibbsimpact: error: simulation stopped early (zeno)")
+    assert lines[1].startswith("gibbsimpact: warning: 1 kind(s) of warning during the run, the first: "
+                               "RuntimeWarning: overflow encountered in scalar multiply (test_cli.py:")

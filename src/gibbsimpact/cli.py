@@ -3,15 +3,16 @@
 Exit codes: 0 success; 2 bad input (invalid case file, bad option, unreadable
 file); 3 the simulation stopped early (status zeno, max_impacts, penetration
 or failed; the partial results are still written); 1 an unexpected error.
-Errors are reported on stderr as ``gibbsimpact: error: <reason>``.
+Errors are reported on stderr as ``gibbsimpact: error: <reason>``; warnings
+raised during a run are summed up in one line after it.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
+import warnings
 from pathlib import Path
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_STOPPED = 0, 1, 2, 3
@@ -58,20 +59,11 @@ def _error(msg: str, code: int) -> int:
 
 
 def _float(text: str) -> float:
+    # Only the syntax here; ranges are the case file's (case.RANGES), checked once the case is loaded.
     try:
-        v = float(text)
+        return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"{text!r} must be finite")
-    return v
-
-
-def _positive_float(text: str) -> float:
-    v = _float(text)
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive number")
-    return v
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -92,9 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("case", metavar="CASE.toml", help="case file")
     r.add_argument("--out", metavar="DIR", help="output directory (default: [output] directory, else out/<case name>)")
     r.add_argument("--t-end", type=_float, metavar="T", help="end time in s (overrides [time] t_end_s)")
-    r.add_argument("--rtol", type=_positive_float, help="relative tolerance (overrides [solver] rtol)")
-    r.add_argument("--atol", type=_positive_float, help="absolute tolerance (overrides [solver] atol)")
-    r.add_argument("--output-dt", type=_positive_float, metavar="DT",
+    r.add_argument("--rtol", type=_float, help="relative tolerance (overrides [solver] rtol)")
+    r.add_argument("--atol", type=_float, help="absolute tolerance (overrides [solver] atol)")
+    r.add_argument("--output-dt", type=_float, metavar="DT",
                    help="uniform output interval in s (overrides [solver] output_dt_s)")
     r.add_argument("--no-plots", action="store_true", help="do not draw figures")
     r.add_argument("--animate", action="store_true", help="also write animation.gif")
@@ -106,19 +98,28 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _load(path):
+_GIVE_A_CASE = "give the path of a case file (e.g. cases/circle_two_link.toml)"
+
+
+def _load(path: str):
+    """(case, None), or (None, exit code) after one error line naming the CASE.toml argument."""
     from .case import CaseError, load_case
 
+    p = Path(path)
+    if not path:
+        return None, _error(f"CASE.toml: '' is not a file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
+    if p.is_dir():
+        return None, _error(f"CASE.toml: {path!r} is a directory, not a case file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
+    if not p.exists():
+        return None, _error(f"CASE.toml: {path!r}: no such file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
+    if not p.is_file():
+        return None, _error(f"CASE.toml: {path!r} is not a regular file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
     try:
-        return load_case(path), None
-    except FileNotFoundError:
-        return None, _error(f"{path}: no such case file", EXIT_BAD_INPUT)
-    except IsADirectoryError:
-        return None, _error(f"{path}: is a directory, not a case file", EXIT_BAD_INPUT)
+        return load_case(p), None
     except CaseError as exc:
         return None, _error(str(exc), EXIT_BAD_INPUT)
     except OSError as exc:
-        return None, _error(f"{path}: cannot read: {exc.strerror or exc}", EXIT_BAD_INPUT)
+        return None, _error(f"CASE.toml: {path!r}: cannot read ({exc.strerror or exc})", EXIT_BAD_INPUT)
 
 
 # --------------------------------------------------------------------------
@@ -232,25 +233,37 @@ def cmd_run(args) -> int:
     case, code = _load(args.case)
     if case is None:
         return code
-    overrides = {}
-    t0, t1 = case.t_span
-    if args.t_end is not None:
-        if not args.t_end > t0:
-            return _error(f"--t-end {args.t_end:g} must be after the case's t_start_s = {t0:g} s", EXIT_BAD_INPUT)
-        overrides["t_span"] = (t0, args.t_end)
-        t1 = args.t_end
-    for opt, kw in (("rtol", "rtol"), ("atol", "atol"), ("output_dt", "output_dt")):
-        v = getattr(args, opt)
-        if v is not None:
-            overrides[kw] = v
+    from .case import CaseError
+
+    # Options override case-file keys and are held to the same ranges (case.RANGES).
+    options = {"t_end": "--t-end", "rtol": "--rtol", "atol": "--atol", "output_dt": "--output-dt"}
+    overrides = {kw: getattr(args, kw) for kw in options if getattr(args, kw) is not None}
+    problems = case.override_problems(names=options, **overrides)
+    if problems:
+        return _error(str(CaseError("options", problems)), EXIT_BAD_INPUT)
+    t0, t1 = case.t_span[0], overrides.get("t_end", case.t_span[1])
     out = Path(args.out) if args.out else case.output_directory
     say = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
-
-    from .dynamics import SingularMassMatrixError
 
     progress = _Progress((t0, t1), enabled=not args.quiet)
     say(f"gibbsimpact: running {case.name}: t = {t0:g} -> {t1:g} s, N = {case.model.n_dof}, "
         f"{len(case.walls)} wall(s)")
+    # Warnings of the run (numpy overflow, ...) are held back and summed up in one
+    # line after the status or error line instead of interleaving with it.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")  # each kind once, not once per step
+        code = _simulate_and_write(case, args, overrides, out, progress, say)
+    if caught:
+        first = caught[0]
+        print(f"gibbsimpact: warning: {len(caught)} kind(s) of warning during the run, the first: "
+              f"{first.category.__name__}: {first.message} ({Path(first.filename).name}:{first.lineno}); "
+              "check the results", file=sys.stderr)
+    return code
+
+
+def _simulate_and_write(case, args, overrides, out, progress, say) -> int:
+    from .dynamics import SingularMassMatrixError
+
     try:
         result = case.simulate(progress=progress, **overrides)
     except (SingularMassMatrixError, ValueError) as exc:
