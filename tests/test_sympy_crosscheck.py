@@ -9,26 +9,42 @@ against closed forms and a second symbolic route (Lagrange); the second group
 compares the package with it at random states:
 
     ||M_pkg - M_ref|| / ||M_ref|| <= 1e-9,   ||qdd_pkg - qdd_ref|| / ||qdd_ref|| <= 1e-9
+
+Chains d-f have Hermite finite-element links (formulation.md sec. 9.4: behind a
+revolute joint the global Hermite functions are assumed modes); the oracle
+integrates its own Hermite basis exactly in rational arithmetic.
+Measured relative-error maxima (M and qdd over 20 states, qdd at qdot = 0 over 3):
+d 1.8e-16, 2.3e-12, 1.1e-12;  e 2.7e-16, 1.2e-13, 3.5e-14;  f 2.3e-15, 1.7e-12, 2.1e-13.
+Swapping (EI_y, EI_z) in the package's FE links gives qdd errors 0.2-0.7, mu (1 + 1e-8)
+gives 1e-8, j_x * 1.001 gives >= 1.5e-7 in M.
 """
 from __future__ import annotations
+
+from collections import namedtuple
+from fractions import Fraction
 
 import numpy as np
 import pytest
 
 try:
     from reference.sympy_chain import (
-        RefLink, RefMode, beta_l, derive, modal_integrals, reference_model,
+        RefLink, RefMode, beta_l, derive, fe_integrals_exact, modal_integrals, reference_model,
     )
 except ImportError:  # tests/ collected as a package
     from tests.reference.sympy_chain import (
-        RefLink, RefMode, beta_l, derive, modal_integrals, reference_model,
+        RefLink, RefMode, beta_l, derive, fe_integrals_exact, modal_integrals, reference_model,
     )
 
 RTOL = 1e-9
 N_STATES = 6
+N_STATES_FE = 20  # states per finite-element chain in the package comparisons
 GRAVITY = (0.0, -9.81, 0.0)
 
-# Each link: (length, mass_per_length, (EI_y, EI_z), [(bc, direction), ...], (j_x, j_y, j_z))
+# Hermite finite elements in place of the mode list: n_e elements per direction set
+FE = namedtuple("FE", "elements directions")
+
+# Each link: (length, mass_per_length, (EI_y, EI_z), [(bc, direction), ...] or FE(n_e, dirs),
+#             (j_x, j_y, j_z))
 CHAINS = {
     # (a) the published planar case: two identical links, one clamped-clamped y-mode each
     "a_two_links_planar": [
@@ -47,12 +63,39 @@ CHAINS = {
         (0.7, 1.5, (12.0, 18.0), [("clamped-clamped", "y")], (0.0, 0.0, 0.0)),
         (1.2, 0.8, (30.0, 25.0), [("clamped-free", "y")], (5e-4, 0.0, 0.0)),
     ],
+    # (d) two FE links: 2 in-plane elements on link 1 (its tip node carries E_1 =
+    # Trans(l, w_2) Rz(t_2)), 1 element and rotary inertia on link 2; EI_y != EI_z
+    "d_fe_two_links": [
+        (1.0, 1.2, (18.0, 22.0), FE(2, ("y",)), (0.0, 0.0, 0.0)),
+        (0.7, 0.9, (14.0, 11.0), FE(1, ("y",)), (1e-3, 2e-3, 3e-3)),
+    ],
+    # (e) one spatial FE link, 2 elements in y and z (8 coordinates), j_x > 0
+    "e_fe_one_link_y_and_z": [
+        (0.8, 1.3, (15.0, 25.0), FE(2, ("y", "z")), (2e-3, 1e-3, 1.5e-3)),
+    ],
+    # (f) an assumed-mode link (clamped-free, = link 1 of chain c) followed by an FE link
+    "f_mode_then_fe": [
+        (1.0, 1.0, (20.0, 20.0), [("clamped-free", "y")], (1e-3, 2e-3, 3e-3)),
+        (0.9, 1.1, (16.0, 13.0), FE(1, ("y",)), (5e-4, 1e-3, 1e-3)),
+    ],
 }
-EXPECTED_N = {"a_two_links_planar": 9, "b_one_link_y_and_z": 8, "c_three_links_mixed": 11}
+EXPECTED_N = {"a_two_links_planar": 9, "b_one_link_y_and_z": 8, "c_three_links_mixed": 11,
+              "d_fe_two_links": 13, "e_fe_one_link_y_and_z": 14, "f_mode_then_fe": 10}
+
+
+def is_fe_chain(spec):
+    return any(isinstance(modes, FE) for _, _, _, modes, _ in spec)
+
+
+def n_states(name):
+    return N_STATES_FE if is_fe_chain(CHAINS[name]) else N_STATES
 
 
 def ref_links(spec):
     return tuple(
+        RefLink(length=l, mu=mu, EI_y=EI[0], EI_z=EI[1], rotary_inertia=tuple(j),
+                elements=modes.elements, element_directions=tuple(modes.directions))
+        if isinstance(modes, FE) else
         RefLink(length=l, mu=mu, EI_y=EI[0], EI_z=EI[1],
                 modes=tuple(RefMode(bc, d) for bc, d in modes), rotary_inertia=tuple(j))
         for l, mu, EI, modes, j in spec
@@ -112,6 +155,92 @@ def test_oracle_beta_roots_and_mode_normalisation():
     assert mi.end_value[1] == pytest.approx(1.0, abs=1e-14)
 
 
+def _fraction(r):
+    return Fraction(int(r.p), int(r.q))
+
+
+def _textbook_fe(l, mu, EI, n_e):
+    """formulation.md sec. 9.2/9.3 by hand, in exact rational arithmetic: the element
+    matrices eq. (13)/(27) and load vectors, assembled, node 0's rows/columns deleted."""
+    h = Fraction(l) / n_e
+    mu, EI = Fraction(mu), Fraction(EI)
+    Me = [[156, 22 * h, 54, -13 * h], [22 * h, 4 * h * h, 13 * h, -3 * h * h],
+          [54, 13 * h, 156, -22 * h], [-13 * h, -3 * h * h, -22 * h, 4 * h * h]]
+    Ke = [[12, 6 * h, -12, 6 * h], [6 * h, 4 * h * h, -6 * h, 2 * h * h],
+          [-12, -6 * h, 12, -6 * h], [6 * h, 2 * h * h, -6 * h, 4 * h * h]]
+    se = [Fraction(1, 2), h / 12, Fraction(1, 2), -h / 12]  # int_0^1 (H1, h H2, H3, h H4) d eta
+    te = [Fraction(3, 20), h / 30, Fraction(7, 20), -h / 20]  # int_0^1 eta (...) d eta
+    n = 2 * n_e + 2
+    M = [[Fraction(0)] * n for _ in range(n)]
+    K = [[Fraction(0)] * n for _ in range(n)]
+    s = [Fraction(0)] * n
+    t = [Fraction(0)] * n
+    for e in range(n_e):
+        x0 = e * h
+        for a in range(4):
+            s[2 * e + a] += mu * h * se[a]
+            t[2 * e + a] += mu * h * (x0 * se[a] + h * te[a])  # x = x0 + h eta
+            for b in range(4):
+                M[2 * e + a][2 * e + b] += mu * h / 420 * Me[a][b]
+                K[2 * e + a][2 * e + b] += EI / h**3 * Ke[a][b]
+    return ([r[2:] for r in M[2:]], [r[2:] for r in K[2:]], s[2:], t[2:])
+
+
+@pytest.mark.parametrize("n_e", [1, 2, 3])
+def test_oracle_fe_integrals_equal_textbook_element_matrices(n_e):
+    """The oracle's exact Hermite integrals = assembled eq. (13), (27) (exact, rational)."""
+    l, mu, EI = 0.8, 1.3, 25.0
+    ex = fe_integrals_exact(l, mu, EI, n_e)
+    M, K, s, t = _textbook_fe(l, mu, EI, n_e)
+    m = 2 * n_e
+    assert ex["S"].shape == ex["K"].shape == (m, m)
+    assert [[_fraction(ex["S"][a, b]) for b in range(m)] for a in range(m)] == M
+    assert [[_fraction(ex["K"][a, b]) for b in range(m)] for a in range(m)] == K
+    assert [_fraction(v) for v in ex["s"]] == s
+    assert [_fraction(v) for v in ex["t"]] == t
+    # end transform data: v(l) = w_ne, v'(l) = t_ne
+    assert list(ex["end_value"]) == [0] * (m - 2) + [1, 0]
+    assert list(ex["end_slope"]) == [0] * (m - 1) + [1]
+    # nodal interpolation (psi_(2j-1)(x_i) = psi_(2j)'(x_i) = delta_ij, the other two 0)
+    # and C1 continuity across the interior nodes
+    B = ex["basis"]
+    for k in range(m):
+        j = k // 2 + 1
+        for i in range(n_e + 1):
+            x = B.nodes[i]
+            assert B.value(k, x) == (1 if (k % 2 == 0 and i == j) else 0)
+            assert B.value(k, x, 1) == (1 if (k % 2 == 1 and i == j) else 0)
+            if 0 < i < n_e:
+                for d in (0, 1):
+                    left = B.pieces[k][i - 1].diff("x", d).subs("x", x)
+                    right = B.pieces[k][i].diff("x", d).subs("x", x)
+                    assert left == right
+
+
+def test_oracle_fe_link_integrals_and_frequencies():
+    """y+z FE link: shared Hermite basis, EI_z for y, EI_y for z, no stiffness coupling;
+    clamped-free frequencies from (K, S) approach beta_k l from above (formulation.md sec. 9.4)."""
+    from scipy.linalg import eigh
+
+    l, mu, EI_y, EI_z, n_e = 0.8, 1.3, 15.0, 25.0, 4
+    mi = modal_integrals(RefLink(l, mu, EI_y, EI_z, elements=n_e, element_directions=("y", "z")))
+    m = 2 * n_e
+    assert mi.S.shape == mi.K.shape == (2 * m, 2 * m)
+    assert len(set(mi.shape_ids)) == m and mi.shape_ids[:m] == mi.shape_ids[m:]
+    for blk in (mi.S[:m, :m], mi.S[:m, m:], mi.S[m:, :m], mi.S[m:, m:]):
+        np.testing.assert_array_equal(blk, mi.S[:m, :m])
+    assert not mi.K[:m, m:].any() and not mi.K[m:, :m].any()
+    np.testing.assert_allclose(mi.K[m:, m:], mi.K[:m, :m] * EI_y / EI_z, rtol=1e-15)
+    np.testing.assert_array_equal(mi.s[:m], mi.s[m:])
+    # all w_j = 1, t_j = 0: v = H3 on element 1 (w_0 = 0), 1 beyond: int mu v = mu (l - h/2)
+    assert mi.s[0:m:2].sum() == pytest.approx(mu * (l - l / n_e / 2), rel=1e-14)
+    for EI, blk in ((EI_z, slice(0, m)), (EI_y, slice(m, 2 * m))):
+        omega = np.sqrt(eigh(mi.K[blk, blk], mi.S[blk, blk], eigvals_only=True)[:2])
+        exact = np.array([1.8751040687, 4.6940911330]) ** 2 * np.sqrt(EI / (mu * l**4))
+        err = omega / exact - 1
+        assert np.all(err > 0) and err[0] < 5e-5 and err[1] < 2e-3, err
+
+
 def test_oracle_rigid_rod_closed_form():
     """One link, no modes: thin rod of mass m, first moment m l/2, I = m l^2/3 at the end."""
     l, mu, j = 0.8, 1.3, (2e-3, 1e-3, 1.5e-3)
@@ -165,10 +294,10 @@ def test_oracle_kinematics_match_4x4_products(chain):
         T = _trans(q[:3]) @ _rx(q[3]) @ _ry(q[4]) @ _rz(q[5])
         pts, k0 = [], 5 + n
         for i, (lk, mi) in enumerate(zip(links, ints)):
-            d = q[k0:k0 + len(lk.modes)]
-            k0 += len(lk.modes)
-            y = [k for k, m in enumerate(lk.modes) if m.direction == "y"]
-            z = [k for k, m in enumerate(lk.modes) if m.direction == "z"]
+            d = q[k0:k0 + lk.n_coords]
+            k0 += lk.n_coords
+            y = [k for k, dk in enumerate(lk.directions) if dk == "y"]
+            z = [k for k, dk in enumerate(lk.directions) if dk == "z"]
             v, w = mi.end_value[y] @ d[y], mi.end_value[z] @ d[z]
             vs, ws = mi.end_slope[y] @ d[y], mi.end_slope[z] @ d[z]
             pts.append(T[:3, 3])
@@ -238,6 +367,9 @@ def _import_gibbsimpact():
 def package_model(spec):
     gi = _import_gibbsimpact()
     links = [
+        gi.Link(length=l, mass_per_length=mu, EI=EI, rotary_inertia=j,
+                elements=modes.elements, element_directions=tuple(modes.directions))
+        if isinstance(modes, FE) else
         gi.Link(length=l, mass_per_length=mu, EI=EI,
                 modes=[gi.Mode(bc, direction=d) for bc, d in modes], rotary_inertia=j)
         for l, mu, EI, modes, j in spec
@@ -260,7 +392,7 @@ def test_package_coordinates(models):
 def test_package_mass_matrix_matches_oracle(models):
     name, pkg, ref = models
     n_links = len(CHAINS[name])
-    for q, _ in random_states(n_links, ref.n_dof, seed=2024):
+    for q, _ in random_states(n_links, ref.n_dof, seed=2024, n=n_states(name)):
         M_ref = ref.mass_matrix(q)
         M_pkg = np.asarray(pkg.mass_matrix(q))
         assert M_pkg.shape == M_ref.shape
@@ -274,7 +406,7 @@ def test_package_mass_matrix_matches_oracle(models):
 def test_package_forward_dynamics_matches_oracle(models):
     name, pkg, ref = models
     n_links = len(CHAINS[name])
-    for q, qdot in random_states(n_links, ref.n_dof, seed=4048):
+    for q, qdot in random_states(n_links, ref.n_dof, seed=4048, n=n_states(name)):
         a_ref = ref.forward_dynamics(q, qdot)
         a_pkg = np.asarray(pkg.forward_dynamics(q, qdot))
         err = rel(a_pkg, a_ref)

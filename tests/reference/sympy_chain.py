@@ -35,6 +35,13 @@ Conventions (binding, formulation.md):
     V = - sum_i int mu g.p dx + 1/2 sum_i delta_i^T K_i delta_i
     K_kl = int EI_z psi_k'' psi_l'' (y-modes), int EI_y psi_k'' psi_l'' (z-modes)
 
+Hermite cubic finite-element links (formulation.md sec. 9, 9.4): a RefLink with
+``elements = n_e > 0`` has, per direction in ``element_directions``, the 2 n_e
+global Hermite functions psi_k of sec. 9.1 as its assumed modes, coordinates
+(w_1, t_1, ..., w_ne, t_ne) per direction, the direction sets in the order given.
+Their integrals are computed exactly here (sympy polynomials per element,
+rational arithmetic on the exact binary values of l, mu, EI; ``fe_integrals_exact``).
+
 Only uniform links (constant mu, EI) and no axial/torsion modes are supported;
 ``Rot(phi)`` is supported when at most one of v'(l), w'(l) is generically
 non-zero on a link that has a successor (then it is the exact single-axis
@@ -77,7 +84,13 @@ class RefMode:
 
 @dataclass(frozen=True)
 class RefLink:
-    """One uniform link. EI_y bends along z (w), EI_z bends along y (v)."""
+    """One uniform link. EI_y bends along z (w), EI_z bends along y (v).
+
+    ``elements = n_e > 0``: Hermite cubic finite elements (formulation.md sec. 9.1,
+    9.4) instead of ``modes``; 2 n_e coordinates (w_1, t_1, ..., w_ne, t_ne) per
+    direction in ``element_directions`` (in that order; "y" uses EI_z, "z" EI_y).
+    A link with a successor may have only one of the two directions (Rot(phi)).
+    """
 
     length: float
     mu: float
@@ -85,6 +98,27 @@ class RefLink:
     EI_z: float
     modes: tuple = ()
     rotary_inertia: tuple = (0.0, 0.0, 0.0)  # (j_x, j_y, j_z) per unit length, kg m
+    elements: int = 0  # n_e > 0: Hermite cubic finite elements instead of modes
+    element_directions: tuple = ("y",)  # direction sets of the elements, in coordinate order
+
+    def __post_init__(self):
+        if self.elements and self.modes:
+            raise ValueError("a RefLink has either modes or elements, not both")
+        if self.elements < 0 or any(d not in ("y", "z") for d in self.element_directions):
+            raise ValueError("elements >= 0, element_directions from 'y', 'z'")
+        if self.elements and len(set(self.element_directions)) != len(self.element_directions):
+            raise ValueError("repeated element direction")
+
+    @property
+    def directions(self) -> tuple:
+        """Bending direction ("y" or "z") of every elastic coordinate, in order."""
+        if self.elements:
+            return tuple(d for d in self.element_directions for _ in range(2 * self.elements))
+        return tuple(m.direction for m in self.modes)
+
+    @property
+    def n_coords(self) -> int:
+        return len(self.directions)
 
 
 # --------------------------------------------------------------------------
@@ -150,6 +184,120 @@ class ModeShape:
         return self.C * b**2 * (mp.cosh(b * x) + mp.cos(b * x) - self.sigma * (mp.sinh(b * x) + mp.sin(b * x)))
 
 
+# --------------------------------------------------------------------------
+# Hermite cubic finite elements (sympy, exact rational arithmetic)
+# --------------------------------------------------------------------------
+
+_X = sp.Symbol("x")
+_ETA = sp.Symbol("eta")
+# local Hermite cubics of formulation.md sec. 9.1
+HERMITE = (
+    1 - 3 * _ETA**2 + 2 * _ETA**3,  # H1
+    _ETA - 2 * _ETA**2 + _ETA**3,  # H2
+    3 * _ETA**2 - 2 * _ETA**3,  # H3
+    -_ETA**2 + _ETA**3,  # H4
+)
+
+
+class HermiteBasis:
+    """Global Hermite basis psi_1 .. psi_(2 n_e) on [0, l] (formulation.md sec. 9.1).
+
+    Node 0 is clamped and removed; psi_(2j-1) (deflection w_j) is H3 on element j
+    and H1 on element j+1, psi_(2j) (slope t_j) is h H4 on element j and h H2 on
+    element j+1.  ``pieces[k][e]`` is psi_(k+1) on element e+1 as an exact sympy
+    polynomial in the global abscissa x (rational coefficients; l is the exact
+    binary value of the float).
+    """
+
+    def __init__(self, length, n_e: int):
+        if n_e < 1:
+            raise ValueError("n_e >= 1")
+        self.n_e = n_e
+        self.l = sp.Rational(length)
+        self.h = h = self.l / n_e
+        self.nodes = [j * h for j in range(n_e + 1)]
+        m = 2 * n_e
+        self.pieces = [[sp.S.Zero] * n_e for _ in range(m)]
+        for e in range(1, n_e + 1):  # element e spans [x_(e-1), x_e]
+            sub = {_ETA: (_X - self.nodes[e - 1]) / h}
+            H1, H2, H3, H4 = (sp.expand(Hf.xreplace(sub)) for Hf in HERMITE)
+            if e >= 2:  # left node e-1 is free: w_(e-1) -> H1, t_(e-1) -> h H2
+                self.pieces[2 * (e - 1) - 2][e - 1] = H1
+                self.pieces[2 * (e - 1) - 1][e - 1] = sp.expand(h * H2)
+            self.pieces[2 * e - 2][e - 1] = H3  # w_e
+            self.pieces[2 * e - 1][e - 1] = sp.expand(h * H4)  # t_e
+
+    @property
+    def m(self) -> int:
+        return 2 * self.n_e
+
+    def element_integral(self, f) -> sp.Expr:
+        """sum_e int_(x_(e-1))^(x_e) f(e) dx, f(e) a polynomial in x (exact)."""
+        total = sp.S.Zero
+        for e in range(self.n_e):
+            F = sp.Poly(f(e), _X, domain=sp.QQ).integrate()
+            total += F.eval(self.nodes[e + 1]) - F.eval(self.nodes[e])
+        return total
+
+    def value(self, k: int, x, derivative: int = 0) -> sp.Expr:
+        """psi_(k+1)^(derivative)(x), exact (at an interior node the right-hand
+        element's piece; the pieces agree there up to the first derivative)."""
+        x = sp.Rational(x) if not isinstance(x, sp.Basic) else x
+        e = min(int(sp.floor(x / self.h)), self.n_e - 1) if x > 0 else 0
+        return sp.diff(self.pieces[k][e], _X, derivative).subs(_X, x)
+
+
+@lru_cache(maxsize=None)
+def fe_integrals_exact(length, mu, EI, n_e: int) -> dict:
+    """Exact (rational) integrals of the Hermite basis of one uniform link.
+
+    Returns sympy matrices: s_k = int mu psi_k, t_k = int mu x psi_k,
+    S_kl = int mu psi_k psi_l, K_kl = int EI psi_k'' psi_l'', and
+    end_value_k = psi_k(l), end_slope_k = psi_k'(l); plus the basis.
+    """
+    B = HermiteBasis(length, n_e)
+    m = B.m
+    mu_r, EI_r = sp.Rational(mu), sp.Rational(EI)
+    P = B.pieces
+    s = sp.Matrix([mu_r * B.element_integral(lambda e, k=k: P[k][e]) for k in range(m)])
+    t = sp.Matrix([mu_r * B.element_integral(lambda e, k=k: _X * P[k][e]) for k in range(m)])
+    S = sp.zeros(m, m)
+    K = sp.zeros(m, m)
+    for a in range(m):
+        for b in range(a, m):
+            S[a, b] = S[b, a] = mu_r * B.element_integral(lambda e: P[a][e] * P[b][e])
+            K[a, b] = K[b, a] = EI_r * B.element_integral(
+                lambda e: sp.diff(P[a][e], _X, 2) * sp.diff(P[b][e], _X, 2))
+    end_value = sp.Matrix([B.value(k, B.l) for k in range(m)])
+    end_slope = sp.Matrix([B.value(k, B.l, 1) for k in range(m)])
+    return dict(s=s, t=t, S=S, K=K, end_value=end_value, end_slope=end_slope, basis=B)
+
+
+def _fe_modal_integrals(link) -> "ModalIntegrals":
+    """Per-coordinate integrals of an FE link: the direction sets share one basis."""
+    dirs = link.directions
+    m = len(dirs)
+    ne2 = 2 * link.elements
+    loc = [a % ne2 for a in range(m)]  # index of the Hermite function of coordinate a
+    ex = {d: fe_integrals_exact(link.length, link.mu, link.EI_z if d == "y" else link.EI_y, link.elements)
+          for d in link.element_directions}
+    e0 = ex[link.element_directions[0]]  # s, t, S, end values do not depend on EI
+    f = lambda v: float(v)  # noqa: E731
+    s = np.array([f(e0["s"][loc[a]]) for a in range(m)])
+    t = np.array([f(e0["t"][loc[a]]) for a in range(m)])
+    S = np.array([[f(e0["S"][loc[a], loc[b]]) for b in range(m)] for a in range(m)])
+    K = np.array([[f(ex[dirs[a]]["K"][loc[a], loc[b]]) if dirs[a] == dirs[b] else 0.0
+                   for b in range(m)] for a in range(m)])
+    l, mu = sp.Rational(link.length), sp.Rational(link.mu)
+    return ModalIntegrals(
+        m0=f(mu * l), m1=f(mu * l**2 / 2), m2=f(mu * l**3 / 3),
+        s=s, t=t, S=S, K=K,
+        end_value=np.array([f(e0["end_value"][loc[a]]) for a in range(m)]),
+        end_slope=np.array([f(e0["end_slope"][loc[a]]) for a in range(m)]),
+        shapes=[e0["basis"]], shape_ids=tuple(("hermite", k) for k in loc), exact=ex,
+    )
+
+
 @dataclass
 class ModalIntegrals:
     """Exact (40-digit) modal integrals of one uniform link."""
@@ -163,7 +311,11 @@ class ModalIntegrals:
     K: np.ndarray  # K_kl = int EI psi_k'' psi_l'' dx (EI_z for y, EI_y for z; 0 across)
     end_value: np.ndarray  # psi_k(l)
     end_slope: np.ndarray  # psi_k'(l)
-    shapes: list = field(default_factory=list)
+    shapes: list = field(default_factory=list)  # ModeShape per mode; [HermiteBasis] for FE
+    # coordinates with equal ids have the same shape function psi (e.g. a y- and a
+    # z-coordinate of one Hermite function): the Kane route merges them
+    shape_ids: tuple = ()
+    exact: dict | None = None  # FE: fe_integrals_exact(...) per direction
 
 
 def _quad(f, l):
@@ -173,6 +325,8 @@ def _quad(f, l):
 @lru_cache(maxsize=None)
 def modal_integrals(link: RefLink) -> ModalIntegrals:
     """Modal integrals of one link (cached; treat the result as read-only)."""
+    if link.elements:
+        return _fe_modal_integrals(link)
     with mp.workdps(MP_DPS):
         l = mp.mpf(link.length)
         mu = mp.mpf(link.mu)
@@ -204,6 +358,7 @@ def modal_integrals(link: RefLink) -> ModalIntegrals:
             m2=float(mu * l**3 / 3),
             s=s, t=t, S=S, K=K,
             end_value=end_value, end_slope=end_slope, shapes=shapes,
+            shape_ids=tuple((m.bc, m.number) for m in link.modes),
         )
 
 
@@ -306,9 +461,12 @@ def derive(links, gravity=(0.0, -9.81, 0.0), *, method="kane"):
     method="kane": G = L D L^T (unit lower L).  Then V^T G V = sum_j D_j |W_j|^2
     with W_j = sum_a L_aj V_a = d/dt P_j, P_j = sum_a L_aj (O_i, e_x, delta_k e_k)_a.
     So the continuum is dynamically equivalent to m+2 particles of mass D_j at
-    the (kinematic) positions P_j.  L_a0 = G_a0 / m0, so P_0 is the centre of
-    mass and D_0 = m0; the other P_j are not material points.  Since
-    int mu p dx = m0 P_0, gravity is the single load m0 g on P_0.  The link-frame rotary
+    the (kinematic) positions P_j.  (Coordinates with the same shape function,
+    e.g. the y- and z-coordinates of one Hermite function, are first merged into
+    one term psi (B_k + B_k'): one particle per distinct function, so that G is
+    regular.)  L_a0 = G_a0 / m0, so P_0 is the centre of mass and D_0 = m0;
+    the other P_j are not material points.  Since int mu p dx = m0 P_0, gravity
+    is the single load m0 g on P_0.  The link-frame rotary
     inertia is a massless RigidBody with inertia dyadic J_i in frame T_i.
     The strain force -K delta is added to the forcing by hand.
     KanesMethod with u = qdot then gives M udot = forcing.
@@ -324,9 +482,9 @@ def derive(links, gravity=(0.0, -9.81, 0.0), *, method="kane"):
     deltas = []
     names = ["X1", "X2", "X3", "th_m1", "th_0"] + [f"th_{i}" for i in range(1, n + 1)]
     for i, lk in enumerate(links, start=1):
-        di = [dynamicsymbols(f"delta_{i}_{k}") for k in range(1, len(lk.modes) + 1)]
+        di = [dynamicsymbols(f"delta_{i}_{k}") for k in range(1, lk.n_coords + 1)]
         deltas.append(di)
-        names += [f"delta_{i}_{k}" for k in range(1, len(lk.modes) + 1)]
+        names += [f"delta_{i}_{k}" for k in range(1, lk.n_coords + 1)]
     q = list(X) + list(th) + [d for di in deltas for d in di]
     t = dynamicsymbols._t
     qd = [qi.diff(t) for qi in q]
@@ -353,7 +511,7 @@ def derive(links, gravity=(0.0, -9.81, 0.0), *, method="kane"):
     for i, (lk, mi, di) in enumerate(zip(links, ints, deltas), start=1):
         frames.append(frame)
         joint_pts.append(origin)
-        dirs = [frame.y if m.direction == "y" else frame.z for m in lk.modes]
+        dirs = [frame.y if d == "y" else frame.z for d in lk.directions]
         rpos = origin.pos_from(O)
         G = moment_matrix(mi)
 
@@ -387,8 +545,18 @@ def derive(links, gravity=(0.0, -9.81, 0.0), *, method="kane"):
 
         # --- equivalent particles and rotary body (Kane route) ---------------
         if method == "kane":
-            Lc, D = ldl(G)
-            pos = [rpos, frame.x] + [dk * ek for dk, ek in zip(di, dirs)]
+            # coordinates sharing one shape function psi (a y- and a z-coordinate of
+            # the same Hermite function or mode shape) enter p_dot as psi (B_k + B_k'):
+            # merge them, so that the Gram matrix of distinct functions is regular
+            groups = {}
+            for k, sid in enumerate(mi.shape_ids):
+                groups.setdefault(sid, []).append(k)
+            members = list(groups.values())
+            keep = [0, 1] + [2 + g[0] for g in members]
+            Lc, D = ldl(G[np.ix_(keep, keep)])
+            pos = [rpos, frame.x] + [
+                sum((di[k] * dirs[k] for k in g), sp.S.Zero * N.x) for g in members
+            ]
             for j in range(len(pos)):
                 Pj = sum((Lc[a, j] * pos[a] for a in range(len(pos)) if Lc[a, j] != 0.0), sp.S.Zero * N.x)
                 pt = O.locatenew(f"P{i}_{j}", Pj)
@@ -402,10 +570,10 @@ def derive(links, gravity=(0.0, -9.81, 0.0), *, method="kane"):
                 bodies.append(RigidBody(f"R{i}", O, frame, 0, (inertia(frame, *J), O)))
 
         # tip of link i: E_i = Trans(l + u, v(l), w(l)) Rot(0, -w'(l), v'(l))
-        vl = sum((mi.end_value[k] * di[k] for k, m in enumerate(lk.modes) if m.direction == "y"), sp.S.Zero)
-        wl = sum((mi.end_value[k] * di[k] for k, m in enumerate(lk.modes) if m.direction == "z"), sp.S.Zero)
-        vsl = sum((mi.end_slope[k] * di[k] for k, m in enumerate(lk.modes) if m.direction == "y"), sp.S.Zero)
-        wsl = sum((mi.end_slope[k] * di[k] for k, m in enumerate(lk.modes) if m.direction == "z"), sp.S.Zero)
+        vl = sum((mi.end_value[k] * di[k] for k, d in enumerate(lk.directions) if d == "y"), sp.S.Zero)
+        wl = sum((mi.end_value[k] * di[k] for k, d in enumerate(lk.directions) if d == "z"), sp.S.Zero)
+        vsl = sum((mi.end_slope[k] * di[k] for k, d in enumerate(lk.directions) if d == "y"), sp.S.Zero)
+        wsl = sum((mi.end_slope[k] * di[k] for k, d in enumerate(lk.directions) if d == "z"), sp.S.Zero)
         tip = origin.locatenew(f"O{i + 1}", lk.length * frame.x + vl * frame.y + wl * frame.z)
         if i < n:
             if vsl != 0 and wsl != 0:
