@@ -1,12 +1,12 @@
-"""gibbsimpact: free-flying flexible multi-link chains colliding with curved walls.
+"""gibbsimpact: flexible multi-link chains (free-flying or on a fixed base) colliding with walls.
 
-Flight phase: recursive 4x4 Gibbs-Appell dynamics with assumed modes.
+Flight phase: recursive 4x4 Gibbs-Appell dynamics with assumed modes or Hermite finite elements.
 Impact phase: Newton's restitution law as an impulse problem.
 See docs/ and the README for the symbols and conventions.
 """
 
 from .dynamics import Energy, SingularMassMatrixError
-from .model import Chain, Link, Model
+from .model import Chain, FixedBase, Link, Model, Revolute
 from .modes import Mode, natural_frequency
 from .results import ImpactRecord, Result
 from .simulate import simulate
@@ -17,6 +17,6 @@ from .walls import Circle, Plane, Sphere
 __version__ = "0.1.0"
 
 __all__ = [
-    "Case", "CaseError", "Chain", "Circle", "Energy", "ImpactRecord", "Link", "Mode", "Model", "Plane", "Result",
-    "SingularMassMatrixError", "Sphere", "load_case", "load_result", "natural_frequency", "simulate", "__version__",
+    "Case", "CaseError", "Chain", "Circle", "Energy", "FixedBase", "ImpactRecord", "Link", "Mode", "Model", "Plane",
+    "Result", "Revolute", "SingularMassMatrixError", "Sphere", "load_case", "load_result", "natural_frequency", "simulate", "__version__",
 ]

@@ -2,7 +2,8 @@
 
 Frames, from the inertial frame outwards::
 
-    Trans(X) -> Rx(theta_-1) -> Ry(theta_0) -> Rz(theta_1)       = T_1 (link 1)
+    Trans(X) -> Rx(theta_-1) -> Ry(theta_0) -> Rz(theta_1)       = T_1 (link 1, free base)
+    T_0 -> Rz(theta_1)                                           = T_1 (link 1, fixed base T_0)
     T_i = T_(i-1) E_(i-1)(delta_(i-1)) Rz(theta_i)                i = 2..n
     T_tip = T_n E_n(delta_n)                                     (joint O_(n+1))
     E_i(delta_i) = Trans(l_i + u(l_i), v(l_i), w(l_i)) Rot(phi_i),
@@ -208,15 +209,18 @@ def frames(model, q: np.ndarray, qdot: np.ndarray | None = None) -> Frames:
     Tds = np.empty((n + 1, 4, 4)) if vel else None
     Tdds = np.empty((n + 1, 4, 4)) if vel else None
 
-    # Trans(X): T = [I X; 0 1], dT/dX_a = e_a in the translation column.
-    T = np.eye(4)
-    T[:3, 3] = q[:3]
     dT = np.zeros((N, 4, 4))
-    dT[0, 0, 3] = dT[1, 1, 3] = dT[2, 2, 3] = 1.0
-    if vel:
-        Td = np.zeros((4, 4))
-        Td[:3, 3] = qdot[:3]
-        Tdd0 = np.zeros((4, 4))
+    Td = np.zeros((4, 4)) if vel else None
+    Tdd0 = np.zeros((4, 4)) if vel else None
+    if model.free_base:
+        # Trans(X): T = [I X; 0 1], dT/dX_a = e_a in the translation column.
+        T = np.eye(4)
+        T[:3, 3] = q[:3]
+        dT[0, 0, 3] = dT[1, 1, 3] = dT[2, 2, 3] = 1.0
+        if vel:
+            Td[:3, 3] = qdot[:3]
+    else:
+        T = model.base_transform.copy()  # constant: no derivatives
 
     def step_single(T, dT, Td, Tdd0, k, axis):
         G, G1, G2 = _rot(axis, q[k])
@@ -241,16 +245,18 @@ def frames(model, q: np.ndarray, qdot: np.ndarray | None = None) -> Frames:
             return T @ G, dT_new, None, None
         return T @ G, dT_new, Td @ G + T @ Gd, Tdd0 @ G + 2.0 * Td @ Gd + T @ Gdd0
 
-    T, dT, Td, Tdd0 = step_single(T, dT, Td if vel else None, Tdd0 if vel else None, 3, 0)
-    T, dT, Td, Tdd0 = step_single(T, dT, Td, Tdd0, 4, 1)
-    T, dT, Td, Tdd0 = step_single(T, dT, Td, Tdd0, 5, 2)
+    theta = model.theta_index
+    if model.free_base:
+        T, dT, Td, Tdd0 = step_single(T, dT, Td, Tdd0, 3, 0)
+        T, dT, Td, Tdd0 = step_single(T, dT, Td, Tdd0, 4, 1)
+    T, dT, Td, Tdd0 = step_single(T, dT, Td, Tdd0, theta[0], 2)
     for i in range(n):
         Ts[i], dTs[i] = T, dT
         if vel:
             Tds[i], Tdds[i] = Td, Tdd0
         T, dT, Td, Tdd0 = step_end(T, dT, Td, Tdd0, i)
         if i + 1 < n:
-            T, dT, Td, Tdd0 = step_single(T, dT, Td, Tdd0, 5 + i + 1, 2)
+            T, dT, Td, Tdd0 = step_single(T, dT, Td, Tdd0, theta[i + 1], 2)
     Ts[n], dTs[n] = T, dT
     if vel:
         Tds[n], Tdds[n] = Td, Tdd0
@@ -275,14 +281,19 @@ def transforms(model, q: np.ndarray) -> np.ndarray:
     """
     n = model.n_links
     out = np.empty((n + 1, 4, 4))
-    T = np.eye(4)
-    T[:3, 3] = q[:3]
-    T = T @ _rot(0, q[3])[0] @ _rot(1, q[4])[0] @ _rot(2, q[5])[0]
+    theta = model.theta_index
+    if model.free_base:
+        T = np.eye(4)
+        T[:3, 3] = q[:3]
+        T = T @ _rot(0, q[3])[0] @ _rot(1, q[4])[0]
+    else:
+        T = model.base_transform
+    T = T @ _rot(2, q[theta[0]])[0]
     for i in range(n):
         out[i] = T
         T = T @ _end_translation_rotation(model.link_data[i], q[model.delta_index[i]])
         if i + 1 < n:
-            T = T @ _rot(2, q[6 + i])[0]
+            T = T @ _rot(2, q[theta[i + 1]])[0]
     out[n] = T
     return out
 

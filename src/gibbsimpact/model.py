@@ -157,16 +157,74 @@ class Link:
 
 
 @dataclass(frozen=True)
-class Chain:
-    """A serial chain of links with a free-flying first joint.
+class Revolute:
+    """A revolute joint: link i turns by theta_i [rad] about the z axis at the host's tip (formulation.md 10.1).
 
-    Joint O_1 (proximal end of link 1) flies freely; two massless virtual links
-    of zero length and link 1's joint give three rotations
-    ``Rx(theta_-1) Ry(theta_0) Rz(theta_1)``; every further link adds a revolute
-    joint about its own z axis.
+    G_i = E_(i-1) Rz(theta_i); on a fixed base E_0 = I (the motor sits at the base origin).
+    """
+
+    kind = "R"
+
+
+@dataclass(frozen=True)
+class FixedBase:
+    """A fixed base: joint 1 sits at the constant frame T_0 = Trans(b1, b2, b3) Rz(beta) (formulation.md 13).
+
+    Parameters
+    ----------
+    position : (b1, b2) or (b1, b2, b3) [m]
+    angle : beta [rad], the base x axis measured from X1 about X3
+    """
+
+    position: tuple = (0.0, 0.0)
+    angle: float = 0.0
+
+    def __post_init__(self):
+        p = np.asarray(self.position, dtype=float) if not isinstance(self.position, str) else np.array([])
+        if p.shape not in ((2,), (3,)) or not np.all(np.isfinite(p)):
+            raise ValueError(f"FixedBase position={self.position!r} must be 2 or 3 finite numbers (m)")
+        object.__setattr__(self, "position", tuple(float(v) for v in np.pad(p, (0, 3 - p.size))))
+        a = self.angle
+        if isinstance(a, bool) or not isinstance(a, Real) or not np.isfinite(a):
+            raise ValueError(f"FixedBase angle={a!r} must be a finite number of radians")
+        object.__setattr__(self, "angle", float(a))
+
+    @property
+    def transform(self) -> np.ndarray:
+        """T_0 (4, 4)."""
+        c, s = np.cos(self.angle), np.sin(self.angle)
+        T = np.eye(4)
+        T[:2, :2] = [[c, -s], [s, c]]
+        T[:3, 3] = self.position
+        return T
+
+
+#: Joint types a chain accepts today.
+JOINT_TYPES = (Revolute,)
+
+
+@dataclass(frozen=True)
+class Chain:
+    """A serial chain of links on a free-flying or a fixed base.
+
+    Free base (``base="free"``, the default): joint O_1 (proximal end of link 1)
+    flies freely; two massless virtual links of zero length and link 1's joint
+    give three rotations ``Rx(theta_-1) Ry(theta_0) Rz(theta_1)``; every further
+    link adds a revolute joint about its own z axis.
+
+    Fixed base (``base=gi.FixedBase(position, angle)``): link 1 turns by
+    theta_1 about z at the base frame T_0; no base coordinates.
+
+    Parameters
+    ----------
+    links : sequence of Link (n >= 1)
+    joints : sequence of n joints (gi.Revolute()), or None for all revolute
+    base : "free" or FixedBase
     """
 
     links: tuple
+    joints: tuple | None = None
+    base: object = "free"
 
     def __post_init__(self):
         links = self.links
@@ -182,10 +240,29 @@ class Chain:
             if not isinstance(lk, Link):
                 raise ValueError(f"Chain links[{k}]={lk!r} is not a gibbsimpact.Link")
         object.__setattr__(self, "links", links)
+        joints = self.joints
+        if joints is None:
+            joints = tuple(Revolute() for _ in links)
+        try:
+            joints = tuple(joints)
+        except TypeError:
+            raise ValueError(f"Chain joints={self.joints!r} must be a list of joints, one per link") from None
+        if len(joints) != len(links):
+            raise ValueError(f"Chain joints has {len(joints)} entries for {len(links)} links; give one joint per link")
+        for k, jt in enumerate(joints):
+            if not isinstance(jt, JOINT_TYPES):
+                raise ValueError(f"Chain joints[{k}]={jt!r} is not a joint; use gi.Revolute()")
+        object.__setattr__(self, "joints", joints)
+        if not (self.base == "free" or isinstance(self.base, FixedBase)):
+            raise ValueError(f"Chain base={self.base!r} must be 'free' or gi.FixedBase(position=(b1, b2), angle=beta)")
 
     @property
     def n_links(self) -> int:
         return len(self.links)
+
+    @property
+    def free_base(self) -> bool:
+        return isinstance(self.base, str)
 
 
 def _as_function(v):
@@ -241,6 +318,7 @@ class LinkData:
     E0: np.ndarray
     has_rotary: bool
     end_is_rigid: bool
+    directions: tuple = ()
 
 
 def _basis(link: Link, x: np.ndarray):
@@ -331,6 +409,7 @@ def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE)
         mass=float(mass),
         has_rotary=bool(np.any(J_body)),
         end_is_rigid=not (np.any(end_t) or np.any(end_phi)),
+        directions=tuple(directions),
         **arrays,
     )
 
@@ -349,9 +428,10 @@ class Model:
     Attributes
     ----------
     n_dof : int
-        N = 3 + (n + 2) + sum m_i.
+        N = 3 + (n + 2) + sum m_i (free base), n + sum m_i (fixed base).
     coordinate_names : tuple of str, length N
-        ``X1 X2 X3 theta_-1 theta_0 theta_1 ... theta_n delta_1_1 ...``.
+        ``X1 X2 X3 theta_-1 theta_0 theta_1 ... theta_n delta_1_1 ...`` (free base),
+        ``theta_1 ... theta_n delta_1_1 ...`` (fixed base).
     """
 
     def __init__(self, chain: Chain, gravity: Sequence[float] = (0.0, -9.81, 0.0), quadrature=DEFAULT_QUADRATURE):
@@ -368,8 +448,12 @@ class Model:
         self._gravity = g
         g.setflags(write=False)
         self._links = tuple(link_integrals(lk, quadrature) for lk in chain.links)
-        names = ["X1", "X2", "X3", "theta_-1", "theta_0"] + [f"theta_{i}" for i in range(1, n + 1)]
+        # Free base: q = [X1, X2, X3, theta_-1, theta_0, theta_1 .. theta_n, deltas];
+        # fixed base: q = [theta_1 .. theta_n, deltas] (formulation.md sections 1, 8).
+        base = ["X1", "X2", "X3", "theta_-1", "theta_0"] if chain.free_base else []
+        names = base + [f"theta_{i}" for i in range(1, n + 1)]
         delta_index = []
+        directions = []
         k = len(names)
         for i, (lk, ld) in enumerate(zip(chain.links, self._links), start=1):
             idx = []
@@ -377,12 +461,15 @@ class Model:
                 names.append(f"delta_{i}_{j}")
                 idx.append(k)
                 k += 1
+            directions += list(ld.directions)
             delta_index.append(np.array(idx, dtype=int))
         self._names = tuple(names)
         self._delta_index = tuple(delta_index)
         # The same indices as slices (each link's modes are contiguous): cheap views in the kernel.
         self._delta_slice = tuple(slice(int(d[0]), int(d[-1]) + 1) if d.size else slice(0, 0) for d in delta_index)
-        self._theta_index = tuple(range(5, 5 + n))
+        self._theta_index = tuple(range(len(base), len(base) + n))
+        self._bending = tuple([""] * (len(base) + n) + directions)
+        self._base_transform = None if chain.free_base else chain.base.transform
         K = np.zeros((k, k))
         for d, ld in zip(delta_index, self._links):
             K[np.ix_(d, d)] = ld.K
@@ -399,6 +486,10 @@ class Model:
     delta_index = property(lambda self: self._delta_index, doc="Indices of each link's modal coordinates in q.")
     delta_slice = property(lambda self: self._delta_slice, doc="The same as slices of q.")
     theta_index = property(lambda self: self._theta_index, doc="Index of theta_i in q, i = 1..n.")
+    free_base = property(lambda self: self._chain.free_base, doc="True for a free-flying base (X, theta_-1, theta_0 in q).")
+    base_transform = property(lambda self: self._base_transform, doc="T_0 (4, 4) of a fixed base, None for a free one.")
+    bending_directions = property(
+        lambda self: self._bending, doc="Per coordinate: 'y' or 'z' for an elastic coordinate, '' otherwise (N,).")
     stiffness_matrix = property(lambda self: self._K, doc="Block-diagonal modal stiffness K (N, N) [N/m].")
     total_mass = property(lambda self: self._total_mass, doc="Total mass [kg].")
 
