@@ -125,3 +125,27 @@ def test_animation_gif_has_frames(spatial, tmp_path):
             frames.append(np.asarray(im.convert("RGB"), dtype=float))
     assert frames[0].std() > 1.0
     assert np.abs(frames[0] - frames[1]).max() > 0  # the chain moved
+
+
+def test_fixed_base_fe_driven_run_figures(tmp_path):
+    # Fixed base, FE links (drawn deformed, tip deflections in modes.png), inputs and
+    # damping (work and the power balance in energy.png).
+    arm = gi.Link(1.0, 1.0, 4.0, elements=2, damping=0.01)
+    tip = gi.Link(0.6, 0.5, 2.0, elements=1, element_directions=("y", "z"))
+    model = gi.Model(gi.Chain([arm, tip], base=gi.FixedBase((0.0, 0.5), 0.0)))
+    q = model.state(theta_1=-0.2, delta_1_3=0.05, delta_1_4=0.1)
+    pts = plotting.link_points(model, q, 9)
+    np.testing.assert_allclose(pts[0, -1], model.joint_positions(q)[1], atol=1e-14)  # deformed tip = O2
+    assert np.ptp(pts[0, :, 1] - np.linspace(0.5, pts[0, -1, 1], 9)) > 1e-3  # link 1 is drawn bent
+    res = gi.simulate(model, q, np.zeros(model.n_dof), (0.0, 0.05), inputs={"theta_1": -1.0},
+                      rtol=1e-8, atol=1e-10, output_dt=1e-3)
+    assert plotting.is_planar(res)  # z elements at rest
+    figs = res.plot(directory=tmp_path)
+    for name in figs:
+        assert nonblank(tmp_path / f"{name}.png"), name
+    labels = [t.get_text() for t in figs["modes"].axes[0].get_legend().get_texts()]
+    assert any("link 1, tip deflection in y" in s for s in labels) and any("link 2, tip deflection in z" in s for s in labels)
+    assert "power-balance" in figs["energy"]._suptitle.get_text() or any(
+        "power-balance" in ax.get_title() for ax in figs["energy"].axes)
+    import matplotlib.pyplot as plt
+    plt.close("all")

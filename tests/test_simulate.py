@@ -344,3 +344,16 @@ def test_result_energy_matches_model_energy_at_every_sample(case1):
     assert E.shape == ref.shape == (case1.t.size, 4)
     # Equal up to round-off (at impacts the stored q is a view, so BLAS may sum in another order).
     np.testing.assert_allclose(E, ref, rtol=1e-14, atol=1e-14)
+
+
+def test_joint_at_the_centre_of_a_circle_or_sphere_is_fine():
+    # The normal is undefined at the centre (R away from the wall): no 0/0 warning, no NaN.
+    import warnings
+
+    model = rigid_rod()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for wall in (gi.Circle(1.5), gi.Sphere(1.5)):
+            res = gi.simulate(model, model.state(), model.state(X1=1.0, theta_1=1.0), (0.0, 1.0), walls=[wall])
+            assert res.status == "finished" and len(res.impacts) >= 1
+            assert np.all(np.isfinite(res.qdot))

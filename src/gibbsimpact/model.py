@@ -321,6 +321,22 @@ class LinkData:
     directions: tuple = ()
 
 
+def shape_functions(link: Link, x, derivative: int = 0) -> tuple[tuple, np.ndarray]:
+    """The link's shape functions at abscissae x (K,) [m]: (directions (m,), psi (m, K)).
+
+    Assumed modes or Hermite element functions in the order of the link's
+    elastic coordinates; ``derivative`` 0 .. 2 gives the x-derivatives.
+    """
+    x = np.atleast_1d(np.asarray(x, dtype=float))
+    l = link.length
+    if link.elements:
+        psi = hermite_shape(link.elements, l, x, derivative)
+        return tuple(d for d in link.element_directions for _ in range(psi.shape[0])), \
+            np.concatenate([psi] * len(link.element_directions))
+    psi = np.array([shape(md, l, x, derivative) for md in link.modes]).reshape(len(link.modes), x.size)
+    return tuple(md.direction for md in link.modes), psi
+
+
 def _basis(link: Link, x: np.ndarray):
     """The link's shape functions: directions (m,), psi and psi'' at x (m, K), psi and psi' at l (m,)."""
     l = link.length

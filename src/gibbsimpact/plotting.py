@@ -19,7 +19,7 @@ import sys
 import numpy as np
 
 from .kinematics import transforms
-from .modes import shape
+from .model import shape_functions
 from .walls import Circle, Sphere, describe
 
 __all__ = [
@@ -66,8 +66,9 @@ def link_points(model, q, n_points: int = 41) -> np.ndarray:
         x = np.linspace(0.0, lk.length, n_points)
         r = np.zeros((4, n_points))
         r[0], r[3] = x, 1.0
-        for k, md in zip(model.delta_index[i], lk.modes):
-            r[1 if md.direction == "y" else 2] += shape(md, lk.length, x) * q[k]
+        directions, psi = shape_functions(lk, x)
+        for k, d, p_k in zip(model.delta_index[i], directions, psi):
+            r[1 if d == "y" else 2] += p_k * q[k]
         out[i] = (T[i] @ r)[:3].T
     return out
 
@@ -84,9 +85,8 @@ def is_planar(result) -> bool:
     """True when the chain stays in the X1-X2 plane (X3, theta_-1, theta_0, z-modes ~ 0) and every
     wall has a curve as its section with that plane."""
     model = result.model
-    idx = [2, 3, 4]
-    for i, lk in enumerate(model.chain.links):
-        idx += [k for k, md in zip(model.delta_index[i], lk.modes) if md.direction == "z"]
+    idx = [2, 3, 4] if model.free_base else []
+    idx += [k for k, d in enumerate(model.bending_directions) if d == "z"]
     planar = np.all(np.abs(result.q[:, idx]) < _PLANAR_TOL) and np.all(np.abs(result.qdot[:, idx]) < _PLANAR_TOL)
     return bool(planar) and all(_wall_is_2d(w) for w in result.walls)
 
@@ -186,7 +186,7 @@ def plot_angles(result, case_name=None):
     plt = _pyplot()
     model = result.model
     idx = list(model.theta_index)
-    if not is_planar(result):
+    if model.free_base and not is_planar(result):
         idx = [3, 4] + idx
     fig, axes = plt.subplots(2, 1, sharex=True, figsize=(9.5, 6))
     for c, k in enumerate(idx):
@@ -202,17 +202,28 @@ def plot_angles(result, case_name=None):
 
 
 def plot_modes(result, case_name=None):
-    """Modal coordinates delta [m] and their rates [m/s]; None for a chain of rigid links."""
+    """Modal coordinates delta [m] and their rates [m/s]; None for a chain of rigid links.
+
+    A finite-element link is shown by its tip deflection (the node-n_e deflection
+    coordinate of each bending direction), not by all its nodal coordinates.
+    """
     model = result.model
-    rows = [(k, i + 1, md) for i, lk in enumerate(model.chain.links)
-            for k, md in zip(model.delta_index[i], lk.modes)]
+    rows = []
+    for i, lk in enumerate(model.chain.links):
+        idx = model.delta_index[i]
+        if lk.elements:
+            per = 2 * lk.elements
+            rows += [(int(idx[(j + 1) * per - 2]), f"link {i + 1}, tip deflection in {d} (FE)")
+                     for j, d in enumerate(lk.element_directions)]
+        else:
+            rows += [(int(k), f"link {i + 1}, {md.direction}, {md.kind} #{md.number}") for k, md in zip(idx, lk.modes)]
     if not rows:
         return None
     plt = _pyplot()
     fig, axes = plt.subplots(2, 1, sharex=True, figsize=(9.5, 6))
-    for c, (k, link, md) in enumerate(rows):
+    for c, (k, text) in enumerate(rows):
         name = model.coordinate_names[k]
-        desc = f"\nlink {link}, {md.direction}, {md.kind} #{md.number}"
+        desc = "\n" + text
         axes[0].plot(result.t, result.q[:, k], label=_tex(name) + desc, **_style(c))
         axes[1].plot(result.t, result.qdot[:, k], label=_tex(name, dot=True), **_style(c))
     axes[0].set_ylabel("modal coordinate [m]")
@@ -249,7 +260,11 @@ def plot_joint_velocities(result, case_name=None):
 
 
 def plot_energy(result, case_name=None):
-    """Kinetic, gravitational, strain and total energy [J]; below, total minus its initial value."""
+    """Kinetic, gravitational, strain and total energy [J]; below, total minus its initial value.
+
+    With inputs or damping (result.work not None) the work W of each is drawn too,
+    and the lower panel shows the energy balance E - E(t0) - W.
+    """
     plt = _pyplot()
     E = result.energy()
     fig, axes = plt.subplots(2, 1, sharex=True, figsize=(9.5, 6), gridspec_kw={"height_ratios": [2.2, 1]})
@@ -257,13 +272,21 @@ def plot_energy(result, case_name=None):
     axes[0].plot(result.t, E.gravity, label="gravitational", **_style(1))
     axes[0].plot(result.t, E.strain, label="strain", **_style(2))
     axes[0].plot(result.t, E.total, lw=1.8, color="k", label="total")
+    balance = E.total - E.total[0]
+    if result.work is not None:
+        axes[0].plot(result.t, result.work[:, 0], label="work of inputs", **_style(3))
+        axes[0].plot(result.t, result.work[:, 1], label="work of damping", **_style(4))
+        balance = balance - result.work.sum(axis=1)
+        axes[1].set_ylabel(r"$E - E(t_0) - W$ [J]")
+        what = "max relative power-balance error in flight"
+    else:
+        axes[1].set_ylabel(r"$E - E(t_0)$ [J]")
+        what = "max relative drift in flight"
     axes[0].set_ylabel("energy [J]")
     _legend(axes[0])
-    axes[1].plot(result.t, E.total - E.total[0], lw=1.0, color="k")
-    axes[1].set_ylabel(r"$E - E(t_0)$ [J]")
+    axes[1].plot(result.t, balance, lw=1.0, color="k")
     axes[1].ticklabel_format(axis="y", style="sci", scilimits=(-2, 3), useOffset=False)
-    title = _title(result, f"energy (E(t0) = {E.total[0]:.7g} J, max relative drift in flight "
-                           f"{result.energy_error:.1e})", case_name)
+    title = _title(result, f"energy (E(t0) = {E.total[0]:.7g} J, {what} {result.energy_error:.1e})", case_name)
     _finish_time_figure(fig, axes, result, title)
     return fig
 

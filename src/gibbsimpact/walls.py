@@ -64,11 +64,11 @@ class Circle:
         return self.radius - np.hypot(d[..., 0], d[..., 1])
 
     def normal(self, p: np.ndarray) -> np.ndarray:
-        """Unit inward normal for p (K, 3) -> (K, 3)."""
+        """Unit inward normal for p (K, 3) -> (K, 3); zero on the axis, R away from the wall, where it is undefined."""
         d = p[..., :2] - np.asarray(self.center)
         r = np.hypot(d[..., 0], d[..., 1])[..., None]
         n = np.zeros(p.shape)
-        n[..., :2] = -d / r
+        n[..., :2] = -np.divide(d, r, out=np.zeros_like(d), where=r > 0)
         return n
 
 
@@ -94,9 +94,10 @@ class Sphere:
         return self.radius - np.linalg.norm(p - np.asarray(self.center), axis=-1)
 
     def normal(self, p: np.ndarray) -> np.ndarray:
-        """Unit inward normal for p (K, 3) -> (K, 3)."""
+        """Unit inward normal for p (K, 3) -> (K, 3); zero at the centre, R away from the wall, where it is undefined."""
         d = p - np.asarray(self.center)
-        return -d / np.linalg.norm(d, axis=-1, keepdims=True)
+        r = np.linalg.norm(d, axis=-1, keepdims=True)
+        return -np.divide(d, r, out=np.zeros_like(d), where=r > 0)
 
 
 @dataclass(frozen=True)
