@@ -44,6 +44,11 @@ def test_reproducer_grazing_pass_inside_one_step_is_an_impact():
     assert rec.joints == (1,)
     assert rec.time == pytest.approx(first_crossing_time(R), abs=1e-9)
     assert abs(closed_form_gap(R, rec.time)) < 1e-10
+    # Without the in-step search (solve_ivp's sign test at step ends only) the pass is missed.
+    blind = gi.simulate(model, q0, qd0, (0.0, 0.2), walls=[gi.Circle(R)], restitution=1.0, output_dt=1e-4,
+                        _in_step_check=False)
+    assert blind.status == "finished" and blind.impacts == []
+    assert (R - np.linalg.norm(blind.joint_positions()[:, 0, :2], axis=1)).min() < -9e-5
     # v_n = -d|O1|/dt = -0.1 sin(theta) theta_dot / (2 R) at the crossing.
     theta = np.pi / 2 + 10.0 * rec.time
     assert rec.v_before[0] == pytest.approx(-0.1 * np.sin(theta) * 10.0 / (2 * R), rel=1e-6)

@@ -181,6 +181,7 @@ def integrate_phase(
     lipschitz: float,
     slack: float,
     n_q: int | None = None,
+    check_in_step: bool = True,
 ) -> PhaseOutcome:
     """Integrate from (t0, y0) to the first event or t_end.
 
@@ -196,6 +197,8 @@ def integrate_phase(
     lipschitz : L_q, bound on |dg/dq| [m per unit of q]
     slack : [m], extra margin of the in-step check (contact_tol)
     n_q : N, the number of coordinates: y = (q, qdot, extra states); default len(y0) // 2
+    check_in_step : False skips check 2 (only solve_ivp's sign test at step ends): for
+        benchmarks and for tests that show what the check finds
 
     Returns
     -------
@@ -250,7 +253,8 @@ def integrate_phase(
         # 1. Sign changes at the step ends (solve_ivp's rule).
         crossed = (down & (E_prev >= 0) & (E_b <= 0)) | (up & (E_prev <= 0) & (E_b >= 0))
         # 2. In-step dips of the direction -1 events without a sign change.
-        candidates = np.nonzero(down & ~crossed & (E_prev > 0) & (E_b > 0))[0] if np.any(down) else np.empty(0, int)
+        candidates = (np.nonzero(down & ~crossed & (E_prev > 0) & (E_b > 0))[0] if check_in_step and np.any(down)
+                      else np.empty(0, int))
         examine = np.zeros(E_b.shape, dtype=bool)
         if candidates.size:
             if dense is not None:

@@ -334,6 +334,7 @@ def simulate(
     max_impacts: int = 10000,
     progress=None,
     inputs=None,
+    _in_step_check: bool = True,
 ) -> Result:
     """Simulate flight phases and impacts from (q0, qdot0) over t_span.
 
@@ -360,6 +361,8 @@ def simulate(
         f(t, q, qdot)} (a torque [N m] on an angle, a force [N] on a translation).
         With inputs or damped links (``Link.damping``) the run also integrates their
         work W (Result.work) and energy_error measures E(t) - E(start) - (W(t) - W(start)).
+    _in_step_check : private; False turns off the search for gap dips inside steps
+        (flight.py), leaving solve_ivp's sign test at step ends: for benchmarks and tests only.
 
     Returns
     -------
@@ -455,6 +458,7 @@ def simulate(
             out = integrate_phase(
                 rhs, t, y, t_end, events, contacts.gaps, method=method, rtol=rtol, atol=atol, max_step=max_step,
                 output_dt=output_dt, t_origin=t0, lipschitz=lipschitz, slack=contact_tol, n_q=N,
+                check_in_step=_in_step_check,
             )
         except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
             status, message = STATUS_FAILED, f"integration failed after t = {t:.9g} s: {exc}"
