@@ -357,3 +357,39 @@ def test_joint_at_the_centre_of_a_circle_or_sphere_is_fine():
             res = gi.simulate(model, model.state(), model.state(X1=1.0, theta_1=1.0), (0.0, 1.0), walls=[wall])
             assert res.status == "finished" and len(res.impacts) >= 1
             assert np.all(np.isfinite(res.qdot))
+
+
+def test_singular_mass_matrix_at_a_trial_stage_rejects_the_step(monkeypatch):
+    # Issue 9: a too-long trial step (e.g. DOP853's first step after an impact that
+    # excites 11 modes per link) can land on a meaningless state whose M is singular.
+    # That must shrink the step, not stop the run with a wrong diagnosis; only a
+    # solver that cannot go on reports it. Simulated here: M "singular" at the first
+    # three trial states that are more than 1 mm from the start.
+    import sys
+
+    sim = sys.modules["gibbsimpact.simulate"]  # the module (gi.simulate is the function)
+    real = sim.forward_dynamics
+    model = rigid_rod()
+    q0 = model.state()
+    calls = {"far": 0}
+
+    def flaky(m, q, qd, Q=None):
+        if abs(q[0] - q0[0]) > 1e-3 and calls["far"] < 3:
+            calls["far"] += 1
+            raise gi.SingularMassMatrixError("mass matrix is numerically singular (test)")
+        return real(m, q, qd, Q)
+
+    monkeypatch.setattr(sim, "forward_dynamics", flaky)
+    res = gi.simulate(model, q0, model.state(X1=1.0), (0.0, 0.5))
+    assert res.status == "finished", res.message
+    assert calls["far"] == 3
+    np.testing.assert_allclose(res.q[:, 0], res.t, atol=1e-12)  # X1 = t exactly
+
+    # Singular everywhere beyond 1 mm: the solver cannot go on; the message says why.
+    monkeypatch.setattr(sim, "forward_dynamics", lambda m, q, qd, Q=None: (
+        (_ for _ in ()).throw(gi.SingularMassMatrixError("mass matrix is not positive definite: gimbal (test)"))
+        if abs(q[0] - q0[0]) > 1e-3 else real(m, q, qd, Q)))
+    res = gi.simulate(model, q0, model.state(X1=1.0), (0.0, 0.5))
+    assert res.status == "failed"
+    assert "the mass matrix was singular at a trial state" in res.message and "gimbal (test)" in res.message
+    assert 9e-4 < res.q[-1, 0] <= 1e-3 + 1e-12  # everything up to there is kept

@@ -402,17 +402,26 @@ def simulate(
     clock = _Clock(progress)
     counters = {"nfev": 0, "n_steps": 0, "n_examined": 0}
 
+    singular = {"message": None}  # diagnosis of the last trial state with a singular M
+
     def rhs(t, y):
         counters["nfev"] += 1
         clock.tick(t)
         q, qd = y[:N], y[N:2 * N]
-        if not driven:
-            return np.concatenate((qd, forward_dynamics(model, q, qd)))
-        # (1) of forces.py: M qddot = Q_in + Q_damp - h - dV/dq, and the work rates qdot.Q.
-        Qi = Q_in(t, q, qd) if Q_in is not None else np.zeros(N)
-        Qd = -(C_damp @ qd) if damped else np.zeros(N)
-        qdd = forward_dynamics(model, q, qd, Qi + Qd)
-        return np.concatenate((qd, qdd, [qd @ Qi, qd @ Qd]))
+        try:
+            if not driven:
+                return np.concatenate((qd, forward_dynamics(model, q, qd)))
+            # (1) of forces.py: M qddot = Q_in + Q_damp - h - dV/dq, and the work rates qdot.Q.
+            Qi = Q_in(t, q, qd) if Q_in is not None else np.zeros(N)
+            Qd = -(C_damp @ qd) if damped else np.zeros(N)
+            qdd = forward_dynamics(model, q, qd, Qi + Qd)
+            return np.concatenate((qd, qdd, [qd @ Qi, qd @ Qd]))
+        except SingularMassMatrixError as exc:
+            # A trial stage of a too-long step can land on a meaningless state (e.g. right
+            # after an impact that excites high modes): NaN makes the solver reject the
+            # step and shrink it. Only if it cannot go on is the diagnosis reported.
+            singular["message"] = f"at t = {t:.9g} s: {exc}"
+            return np.full(y.shape, np.nan)
 
     contacts = _Contacts(model, walls)
     # |dg/dq| <= 1 + 2 sum l: a translation moves a joint 1:1, a rotation by at most its lever arm.
@@ -469,7 +478,10 @@ def simulate(
             recorder.flight(out.sample_t, out.sample_y, phase)
         if out.failed is not None:
             status, message = STATUS_FAILED, f"the ODE solver failed after t = {t:.9g} s: {out.failed}"
+            if singular["message"] is not None:
+                message += f"; the mass matrix was singular at a trial state {singular['message']}"
             break
+        singular["message"] = None
         # Between events no joint may be beyond a wall (step ends and in-step samples).
         if out.min_gap < -penetration_tol:
             status = STATUS_PENETRATION
