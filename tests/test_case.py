@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.case import RANGES, CaseError, case_from_dict
+from gibbsimpact.case import RANGES, CaseError, _Reader, case_from_dict
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 
@@ -331,8 +331,34 @@ def with_key(range_key, value):
         if key == "cross_section_radius_m":
             del link["rotary_inertia_kg_m"]
             link["length_m"] = min(1.0, 1e3 * value)
+        if key == "damping_ratio":
+            link["elements"] = 1  # damping needs elastic coordinates
         link[key] = value
         return d, f"links[1].{key}"
+    if section == "base":
+        # A rigid rod on a fixed base: no X coordinates.
+        coords.pop("X1_m")
+        d["base"] = {"type": "fixed", key: [value, 0.6] if key == "position_m" else value}
+        return d, f"base.{key}"
+    if section == "inputs":
+        # A length family key (N, m) acts on X1 of the free rod, an angle family key on theta_1.
+        length = key.endswith(("_N", "_N_per_s", "_N_per_m", "_N_s_per_m", "target_m"))
+        table = {"coordinate": "X1" if length else "theta_1"}
+        stem = key.split("_")[0]
+        F = "N" if length else "N_m"
+        if stem == "value":
+            table.update(kind="constant")
+        elif stem in ("amplitude", "offset", "frequency", "phase"):
+            table.update(kind="sine", **{f"amplitude_{F}": 1.0, "frequency_hz": 1.0})
+        elif stem in ("slope", "start", "end"):
+            table.update(kind="ramp", **{f"slope_{F}_per_s": 1.0})
+            if stem == "end":
+                table["start_s"] = value - 1.0  # out of its own range only below end_s's lowest value
+        else:
+            table.update(kind="pd", **{f"stiffness_{F}_per_{'m' if length else 'rad'}": 1.0})
+        table[key] = value
+        d["inputs"] = [table]
+        return d, f"inputs[1].{key}"
     if section == "links.modes":
         link["modes"][0][key] = value
         return d, f"links[1].modes[1].{key}"
@@ -401,10 +427,14 @@ def test_every_range_bound_is_enforced(range_key, side):
     rng = RANGES[range_key]
     # Just inside loads; only the t_start upper and t_end lower bounds leave no room for the other time.
     d, path = with_key(range_key, just_inside(rng, side))
-    if (range_key, side) in (("time.t_start_s", "high"), ("time.t_end_s", "low")):
+    if (range_key, side) in (("time.t_start_s", "high"), ("time.t_end_s", "low"), ("inputs.end_s", "low")):
         with pytest.raises(CaseError) as info:
             case_from_dict(d)
         assert path not in dict(info.value.problems)
+    elif (range_key, side) == ("links.elements", "high"):
+        # The reader's range check alone: building a 200-element link's integrals takes seconds.
+        reader = _Reader()
+        assert reader.value(rng.high, path, "number") == rng.high and reader.problems == []
     else:
         case_from_dict(d)
     # Just outside names the key and the range.
@@ -483,3 +513,197 @@ def test_simulate_overrides_are_held_to_the_ranges(tmp_path):
     (path, msg), = info.value.problems
     assert path == "output_dt" and msg.startswith("(time.t_end_s - time.t_start_s) / output_dt = 0.1 s / 1e-12 s")
     assert case.simulate_kwargs(t_end=0.5, output_dt=None)["output_dt"] is None
+
+
+# -- finite elements, a fixed base and inputs -----------------------------------
+
+# A rigid rod on a fixed base, no gravity, driven by a constant motor torque.
+ROD = """
+name = "rod"
+gravity_m_per_s2 = [0.0, 0.0, 0.0]
+
+[base]
+type = "fixed"
+position_m = [0.5, 1.0]
+angle_deg = 30.0
+
+[[links]]
+length_m = 0.8
+mass_per_length_kg_per_m = 2.0
+EI_N_m2 = 10.0
+
+[[inputs]]
+coordinate = "theta_1"
+kind = "constant"
+value_N_m = 0.3
+
+[time]
+t_end_s = 0.5
+"""
+
+# Two links on a fixed base, the second with one finite element: theta_1, theta_2
+# (angles), delta_2_1 (tip deflection, m) and delta_2_2 (tip slope, rad).
+ARM = """
+gravity_m_per_s2 = [0.0, -9.81, 0.0]
+
+[base]
+type = "fixed"
+
+[[links]]
+length_m = 1.0
+mass_per_length_kg_per_m = 1.0
+EI_N_m2 = 25.0
+
+[[links]]
+length_m = 0.6
+mass_per_length_kg_per_m = 0.5
+EI_N_m2 = 8.0
+elements = 1
+
+[time]
+t_end_s = 0.1
+"""
+
+
+def with_inputs(text, *tables):
+    """text plus one [[inputs]] table per dict."""
+    def toml(v):
+        return f'"{v}"' if isinstance(v, str) else repr(v)
+
+    return text + "".join("\n[[inputs]]\n" + "".join(f"{k} = {toml(v)}\n" for k, v in t.items()) for t in tables)
+
+
+def test_fixed_base_rod_under_constant_torque_closed_form(tmp_path):
+    case = gi.load_case(write(tmp_path, ROD))
+    m = case.model
+    assert m.coordinate_names == ("theta_1",) and not m.free_base
+    assert m.chain.base == gi.FixedBase((0.5, 1.0, 0.0), math.radians(30.0))
+    np.testing.assert_allclose(m.joint_positions(case.q0)[1], [0.5 + 0.8 * math.cos(math.pi / 6),
+                                                             1.0 + 0.8 * math.sin(math.pi / 6), 0.0], atol=1e-15)
+    assert set(case.simulate_kwargs()["inputs"]) == {"theta_1"}
+    res = case.simulate(rtol=1e-12, atol=1e-14, output_dt=0.05)
+    # I theta'' = tau, I = m l^2 / 3 about the base joint: theta = tau t^2 / (2 I).
+    inertia = 2.0 * 0.8 * 0.8**2 / 3.0
+    np.testing.assert_allclose(res.q[:, 0], 0.3 * res.t**2 / (2 * inertia), rtol=0, atol=1e-11)
+    np.testing.assert_allclose(res.work[-1, 0], 0.3 * res.q[-1, 0], rtol=1e-9)  # W = tau theta
+
+
+def test_finite_element_link_keys(tmp_path):
+    text = ARM.replace("elements = 1", 'elements = 3\nelement_directions = ["y", "z"]\ndamping_ratio = 0.02')
+    case = gi.load_case(write(tmp_path, text))
+    lk = case.model.chain.links[1]
+    assert (lk.elements, lk.element_directions, lk.damping, lk.modes) == (3, ("y", "z"), 0.02, ())
+    assert case.model.n_dof == 2 + 12
+    assert case.model.chain.links[0].elements == 0 and case.model.chain.links[0].damping == 0.0
+
+
+def test_modes_and_elements_are_exclusive(tmp_path):
+    err = problems_of(tmp_path, GOOD.replace('modes = [', 'elements = 2\nmodes = ['))
+    (path, msg), = err.problems
+    assert path == "links[1].elements" and "modes" in msg and "elements" in msg and "not both" in msg
+
+
+def test_element_directions_and_damping_errors(tmp_path):
+    text = ARM.replace("elements = 1", 'elements = 1\nelement_directions = ["y", "y"]')
+    text = text.replace("EI_N_m2 = 25.0", 'EI_N_m2 = 25.0\ndamping_ratio = 0.1\nelement_directions = ["z"]')
+    d = dict(problems_of(tmp_path, text).problems)
+    assert d["links[2].element_directions"].startswith("must be ['y'], ['z'] or ['y', 'z']")
+    assert d["links[1].damping_ratio"] == "needs elastic coordinates: give the link modes or elements"
+    assert d["links[1].element_directions"].startswith("applies to finite elements only")
+    d = dict(problems_of(tmp_path, ARM.replace("elements = 1", 'elements = 1\nelement_directions = "y"')).problems)
+    assert d["links[2].element_directions"].startswith("expected an array of directions")
+
+
+def test_base_table_errors(tmp_path):
+    d = dict(problems_of(tmp_path, ARM.replace('type = "fixed"', 'type = "floating"')).problems)
+    assert d["base.type"].startswith("unknown base type 'floating'")
+    text = ARM.replace('type = "fixed"', 'type = "free"\nposition_m = [0.0, 1.0]')
+    d = dict(problems_of(tmp_path, text).problems)
+    assert d["base.position_m"].startswith("a free-flying base has no fixed position")
+    text = ARM.replace('type = "fixed"', 'type = "fixed"\nposition_m = [0.0]\nangle_deg = 10\nangle_rad = 0.1')
+    d = dict(problems_of(tmp_path, text).problems)
+    assert d["base.position_m"] == "expected an array of 2 or 3 numbers (b1, b2[, b3]) in m, got an array of 1"
+    assert d["base.angle_rad"].startswith("sets the base angle again")
+    no_type = ARM.replace("[base]\n", "[base]\nposition_m = [0, 0, 0]\n").replace('type = "fixed"\n', "")
+    err = problems_of(tmp_path, no_type)
+    assert err.problems == [("base.type", "missing ('fixed' or 'free')")]
+    # type = "free" is the free-flying default.
+    free = gi.load_case(write(tmp_path, GOOD + '\n[base]\ntype = "free"\n'))
+    assert free.model.free_base and free.model.n_dof == 7
+
+
+def test_fixed_base_has_no_base_coordinates(tmp_path):
+    text = ARM + "\n[initial.coordinates]\nX1_m = 0.2\ntheta_0_rad = 0.1\ntheta_2_deg = 10\n"
+    d = dict(problems_of(tmp_path, text).problems)
+    assert set(d) == {"initial.coordinates.X1_m", "initial.coordinates.theta_0_rad"}
+    assert d["initial.coordinates.X1_m"] == (
+        "unknown coordinate X1 (a fixed base has no X1, X2, X3, theta_-1, theta_0: [base] type = 'fixed'); "
+        "this model has theta_1, theta_2, delta_2_1, delta_2_2")
+    text = ARM + "\n[initial]\ncenter_of_mass_m = [0, 0, 0]\ncenter_of_mass_velocity_m_per_s = [1, 0, 0]\n"
+    d = dict(problems_of(tmp_path, text).problems)
+    assert set(d) == {"initial.center_of_mass_m", "initial.center_of_mass_velocity_m_per_s"}
+    assert all(msg.startswith("needs a free-flying base (it sets X1, X2, X3)") for msg in d.values())
+    ok = gi.load_case(write(tmp_path, ARM + "\n[initial.coordinates]\ntheta_2_deg = 10\ndelta_2_2_m = 0.01\n"))
+    np.testing.assert_allclose(ok.q0, [0.0, math.radians(10), 0.0, 0.01], atol=1e-16)
+
+
+POINTS = [(0.0, (0.1, -0.2, 0.003, 0.02), (1.0, 0.5, -0.1, 0.2)),
+          (0.37, (-1.2, 0.4, -0.01, 0.0), (-2.0, 3.0, 0.4, -0.3)),
+          (2.5, (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))]
+
+
+def test_every_input_kind_against_its_closed_form(tmp_path):
+    text = with_inputs(
+        ARM,
+        dict(coordinate="theta_1", kind="constant", value_N_m=1.5),
+        dict(coordinate="theta_1", kind="sine", amplitude_N_m=-2.0, frequency_hz=1.5, phase_deg=30.0, offset_N_m=0.25),
+        dict(coordinate="theta_2", kind="ramp", slope_N_m_per_s=4.0, start_s=0.2, end_s=1.2),
+        dict(coordinate="theta_2", kind="pd", target_deg=20.0, stiffness_N_m_per_rad=7.0, damping_N_m_s_per_rad=0.3),
+        dict(coordinate="delta_2_1", kind="pd", target_m=0.01, stiffness_N_per_m=50.0),
+        dict(coordinate="delta_2_2", kind="ramp", slope_N_m_per_s=-3.0),
+    )
+    case = gi.load_case(write(tmp_path, text))
+    assert [s.kind for s in case.inputs] == ["constant", "sine", "ramp", "pd", "pd", "ramp"]
+    f = case.simulate_kwargs()["inputs"]
+    assert set(f) == {"theta_1", "theta_2", "delta_2_1", "delta_2_2"}
+    for t, q, qd in POINTS:
+        q, qd = np.array(q), np.array(qd)
+        # Several inputs on one coordinate add up.
+        assert f["theta_1"](t, q, qd) == pytest.approx(1.5 + 0.25 - 2.0 * math.sin(3.0 * math.pi * t + math.pi / 6),
+                                                       rel=1e-14, abs=1e-14)
+        ramp = 4.0 * (min(max(t, 0.2), 1.2) - 0.2)  # 0 before 0.2 s, held at 4 N m after 1.2 s
+        pd = 7.0 * (math.radians(20.0) - q[1]) - 0.3 * qd[1]
+        assert f["theta_2"](t, q, qd) == pytest.approx(ramp + pd, rel=1e-14, abs=1e-14)
+        assert f["delta_2_1"](t, q, qd) == pytest.approx(50.0 * (0.01 - q[2]), rel=1e-14, abs=1e-14)
+        assert f["delta_2_2"](t, q, qd) == pytest.approx(-3.0 * t, rel=1e-14, abs=1e-14)
+    assert case.simulate_kwargs(inputs=None)["inputs"] is None  # an override replaces them
+    assert gi.load_case(write(tmp_path, ARM)).simulate_kwargs()["inputs"] is None
+
+
+def test_input_errors_name_the_key(tmp_path):
+    text = with_inputs(
+        ARM,
+        dict(coordinate="theta_1", kind="constant", value_N=1.0),                         # 1: force on an angle
+        dict(coordinate="delta_2_1", kind="sine", amplitude_N_m=1.0, frequency_hz=2.0),   # 2: torque on a length
+        dict(coordinate="delta_2_2", kind="constant", value_N=1.0),                       # 3: an FE slope is an angle
+        dict(coordinate="theta_1", kind="constant", value_N_m=1.0, frequency_hz=2.0),     # 4: key of another kind
+        dict(coordinate="theta_1", kind="sine", amplitude_N_m=1.0),                       # 5: missing frequency
+        dict(coordinate="X1", kind="constant", value_N=1.0),                              # 6: no X on a fixed base
+        dict(coordinate="theta_1", kind="spring"),                                        # 7: unknown kind
+        dict(coordinate="theta_1", kind="ramp", slope_N_m_per_s=1.0, start_s=1.0, end_s=0.5),  # 8: end before start
+        dict(coordinate="theta_2", kind="pd", stiffness_N_m_per_rad=1.0, target_rad=0.1, target_deg=5.0),  # 9
+        dict(kind="constant", value_N_m=1.0, colour="red"),                               # 10
+    )
+    d = dict(problems_of(tmp_path, text).problems)
+    assert d["inputs[1].value_N"] == "theta_1 is an angle: its input is a torque in N m; use value_N_m"
+    assert d["inputs[2].amplitude_N_m"] == "delta_2_1 is a length: its input is a force in N; use amplitude_N"
+    assert d["inputs[3].value_N"] == "delta_2_2 is an angle: its input is a torque in N m; use value_N_m"
+    assert d["inputs[4].frequency_hz"] == "not a key of a 'constant' input (its keys: value_N_m)"
+    assert d["inputs[5].frequency_hz"] == "missing (a 'sine' input on theta_1 needs amplitude_N_m, frequency_hz)"
+    assert d["inputs[6].coordinate"].startswith("unknown coordinate X1 (a fixed base has no X1")
+    assert d["inputs[7].kind"] == "unknown input kind 'spring'; use one of constant, sine, ramp, pd"
+    assert d["inputs[8].end_s"] == "must be after start_s = 1 s, got 0.5"
+    assert d["inputs[9].target_deg"] == "sets the target again (already set by target_rad); give one of them"
+    assert d["inputs[10].coordinate"].startswith("missing") and d["inputs[10].colour"].startswith("unknown key")
+    d = dict(problems_of(tmp_path, "inputs = 3\n" + ARM).problems)
+    assert d["inputs"] == "expected [[inputs]] tables, got the number 3"

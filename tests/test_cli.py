@@ -377,3 +377,35 @@ def test_run_warnings_are_summed_up_after_the_error_line(tmp_path, capsys, monke
     assert lines[0].startswith("gibbsimpact: error: simulation stopped early (zeno)")
     assert lines[1].startswith("gibbsimpact: warning: 1 kind(s) of warning during the run, the first: "
                                "RuntimeWarning: overflow encountered in scalar multiply (test_cli.py:")
+
+
+def test_show_fixed_base_fe_arm(capsys):
+    code, out, err = run_main(["show", CASES / "fixed_base_fe_arm.toml"], capsys)
+    assert code == 0 and err == ""
+    assert "N = 16 generalised coordinates, 32 first-order ODEs" in out
+    assert "base: fixed at (0, 0.6, 0) m, angle 0 deg about X3" in out
+    rows = [ln.split() for ln in out.splitlines() if ln[:4].strip().isdigit()]
+    assert [r[1] for r in rows] == ["theta_1", "theta_2"] + [f"delta_1_{k}" for k in range(1, 9)] + \
+        [f"delta_2_{k}" for k in range(1, 7)]
+    assert [r[3] for r in rows[2:6]] == ["m", "rad", "m", "rad"]  # node deflections and slopes
+    assert "4 Hermite cubic element(s) in y" in out and "3 Hermite cubic element(s) in y" in out
+    # Lowest clamped-free frequency of link 1 against the beam's 1.87510^2 sqrt(25 / 1) = 17.5801 rad/s.
+    assert "clamped-free omega = 17.5807 (beam 17.5801)" in out
+    assert "damping ratio 0.002 in the first elastic mode" in out
+    assert "inputs[1] on theta_1: sine Q = 8.7 - 3 sin(2 pi 1 Hz t + 0 deg) N m" in out
+    assert "inputs[2] on theta_2: pd servo Q = 10 N m/rad * (target - theta_2)" in out
+    # The published free-flying cases say so, and have no inputs.
+    code, out, err = run_main(["show", CASES / "circle_two_link.toml"], capsys)
+    assert "base: free-flying" in out and "inputs: none" in out
+
+
+def test_run_fixed_base_fe_arm_briefly(tmp_path, capsys):
+    code, out, err = run_main(["run", CASES / "fixed_base_fe_arm.toml", "--out", tmp_path, "--t-end", "0.01",
+                               "--no-plots", "--quiet"], capsys)
+    assert code == 0 and out == "" and err == ""
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["status"] == "finished" and s["model"]["coordinate_names"][:3] == ["theta_1", "theta_2", "delta_1_1"]
+    assert s["settings"]["rtol"] == 1e-8 and s["n_impacts"] == 0
+    # The motor does work, the damping takes some; the power balance holds.
+    assert s["work_final_J"]["inputs"] != 0.0 and s["work_final_J"]["damping"] < 0.0
+    assert s["max_relative_energy_error"] < 1e-9

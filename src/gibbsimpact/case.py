@@ -22,9 +22,12 @@ from numbers import Integral, Real
 from pathlib import Path
 
 import numpy as np
+import scipy.linalg as sl
 
 from .dynamics import SingularMassMatrixError, forward_dynamics
-from .model import Chain, Link, Model
+from .elements import MAX_ELEMENTS
+from .inputs import INPUT_KINDS, InputSpec, is_angle_coordinate, named_inputs
+from .model import Chain, FixedBase, Link, Model
 from .modes import MODE_DIRECTIONS, MODE_KINDS, Mode, natural_frequency
 from .walls import Circle, Plane, Sphere, describe
 
@@ -75,11 +78,39 @@ RANGES = {
     "links.cross_section_radius_m": Range(1e-6, 1e6, "m"),
     "links.modes.number": Range(1, 50, integer=True,
                                 why="the modal integrals lose accuracy above mode 50"),
+    "links.elements": Range(0, MAX_ELEMENTS, integer=True,
+                            why="the explicit solvers' step shrinks as 1/elements^2"),
+    "links.damping_ratio": Range(0, 10, why="of the link's first elastic mode; 1 = critical"),
+    "base.position_m": Range(-1e6, 1e6, "m"),
+    "base.angle_rad": Range(-1e4, 1e4, "rad"),
+    "base.angle_deg": Range(-1e4 * _DEG, 1e4 * _DEG, "deg", why="1e4 rad"),
     "walls.radius_m": Range(1e-6, 1e6, "m"),
     "walls.center_m": Range(-1e6, 1e6, "m"),
     "walls.point_m": Range(-1e6, 1e6, "m"),
     "walls.normal": Range(1e-6, 1e6, direction=True, why="it is normalised on load"),
     "walls.restitution": Range(0, 1, why="1 = elastic, 0 = plastic"),
+    **{f"inputs.{key}": rng for key, rng in {
+        # {F}: N_m on an angle coordinate, N on a length coordinate (_INPUT_KEYS).
+        "value_N_m": Range(-1e12, 1e12, "N m", why="far beyond any machine, far from overflow"),
+        "value_N": Range(-1e12, 1e12, "N", why="far beyond any machine, far from overflow"),
+        "amplitude_N_m": Range(-1e12, 1e12, "N m"),
+        "amplitude_N": Range(-1e12, 1e12, "N"),
+        "offset_N_m": Range(-1e12, 1e12, "N m"),
+        "offset_N": Range(-1e12, 1e12, "N"),
+        "frequency_hz": Range(0, 1e6, "Hz", why="the solver resolves every period"),
+        "phase_deg": Range(-360, 360, "deg"),
+        "slope_N_m_per_s": Range(-1e12, 1e12, "N m/s"),
+        "slope_N_per_s": Range(-1e12, 1e12, "N/s"),
+        "start_s": Range(-1e9, 1e9, "s", why="about 30 years"),
+        "end_s": Range(-1e9, 1e9, "s", inf_ok=True, why="about 30 years; inf: never held"),
+        "target_rad": Range(-1e4, 1e4, "rad"),
+        "target_deg": Range(-1e4 * _DEG, 1e4 * _DEG, "deg", why="1e4 rad"),
+        "target_m": Range(-1e6, 1e6, "m"),
+        "stiffness_N_m_per_rad": Range(0, 1e12, "N m/rad"),
+        "stiffness_N_per_m": Range(0, 1e12, "N/m"),
+        "damping_N_m_s_per_rad": Range(0, 1e12, "N m s/rad"),
+        "damping_N_s_per_m": Range(0, 1e12, "N s/m"),
+    }.items()},
     "initial.center_of_mass_m": Range(-1e6, 1e6, "m"),
     "initial.center_of_mass_velocity_m_per_s": Range(-1e6, 1e6, "m/s"),
     "initial.coordinates.*_m": Range(-1e6, 1e6, "m"),
@@ -150,7 +181,9 @@ _TOP_KEYS = {
     "gravity_m_per_s2": "gravitational acceleration (g1, g2, g3) in m/s^2",
     "restitution": "global coefficient of restitution in [0, 1]",
     "links": "[[links]] tables, link 1 first",
+    "base": "[base] table: a fixed or free-flying base",
     "walls": "[[walls]] tables",
+    "inputs": "[[inputs]] tables: applied torques and forces",
     "initial": "[initial] table: initial state",
     "time": "[time] table: t_start_s, t_end_s",
     "solver": "[solver] table: integration settings",
@@ -163,6 +196,56 @@ _LINK_KEYS = {
     "rotary_inertia_kg_m": "cross-section rotary inertia per length [j_x, j_y, j_z] in kg m",
     "cross_section_radius_m": "radius r of a solid circular section: j = mu r^2 (1/2, 1/4, 1/4)",
     "modes": "[[links.modes]] tables",
+    "elements": "number of Hermite cubic finite elements (exclusive with modes)",
+    "element_directions": "bending directions of the elements, ['y'] or ['y', 'z']",
+    "damping_ratio": "structural damping ratio of the link's first elastic mode",
+}
+_BASE_KEYS = {
+    "type": "'fixed' or 'free'",
+    "position_m": "base position (b1, b2) or (b1, b2, b3) in m",
+    "angle_deg": "base angle beta about X3 in deg",
+    "angle_rad": "base angle beta about X3 in rad",
+}
+#: Coordinates of a free base that a fixed base does not have.
+_FREE_BASE_COORDINATES = ("X1", "X2", "X3", "theta_-1", "theta_0")
+#: [[inputs]] keys of each kind -> (parameter of InputSpec, required, default, factor to SI).
+#: ``{F}`` is N_m on an angle coordinate and N on a length coordinate, ``{Q}`` rad or m.
+_INPUT_KEYS = {
+    "constant": {"value_{F}": ("value", True, None, 1.0)},
+    "sine": {
+        "amplitude_{F}": ("amplitude", True, None, 1.0),
+        "frequency_hz": ("frequency", True, None, 1.0),
+        "phase_deg": ("phase", False, 0.0, math.radians(1.0)),
+        "offset_{F}": ("offset", False, 0.0, 1.0),
+    },
+    "ramp": {
+        "slope_{F}_per_s": ("slope", True, None, 1.0),
+        "start_s": ("start", False, 0.0, 1.0),
+        "end_s": ("end", False, math.inf, 1.0),
+    },
+    "pd": {
+        "target_{Q}": ("target", False, 0.0, 1.0),
+        "target_deg": ("target", False, 0.0, math.radians(1.0)),  # angle coordinates only
+        "stiffness_{F}_per_{Q}": ("stiffness", True, None, 1.0),
+        "damping_{F}_s_per_{Q}": ("damping", False, 0.0, 1.0),
+    },
+}
+_UNITS = {True: {"F": "N_m", "Q": "rad"}, False: {"F": "N", "Q": "m"}}
+
+
+def _input_keys(kind: str, angle: bool) -> dict:
+    """The [[inputs]] keys of ``kind`` on an angle (True) or length (False) coordinate."""
+    keys = {k.format(**_UNITS[angle]): v for k, v in _INPUT_KEYS[kind].items()}
+    if not angle:
+        keys.pop("target_deg", None)
+    return keys
+
+
+_INPUT_TABLE_KEYS = {
+    "coordinate": "coordinate the input acts on, e.g. 'theta_1'",
+    "kind": f"one of {', '.join(INPUT_KINDS)}",
+    **{key: f"{kind} input parameter" for kind in INPUT_KINDS for angle in (True, False)
+       for key in _input_keys(kind, angle)},
 }
 _MODE_KEYS = {
     "kind": f"boundary conditions, one of {', '.join(MODE_KINDS)}",
@@ -381,6 +464,8 @@ class Case:
     description : str
     path : Path or None, the file it came from
     source : dict, the parsed TOML table
+    inputs : tuple of gibbsimpact.inputs.InputSpec, the [[inputs]] tables in SI units
+        (simulate_kwargs turns them into simulate's ``inputs``)
     """
 
     name: str
@@ -395,6 +480,7 @@ class Case:
     description: str = ""
     path: Path | None = None
     source: dict = field(default_factory=dict, repr=False)
+    inputs: tuple = ()
 
     def override_problems(self, names: dict | None = None, **overrides) -> list[tuple[str, str]]:
         """Check keywords that override case-file keys (``t_end``, ``rtol``, ``output_dt``, ... see
@@ -434,7 +520,9 @@ class Case:
         """Keyword arguments of gibbsimpact.simulate for this case, with overrides applied.
 
         ``t_end=`` is a shorthand for ``t_span=(t_start, t_end)``. Overrides of case-file
-        keys are held to the file's ranges: a CaseError lists every problem.
+        keys are held to the file's ranges: a CaseError lists every problem. ``inputs`` is
+        the dict {coordinate name: f(t, q, qdot)} of the case's [[inputs]] (several on one
+        coordinate summed), None without any.
         """
         problems = self.override_problems(**overrides)
         if problems:
@@ -442,6 +530,7 @@ class Case:
         kw = dict(
             model=self.model, q0=self.q0.copy(), qdot0=self.qdot0.copy(), t_span=tuple(self.t_span),
             walls=self.walls, restitution=self.restitution, **self.solver,
+            inputs=named_inputs(self.inputs, self.model.coordinate_names) if self.inputs else None,
         )
         if "t_end" in overrides:
             t_end = overrides.pop("t_end")
@@ -554,11 +643,13 @@ def _link(r: _Reader, tbl, path: str):
                 modes = _BAD
                 continue
             modes.append(mode)
-    if _BAD in (length, mu, ei, j) or modes is _BAD:
+    elements, directions, zeta = _discretisation(r, tbl, path, modes)
+    if _BAD in (length, mu, ei, j, elements, directions, zeta) or modes is _BAD:
         return _BAD
     try:
         link = Link(length=length, mass_per_length=mu, EI=ei, modes=tuple(modes),
-                    rotary_inertia=tuple(j) if j is not None else (0.0, 0.0, 0.0))
+                    rotary_inertia=tuple(j) if j is not None else (0.0, 0.0, 0.0),
+                    elements=elements, element_directions=directions, damping=zeta)
     except ValueError as exc:  # pragma: no cover - every check above mirrors Link's
         r.add(path, str(exc))
         return _BAD
@@ -573,6 +664,159 @@ def _link(r: _Reader, tbl, path: str):
                         f"has no meaning: lower EI_N_m2 or the mode number, or drop the mode")
             return _BAD
     return link
+
+
+def _element_frequencies_ok(r: _Reader, model: Model) -> bool:
+    """Every finite-element link's highest eigenfrequency at most MAX_MODE_FREQUENCY (the modes' limit).
+
+    omega_max = sqrt of the largest generalised eigenvalue of the link's (K, M_dd) (clamped at its frame).
+    """
+    ok = True
+    for i, (link, ld) in enumerate(zip(model.chain.links, model.link_data), start=1):
+        if not link.elements:
+            continue
+        omega = math.sqrt(max(float(sl.eigh(ld.K, ld.M_dd, eigvals_only=True)[-1]), 0.0))
+        if not omega <= MAX_MODE_FREQUENCY:
+            r.add(f"links[{i}].EI_N_m2",
+                  f"makes the highest mode of elements = {link.elements} vibrate at omega = {_fmt(omega)} rad/s with "
+                  f"length_m = {_fmt(link.length)} and mass_per_length_kg_per_m = {_fmt(link.mass_per_length)}; above "
+                  f"{_fmt(MAX_MODE_FREQUENCY)} rad/s (periods of picoseconds) a beam model has no meaning: lower "
+                  f"EI_N_m2 or elements")
+            ok = False
+    return ok
+
+
+def _discretisation(r: _Reader, tbl: dict, path: str, modes):
+    """(elements, element_directions, damping ratio) of a [[links]] table; _BAD entries on a problem."""
+    elements = r.get(tbl, path, "elements", "number", default=0)
+    if "elements" in tbl and "modes" in tbl:
+        r.add(_join(path, "elements"), "give either modes (assumed modes) or elements (finite elements), not both")
+        elements = _BAD
+    directions = ("y",)
+    p_dirs = _join(path, "element_directions")
+    if "element_directions" in tbl:
+        raw = tbl["element_directions"]
+        if not isinstance(raw, list) or not raw or not all(isinstance(d, str) for d in raw):
+            r.add(p_dirs, f"expected an array of directions, ['y'] or ['y', 'z'], got {_type_name(raw)}")
+            directions = _BAD
+        elif any(d not in MODE_DIRECTIONS for d in raw) or len(set(raw)) != len(raw):
+            r.add(p_dirs, f"must be ['y'], ['z'] or ['y', 'z'] ('y': in-plane bending v, 'z': out-of-plane w), "
+                          f"got {raw!r}")
+            directions = _BAD
+        else:
+            directions = tuple(raw)
+        if elements == 0:
+            r.add(p_dirs, "applies to finite elements only: set elements (at least 1) or remove element_directions")
+            directions = _BAD
+    zeta = r.get(tbl, path, "damping_ratio", "number", default=0.0)
+    if zeta not in (_BAD, 0.0) and elements == 0 and not (modes is _BAD or modes):
+        r.add(_join(path, "damping_ratio"), "needs elastic coordinates: give the link modes or elements")
+        zeta = _BAD
+    return elements, directions, zeta
+
+
+def _base(r: _Reader, tbl):
+    """'free' or a FixedBase from the [base] table; _BAD on a problem."""
+    tbl = r.table(tbl, "base", _BASE_KEYS, "a [base] table")
+    if tbl is None:
+        return _BAD
+    kind = r.get(tbl, "base", "type", "str", required=True, what="'fixed' or 'free'")
+    if kind is _BAD:
+        return _BAD
+    if kind not in ("fixed", "free"):
+        r.add("base.type",
+              f"unknown base type {kind!r}; use 'fixed' (joint 1 at a fixed point) or 'free' (free-flying)")
+        return _BAD
+    if kind == "free":
+        extra = [k for k in ("position_m", "angle_deg", "angle_rad") if k in tbl]
+        for k in extra:
+            r.add(_join("base", k),
+                  "a free-flying base has no fixed position or angle: remove it or set type = 'fixed'")
+        return _BAD if extra else "free"
+    position = [0.0, 0.0, 0.0]
+    if "position_m" in tbl:
+        raw = tbl["position_m"]
+        if isinstance(raw, list) and len(raw) in (2, 3):
+            position = r.value(raw, "base.position_m", f"vector{len(raw)}")
+        else:
+            r.add("base.position_m", f"expected an array of 2 or 3 numbers (b1, b2[, b3]) in m, got {_type_name(raw)}")
+            position = _BAD
+    angle = 0.0
+    if "angle_deg" in tbl and "angle_rad" in tbl:
+        r.add("base.angle_rad", "sets the base angle again (already set by angle_deg); give one of them")
+        angle = _BAD
+    elif "angle_deg" in tbl:
+        angle = r.get(tbl, "base", "angle_deg", "number")
+        angle = math.radians(angle) if angle is not _BAD else _BAD
+    elif "angle_rad" in tbl:
+        angle = r.get(tbl, "base", "angle_rad", "number")
+    if _BAD in (position, angle):
+        return _BAD
+    return FixedBase(position=tuple(position), angle=angle)
+
+
+def _input(r: _Reader, tbl, path: str, model):
+    """InputSpec of one [[inputs]] table, _BAD on a problem; model None when the chain is invalid."""
+    tbl = r.table(tbl, path, _INPUT_TABLE_KEYS, "an [[inputs]] table")
+    if tbl is None:
+        return _BAD
+    coordinate = r.get(tbl, path, "coordinate", "str", required=True, what=_INPUT_TABLE_KEYS["coordinate"])
+    kind = r.get(tbl, path, "kind", "str", required=True, what=_INPUT_TABLE_KEYS["kind"])
+    if kind is not _BAD and kind not in INPUT_KINDS:
+        r.add(_join(path, "kind"), f"unknown input kind {kind!r}; use one of {', '.join(INPUT_KINDS)}")
+        kind = _BAD
+    name = angle = None
+    if coordinate is not _BAD:
+        name = coordinate.replace("theta_m1", "theta_-1")
+        if model is not None and name not in model.coordinate_names:
+            r.add(_join(path, "coordinate"), _unknown_coordinate(name, model.coordinate_names))
+            name = None
+        elif model is not None:
+            angle = is_angle_coordinate(model, model.coordinate_names.index(name))
+    if kind is _BAD or name is None or model is None:
+        return _BAD
+    # The keys of this kind for this coordinate; a key of the other unit family or of another kind is named.
+    keys = _input_keys(kind, angle)
+    ok = True
+    for key in tbl:
+        if key in keys or key in ("coordinate", "kind"):
+            continue
+        ok = False
+        if key in _input_keys(kind, not angle):
+            stem = key.split("_")[0]
+            what = "an angle: its input is a torque in N m" if angle else "a length: its input is a force in N"
+            r.add(_join(path, key), f"{name} is {what}; use {' or '.join(k for k in keys if k.split('_')[0] == stem)}")
+        else:
+            r.add(_join(path, key), f"not a key of a {kind!r} input (its keys: {', '.join(keys)})")
+    if angle and "target_rad" in tbl and "target_deg" in tbl:
+        r.add(_join(path, "target_deg"), "sets the target again (already set by target_rad); give one of them")
+        ok = False
+    params = {}
+    for key, (param, required, default, factor) in keys.items():
+        if key in tbl:
+            v = r.get(tbl, path, key, "number")
+            if v is _BAD:
+                ok = False
+            else:
+                params[param] = v * factor
+        elif required:
+            needed = ", ".join(k for k, spec in keys.items() if spec[1])
+            r.add(_join(path, key), f"missing (a {kind!r} input on {name} needs {needed})")
+            ok = False
+        else:
+            params.setdefault(param, default)
+    if ok and kind == "ramp" and not params["end"] > params["start"]:
+        r.add(_join(path, "end_s"), f"must be after start_s = {_fmt(params['start'])} s, got {_fmt(params['end'])}")
+        ok = False
+    return InputSpec(coordinate=name, kind=kind, parameters=params) if ok else _BAD
+
+
+def _unknown_coordinate(name: str, names) -> str:
+    """The message for a coordinate name the model does not have."""
+    hint = ""
+    if name in _FREE_BASE_COORDINATES and "X1" not in names:
+        hint = f" (a fixed base has no {', '.join(_FREE_BASE_COORDINATES)}: [base] type = 'fixed')"
+    return f"unknown coordinate {name}{hint}; this model has {', '.join(names)}"
 
 
 def _wall(r: _Reader, tbl, path: str):
@@ -633,7 +877,7 @@ def _state_table(r: _Reader, tbl, path: str, pattern, units: dict, names):
             ok = False
             continue
         if names is not None and name not in names:
-            r.add(p, f"unknown coordinate {name}; this model has {', '.join(names)}")
+            r.add(p, _unknown_coordinate(name, names))
             ok = False
             continue
         val = r.value(v, p, "number", RANGES[f"{path}.*_{unit}"])
@@ -714,9 +958,12 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
         links = _BAD
     else:
         links = _build_each(raw_links, lambda k, lt: _link(r, lt, _join("links", k)))
+    base = _base(r, top["base"]) if "base" in top else "free"
     model = None
-    if links is not _BAD and gravity is not _BAD:
-        model = Model(Chain(tuple(links)), gravity=tuple(gravity))
+    if _BAD not in (links, gravity, base):
+        model = Model(Chain(tuple(links), base=base), gravity=tuple(gravity))
+        if not _element_frequencies_ok(r, model):
+            model = None
 
     # Walls.
     walls = []
@@ -781,10 +1028,19 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
                           {"X": ("m_per_s",), "theta": ("rad_per_s", "deg_per_s"), "delta": ("m_per_s",)}, names)
         com = r.get(it, "initial", "center_of_mass_m", "vector3", default=None)
         comv = r.get(it, "initial", "center_of_mass_velocity_m_per_s", "vector3", default=None)
-        if com is not None and cq is not _BAD and names is not None and any(i < 3 for i in cq):
+        if isinstance(base, FixedBase):
+            # Both set the base coordinates X of a free-flying chain.
+            for key, v in (("center_of_mass_m", com), ("center_of_mass_velocity_m_per_s", comv)):
+                if v is not None:
+                    r.add(_join("initial", key), "needs a free-flying base (it sets X1, X2, X3); a fixed base "
+                                                 "([base] type = 'fixed') has none: place the chain with "
+                                                 "base.position_m and the joint angles instead")
+            com = _BAD if com is not None else None
+            comv = _BAD if comv is not None else None
+        if com not in (None, _BAD) and cq is not _BAD and names is not None and any(i < 3 for i in cq):
             r.add("initial.center_of_mass_m", "sets X1, X2, X3; remove X1_m/X2_m/X3_m from [initial.coordinates]")
             com = _BAD
-        if comv is not None and cv is not _BAD and names is not None and any(i < 3 for i in cv):
+        if comv not in (None, _BAD) and cv is not _BAD and names is not None and any(i < 3 for i in cv):
             r.add("initial.center_of_mass_velocity_m_per_s",
                   "sets the rates of X1, X2, X3; remove X1_m_per_s/X2_m_per_s/X3_m_per_s from [initial.velocities]")
             comv = _BAD
@@ -808,6 +1064,14 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
                 qd = qdot0.copy()
                 qd[:3] = 0.0
                 qdot0[:3] = np.asarray(comv) - model.linear_momentum(q0, qd) / model.total_mass
+
+    # Inputs.
+    inputs = []
+    raw_inputs = top.get("inputs", [])
+    if not isinstance(raw_inputs, list):
+        r.add("inputs", f"expected [[inputs]] tables, got {_type_name(raw_inputs)}")
+    else:
+        inputs = _build_each(raw_inputs, lambda k, t: _input(r, t, _join("inputs", k), model))
 
     # Checks that need the assembled state.
     if q0 is not None and walls is not _BAD and walls:
@@ -836,5 +1100,5 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
     return Case(
         name=case_name, model=model, q0=q0, qdot0=qdot0, t_span=t_span, walls=tuple(walls),
         restitution=restitution, solver=solver, output=output, description=description,
-        path=Path(path) if path is not None else None, source=data,
+        path=Path(path) if path is not None else None, source=data, inputs=tuple(inputs),
     )

@@ -129,6 +129,7 @@ def describe_case(case) -> str:
     """The model of a case in words (what ``gibbsimpact show`` prints)."""
     import numpy as np
 
+    from .inputs import describe_input, is_angle_coordinate
     from .modes import natural_frequency
     from .walls import describe
 
@@ -139,9 +140,10 @@ def describe_case(case) -> str:
     lines.append("")
     lines.append(f"chain: {m.n_links} link(s), N = {m.n_dof} generalised coordinates, {2 * m.n_dof} first-order ODEs, "
                  f"total mass {m.total_mass:g} kg")
+    lines.append(_describe_base(m))
     lines.append("coordinates, in order (initial value, initial rate):")
     for k, name in enumerate(m.coordinate_names):
-        unit = "rad" if name.startswith("theta") else "m"
+        unit = "rad" if is_angle_coordinate(m, k) else "m"
         extra = f" = {np.degrees(case.q0[k]):.6g} deg" if unit == "rad" and case.q0[k] != 0 else ""
         lines.append(f"  {k + 1:2d}  {name:<12s} {case.q0[k]:>13.6g} {unit:<3s}{extra:<18s}"
                      f" {case.qdot0[k]:>11.6g} {unit}/s")
@@ -152,7 +154,7 @@ def describe_case(case) -> str:
         lines.append(f"  link {i}: l = {lk.length:g} m, mu = {lk.mass_per_length:g} kg/m, "
                      f"EI_y = {ei_y:g} N m^2, EI_z = {ei_z:g} N m^2, rotary inertia (j_x, j_y, j_z) = "
                      f"({', '.join(f'{j:g}' for j in lk.rotary_inertia)}) kg m")
-        if not lk.modes:
+        if not lk.modes and not lk.elements:
             lines.append("    rigid (no modes)")
         for k, md in zip(m.delta_index[i - 1], lk.modes):
             # A y-mode (deflection v) bends against EI_z, a z-mode (w) against EI_y.
@@ -161,6 +163,10 @@ def describe_case(case) -> str:
             lines.append(f"    {m.coordinate_names[k]}: {md.kind} mode {md.number} in {md.direction}, "
                          f"beta l = {md.beta_l:.6f}, omega = {w:.6g} rad/s (f = {w / (2 * np.pi):.6g} Hz, "
                          f"period {2 * np.pi / w:.4g} s)")
+        if lk.elements:
+            lines += _describe_elements(m, i)
+        if lk.damping:
+            lines.append(_describe_damping(m, i))
     lines.append("")
     lines.append(f"gravity: ({', '.join(f'{g:g}' for g in m.gravity)}) m/s^2")
     lines.append(f"restitution (global): {case.restitution:g}")
@@ -171,6 +177,13 @@ def describe_case(case) -> str:
             lines.append(f"  walls[{k}]: {describe(w)}, {e}")
     else:
         lines.append("walls: none (free flight)")
+    if case.inputs:
+        lines.append("inputs (applied generalised forces, added up per coordinate):")
+        for k, spec in enumerate(case.inputs, start=1):
+            angle = is_angle_coordinate(m, m.coordinate_names.index(spec.coordinate))
+            lines.append(f"  inputs[{k}] on {spec.coordinate}: {describe_input(spec, angle)}")
+    else:
+        lines.append("inputs: none")
     E = case.initial_energy()
     lines.append(f"initial energy: kinetic {E.kinetic:.9g} J, gravitational {E.gravity:.9g} J, "
                  f"strain {E.strain:.9g} J, total {E.total:.9g} J")
@@ -188,6 +201,73 @@ def describe_case(case) -> str:
     solver = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}" for k, v in case.solver.items())
     lines.append(f"time: {t0:g} -> {t1:g} s; solver: {solver or 'defaults of gibbsimpact.simulate'}")
     return "\n".join(lines)
+
+
+def _describe_base(m) -> str:
+    """One line: the base of the chain."""
+    import numpy as np
+
+    if m.free_base:
+        return "base: free-flying (O1 at X1, X2, X3; rotations theta_-1, theta_0, theta_1)"
+    base = m.chain.base
+    pos = ", ".join(f"{c:g}" for c in base.position)
+    return (f"base: fixed at ({pos}) m, angle {np.degrees(base.angle):g} deg about X3; "
+            "joint 1 turns link 1 by theta_1 about z there")
+
+
+def _element_frequencies(ld, direction: str):
+    """omega [rad/s] of one link's element model in one bending direction, ascending.
+
+    The square roots of the generalised eigenvalues of (K, M_dd) on that direction's
+    coordinates: the link clamped at its frame and free at its tip.
+    """
+    import numpy as np
+    import scipy.linalg as sl
+
+    b = [k for k, d in enumerate(ld.directions) if d == direction]
+    w2 = sl.eigh(ld.K[np.ix_(b, b)], ld.M_dd[np.ix_(b, b)], eigvals_only=True)
+    return np.sqrt(np.maximum(w2, 0.0))
+
+
+def _describe_elements(m, i: int) -> list:
+    """Lines on the finite elements of link i (1-based): coordinates and lowest clamped-free frequencies."""
+    import numpy as np
+
+    from .modes import Mode, natural_frequency
+
+    lk, ld, idx = m.chain.links[i - 1], m.link_data[i - 1], m.delta_index[i - 1]
+    names = m.coordinate_names
+    lines = []
+    per = 2 * lk.elements
+    for j, d in enumerate(lk.element_directions):
+        first, last = names[idx[j * per]], names[idx[(j + 1) * per - 1]]
+        what = "v (in-plane)" if d == "y" else "w (out-of-plane)"
+        lines.append(f"    {lk.elements} Hermite cubic element(s) in {d}, bending {what}: {first} ... {last} = "
+                     f"(deflection m, slope rad) at nodes 1 ... {lk.elements}")
+        ei = lk.EI_z if d == "y" else lk.EI_y
+        w = _element_frequencies(ld, d)
+        shown = []
+        for n, omega in enumerate(w[:3], start=1):
+            exact = natural_frequency(Mode("clamped-free", d, n), lk.length, lk.mass_per_length, ei) \
+                if not callable(ei) and not callable(lk.mass_per_length) else None
+            beam = f" (beam {exact:.6g})" if exact is not None else ""
+            shown.append(f"{omega:.6g}{beam}")
+        lines.append(f"      clamped-free omega = {', '.join(shown)} rad/s; highest {w[-1]:.4g} rad/s "
+                     f"(period {2 * np.pi / w[-1]:.3g} s)")
+    return lines
+
+
+def _describe_damping(m, i: int) -> str:
+    """The damping of link i (1-based): ratio, beta = 2 zeta / omega_1 and the highest mode's ratio."""
+    import numpy as np
+    import scipy.linalg as sl
+
+    lk, ld = m.chain.links[i - 1], m.link_data[i - 1]
+    w = np.sqrt(np.maximum(sl.eigh(ld.K, ld.M_dd, eigvals_only=True), 0.0))
+    beta = 2.0 * lk.damping / w[0]
+    return (f"    damping ratio {lk.damping:g} in the first elastic mode (omega_1 = {w[0]:.6g} rad/s): "
+            f"Q = -beta K delta_dot, beta = {beta:.4g} s; the highest mode ({w[-1]:.4g} rad/s) has ratio "
+            f"{lk.damping * w[-1] / w[0]:.3g}")
 
 
 def cmd_show(args) -> int:
