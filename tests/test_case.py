@@ -643,7 +643,7 @@ def test_fixed_base_has_no_base_coordinates(tmp_path):
     d = dict(problems_of(tmp_path, text).problems)
     assert set(d) == {"initial.center_of_mass_m", "initial.center_of_mass_velocity_m_per_s"}
     assert all(msg.startswith("needs a free-flying base (it sets X1, X2, X3)") for msg in d.values())
-    ok = gi.load_case(write(tmp_path, ARM + "\n[initial.coordinates]\ntheta_2_deg = 10\ndelta_2_2_m = 0.01\n"))
+    ok = gi.load_case(write(tmp_path, ARM + "\n[initial.coordinates]\ntheta_2_deg = 10\ndelta_2_2_rad = 0.01\n"))
     np.testing.assert_allclose(ok.q0, [0.0, math.radians(10), 0.0, 0.01], atol=1e-16)
 
 
@@ -707,3 +707,19 @@ def test_input_errors_name_the_key(tmp_path):
     assert d["inputs[10].coordinate"].startswith("missing") and d["inputs[10].colour"].startswith("unknown key")
     d = dict(problems_of(tmp_path, "inputs = 3\n" + ARM).problems)
     assert d["inputs"] == "expected [[inputs]] tables, got the number 3"
+
+
+def test_fe_slopes_take_angle_units(tmp_path):
+    # An FE node slope is an angle: delta_1_2_deg is read in degrees; delta_1_2_m is refused.
+    text = (CASES / "fixed_base_fe_arm.toml").read_text()
+    head, sep, tail = text.partition("[initial.coordinates]")
+    good = tmp_path / "good.toml"
+    good.write_text(head + sep + "\ndelta_1_2_deg = 1.0\ndelta_1_1_m = 0.001\n" + tail)
+    case = gi.load_case(good)
+    names = case.model.coordinate_names
+    assert case.q0[names.index("delta_1_2")] == pytest.approx(np.radians(1.0))
+    assert case.q0[names.index("delta_1_1")] == pytest.approx(0.001)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(head + sep + "\ndelta_1_2_m = 0.01\n" + tail)
+    with pytest.raises(gi.CaseError, match=r"delta_1_2 takes unit rad or deg, not m"):
+        gi.load_case(bad)

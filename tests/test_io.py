@@ -94,6 +94,19 @@ def test_round_trip_of_a_driven_damped_fe_run(tmp_path):
     csv_path = res.to_csv(tmp_path)["timeseries"]
     header = csv_path.read_text().splitlines()[0].split(",")
     assert header[-2:] == ["work_inputs_J", "work_damping_J"]
+    # FE node slopes are angles: delta_1_2 (slope at node 1) is in rad, delta_1_1 in m.
+    assert "delta_1_1_m" in header and "delta_1_2_rad" in header and "delta_1_2_dot_rad_per_s" in header
+
+
+def test_round_trip_of_a_fixed_base_run(tmp_path):
+    link = gi.Link(0.8, 1.0, 10.0, elements=1)
+    model = gi.Model(gi.Chain([link, link], base=gi.FixedBase((0.1, 0.9), 0.3)), gravity=(0.0, -9.81, 0.0))
+    res = gi.simulate(model, model.state(theta_1=-0.5), np.zeros(model.n_dof), (0.0, 0.02), rtol=1e-8, atol=1e-10)
+    back = gi.load_result(res.save(tmp_path / "fixed"))
+    assert_same_result(res, back)
+    assert back.model.base_transform is not None
+    np.testing.assert_array_equal(back.model.base_transform, model.base_transform)
+    np.testing.assert_array_equal(back.model.mass_matrix(res.q[-1]), model.mass_matrix(res.q[-1]))
 
 
 def test_npz_rejects_foreign_files_and_callable_links(tmp_path):

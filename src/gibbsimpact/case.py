@@ -846,8 +846,19 @@ def _wall(r: _Reader, tbl, path: str):
     return Plane(point=tuple(point), normal=tuple(normal), restitution=e)
 
 
-def _state_table(r: _Reader, tbl, path: str, pattern, units: dict, names):
-    """Read {name_unit: value} into {coordinate index: value in SI}; names None if the model is unknown."""
+def _state_table(r: _Reader, tbl, path: str, pattern, units: dict, names, coord_units=None):
+    """Read {name_unit: value} into {coordinate index: value in SI}; names None if the model is unknown.
+
+    coord_units : the model's unit of each coordinate ('m' or 'rad'); an elastic
+    coordinate in rad (a finite-element node slope) takes angle units.
+    """
+
+    def family(name):
+        if name.startswith("theta") or (names is not None and coord_units is not None and name in names
+                                        and coord_units[names.index(name)] == "rad"):
+            return "theta"
+        return "delta" if name.startswith("delta") else "X"
+
     out = {}
     if not isinstance(tbl, dict):
         r.add(path, f"expected a table, got {_type_name(tbl)}")
@@ -860,10 +871,10 @@ def _state_table(r: _Reader, tbl, path: str, pattern, units: dict, names):
         if not m:
             bare = re.sub(r"_(m|rad|deg|m_per_s|rad_per_s|deg_per_s)$", "", key)
             if names is not None and key.replace("theta_m1", "theta_-1") in names:
-                r.add(p, f"add the unit to the key: {' or '.join(key + '_' + u for u in _allowed_units(key, units))}")
+                r.add(p, f"add the unit to the key: {' or '.join(key + '_' + u for u in units[family(key)])}")
             elif names is not None and bare.replace("theta_m1", "theta_-1") in names:
                 r.add(p, f"unit {key[len(bare) + 1:]} is not allowed here; use "
-                      f"{' or '.join(bare + '_' + u for u in _allowed_units(bare, units))}")
+                      f"{' or '.join(bare + '_' + u for u in units[family(bare)])}")
             else:
                 known = f"; this model has {', '.join(names)}" if names is not None else ""
                 r.add(p, f"unknown coordinate (keys are <coordinate>_<unit>, e.g. X1_{units['X'][0]}, "
@@ -871,9 +882,9 @@ def _state_table(r: _Reader, tbl, path: str, pattern, units: dict, names):
             ok = False
             continue
         name, unit = m.group(1).replace("theta_m1", "theta_-1"), m.group(2)
-        family = "theta" if name.startswith("theta") else ("delta" if name.startswith("delta") else "X")
-        if unit not in units[family]:
-            r.add(p, f"{name} takes unit {' or '.join(units[family])}, not {unit}")
+        fam = family(name)
+        if unit not in units[fam]:
+            r.add(p, f"{name} takes unit {' or '.join(units[fam])}, not {unit}")
             ok = False
             continue
         if names is not None and name not in names:
@@ -894,11 +905,6 @@ def _state_table(r: _Reader, tbl, path: str, pattern, units: dict, names):
         if names is not None:
             out[names.index(name)] = val
     return out if ok else _BAD
-
-
-def _allowed_units(name: str, units: dict):
-    family = "theta" if name.startswith("theta") else ("delta" if name.startswith("delta") else "X")
-    return units[family]
 
 
 #: How messages name the time and solver keys of a case file.
@@ -1020,12 +1026,14 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
     q0 = qdot0 = None
     it = top.get("initial", {})
     names = model.coordinate_names if model is not None else None
+    units_of = model.coordinate_units if model is not None else None
     it = r.table(it, "initial", _INITIAL_KEYS, "an [initial] table")
     if it is not None:
         cq = _state_table(r, it.get("coordinates", {}), "initial.coordinates", _COORD,
-                          {"X": ("m",), "theta": ("rad", "deg"), "delta": ("m",)}, names)
+                          {"X": ("m",), "theta": ("rad", "deg"), "delta": ("m",)}, names, units_of)
         cv = _state_table(r, it.get("velocities", {}), "initial.velocities", _RATE,
-                          {"X": ("m_per_s",), "theta": ("rad_per_s", "deg_per_s"), "delta": ("m_per_s",)}, names)
+                          {"X": ("m_per_s",), "theta": ("rad_per_s", "deg_per_s"), "delta": ("m_per_s",)}, names,
+                          units_of)
         com = r.get(it, "initial", "center_of_mass_m", "vector3", default=None)
         comv = r.get(it, "initial", "center_of_mass_velocity_m_per_s", "vector3", default=None)
         if isinstance(base, FixedBase):

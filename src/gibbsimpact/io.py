@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .dynamics import Energy
-from .model import Chain, Link, Model
+from .model import Chain, FixedBase, Link, Model, Revolute
 from .modes import Mode
 from .results import ImpactRecord, Result
 from .walls import Circle, Plane, Sphere, describe
@@ -47,18 +47,14 @@ FORMAT_VERSION = 1
 # --------------------------------------------------------------------------
 # Names and units of the columns
 
-def _unit(name: str) -> str:
-    return "rad" if name.startswith("theta") else "m"
-
-
 def coordinate_columns(model) -> list[str]:
-    """Column names of q: ``X1_m ... theta_-1_rad ... delta_1_1_m``."""
-    return [f"{c}_{_unit(c)}" for c in model.coordinate_names]
+    """Column names of q: ``X1_m ... theta_-1_rad ... delta_1_1_m`` (an FE node slope: ``delta_1_2_rad``)."""
+    return [f"{c}_{u}" for c, u in zip(model.coordinate_names, model.coordinate_units)]
 
 
 def velocity_columns(model) -> list[str]:
     """Column names of qdot: ``X1_dot_m_per_s ... theta_1_dot_rad_per_s ...``."""
-    return [f"{c}_dot_{_unit(c)}_per_s" for c in model.coordinate_names]
+    return [f"{c}_dot_{u}_per_s" for c, u in zip(model.coordinate_names, model.coordinate_units)]
 
 
 def _fmt(x) -> str:
@@ -274,6 +270,10 @@ def model_to_dict(model: Model) -> dict:
             "damping": float(lk.damping),
         })
     d = {"links": links, "gravity": [float(g) for g in model.gravity]}
+    base = model.chain.base
+    if not model.free_base:
+        d["base"] = {"type": "fixed", "position": list(base.position), "angle": float(base.angle)}
+    d["joints"] = [jt.kind for jt in model.chain.joints]
     quad = getattr(model, "quadrature", None)
     if quad is not None:
         d["quadrature"] = [int(v) for v in quad]
@@ -290,7 +290,11 @@ def model_from_dict(d: dict) -> Model:
         for lk in d["links"]
     ]
     kw = {"quadrature": tuple(d["quadrature"])} if "quadrature" in d else {}
-    return Model(Chain(tuple(links)), gravity=tuple(d["gravity"]), **kw)
+    b = d.get("base")
+    base = FixedBase(tuple(b["position"]), b["angle"]) if b is not None else "free"
+    kinds = {"R": Revolute}
+    joints = tuple(kinds[k]() for k in d.get("joints", ["R"] * len(links)))
+    return Model(Chain(tuple(links), joints=joints, base=base), gravity=tuple(d["gravity"]), **kw)
 
 
 def wall_to_dict(w) -> dict:

@@ -390,14 +390,15 @@ def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE)
     int_psi = psi @ wm
     int_xpsi = psi @ (wm * x)
     int_psipsi = (psi * wm) @ psi.T
-    for k, ak in enumerate(axes):
-        C[k, 0, ak] = int_xpsi[k]
-        C[k, 3, ak] = int_psi[k]
-        m_psi[k, ak] = int_psi[k]
-        for j, aj in enumerate(axes):
-            D[k, j, ak, aj] = int_psipsi[k, j]
-            if directions[k] == directions[j]:
-                K[k, j] = np.sum(w * ei[directions[k]] * psi2[k] * psi2[j])
+    ax = np.array(axes, dtype=int)
+    km = np.arange(m)
+    C[km, 0, ax] = int_xpsi
+    C[km, 3, ax] = int_psi
+    m_psi[km, ax] = int_psi
+    D[km[:, None], km[None, :], ax[:, None], ax[None, :]] = int_psipsi
+    for d in set(directions):
+        sel = np.array([dk == d for dk in directions])
+        K[np.ix_(sel, sel)] = (psi2[sel] * (w * ei[d])) @ psi2[sel].T
     M_dd = np.einsum("klaa->kl", D)
 
     end_t = np.zeros((m, 3))
@@ -485,6 +486,12 @@ class Model:
         self._delta_slice = tuple(slice(int(d[0]), int(d[-1]) + 1) if d.size else slice(0, 0) for d in delta_index)
         self._theta_index = tuple(range(len(base), len(base) + n))
         self._bending = tuple([""] * (len(base) + n) + directions)
+        # Unit of each coordinate: angles and FE node slopes in rad, the rest in m.
+        units = ["m", "m", "m", "rad", "rad"] if chain.free_base else []
+        units += ["rad"] * n
+        for lk, ld in zip(chain.links, self._links):
+            units += (["m", "rad"] * (ld.K.shape[0] // 2)) if lk.elements else ["m"] * ld.K.shape[0]
+        self._units = tuple(units)
         self._base_transform = None if chain.free_base else chain.base.transform
         K = np.zeros((k, k))
         for d, ld in zip(delta_index, self._links):
@@ -504,6 +511,7 @@ class Model:
     theta_index = property(lambda self: self._theta_index, doc="Index of theta_i in q, i = 1..n.")
     free_base = property(lambda self: self._chain.free_base, doc="True for a free-flying base (X, theta_-1, theta_0 in q).")
     base_transform = property(lambda self: self._base_transform, doc="T_0 (4, 4) of a fixed base, None for a free one.")
+    coordinate_units = property(lambda self: self._units, doc="Unit of each coordinate, 'm' or 'rad' (N,).")
     bending_directions = property(
         lambda self: self._bending, doc="Per coordinate: 'y' or 'z' for an elastic coordinate, '' otherwise (N,).")
     stiffness_matrix = property(lambda self: self._K, doc="Block-diagonal modal stiffness K (N, N) [N/m].")
