@@ -95,6 +95,16 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("show", help="describe a case: coordinates, frequencies, walls, initial energy and gaps",
                        description="Describe the model of CASE in words without running it.")
     s.add_argument("case", metavar="CASE.toml", help="case file")
+
+    e = sub.add_parser("equations", help="derive the symbolic equations of motion of a case's chain",
+                       description="Derive M(q) qddot = forcing(q, qdot) of CASE symbolically (gi.derive_equations), "
+                                   "print the operation counts after common-subexpression elimination, and "
+                                   "optionally write them as LaTeX and as a standalone numpy module.")
+    e.add_argument("case", metavar="CASE.toml", help="case file")
+    e.add_argument("--method", choices=("gibbs-appell", "lagrange"), default="gibbs-appell",
+                   help="derivation route (default gibbs-appell; lagrange is the comparison route)")
+    e.add_argument("--latex", metavar="FILE", help="write the equations as a LaTeX document")
+    e.add_argument("--python", metavar="FILE", help="write a standalone module computing M and the forcing")
     return p
 
 
@@ -278,6 +288,32 @@ def cmd_show(args) -> int:
     return EXIT_OK
 
 
+def cmd_equations(args) -> int:
+    case, code = _load(args.case)
+    if case is None:
+        return code
+    from .symbolic import derive_equations
+
+    for option in ("latex", "python"):
+        target = getattr(args, option)
+        if target is not None and not Path(target).parent.is_dir():
+            return _error(f"--{option} {target}: the folder {Path(target).parent} does not exist; create it first",
+                          EXIT_BAD_INPUT)
+    m = case.model
+    print(f"{case.name}: N = {m.n_dof} coordinates ({', '.join(m.coordinate_names)})")
+    eqs = derive_equations(m, method=args.method)
+    ops = eqs.operation_count()
+    print(f"method {args.method}: derived in {eqs.derivation_seconds:.2f} s, common subexpressions in "
+          f"{eqs.cse_seconds:.2f} s")
+    print(f"operations after CSE: {ops.adds} adds, {ops.muls} multiplications, {ops.functions} function calls "
+          f"({ops.total} in all)")
+    if args.latex:
+        print(f"wrote {eqs.to_latex(args.latex)}")
+    if args.python:
+        print(f"wrote {eqs.to_python(args.python)}")
+    return EXIT_OK
+
+
 # --------------------------------------------------------------------------
 # run
 
@@ -380,7 +416,7 @@ def main(argv=None) -> int:
     """Entry point of the ``gibbsimpact`` console script and ``python -m gibbsimpact``."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    handler = {"run": cmd_run, "show": cmd_show}[args.command]
+    handler = {"run": cmd_run, "show": cmd_show, "equations": cmd_equations}[args.command]
     try:
         return handler(args)
     except BrokenPipeError:
