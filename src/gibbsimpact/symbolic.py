@@ -63,6 +63,7 @@ behind ``operation_count``, ``to_python`` and ``numeric``.
 
 from __future__ import annotations
 
+import inspect
 import math
 import time
 from typing import NamedTuple
@@ -750,27 +751,9 @@ class Equations:
         return NumericEquations(ns)
 
 
-_HELPERS = '''
-def _rodrigues(kind, order, s):
-    """k-th s-derivative of a(s) = sin(t)/t ("a") or b(s) = (1 - cos t)/t^2 ("b"), t = sqrt(s)."""
-    if s < 1.0:
-        off = 1 if kind == "a" else 2
-        total = 0.0
-        for n in range(order, order + %d):
-            total += (-1.0) ** n * math.perm(n, order) * s ** (n - order) / math.factorial(2 * n + off)
-        return total
-    t = math.sqrt(s)
-    a = [math.sin(t) / t]
-    for k in range(order):
-        c = math.cos(t) if k == 0 else -0.5 * a[k - 1]
-        a.append((c - (2 * k + 1) * a[k]) / (2 * s))
-    if kind == "a":
-        return a[order]
-    b = (1.0 - math.cos(t)) / s
-    for k in range(order):
-        b = (0.5 * a[k] - (k + 1) * b) / s
-    return b
-''' % _SERIES_TERMS
+# The generated module is standalone: it carries rodrigues_coefficient's own source.
+_HELPERS = "\n" + inspect.getsource(rodrigues_coefficient).replace(
+    "def rodrigues_coefficient(", "def _rodrigues(").replace("_SERIES_TERMS", str(_SERIES_TERMS))
 
 
 class _PythonPrinter:
