@@ -175,7 +175,7 @@ def test_rodrigues_coefficients_match_the_kernel(kind):
         assert abs(rodrigues_coefficient(kind, 3, s) - fd) <= 1e-7
 
 
-@pytest.mark.parametrize("n", [1, 2, 3])
+@pytest.mark.parametrize("n", [1, 2, 3, 4])
 def test_gibbs_appell_and_lagrange_agree(n):
     name = f"planar_{n}"
     model = model_of(name)
