@@ -260,3 +260,44 @@ def test_import_does_not_load_sympy():
     code = "import sys, gibbsimpact; gibbsimpact.derive_equations; print('sympy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def _parametric_chain(l1=1.0, mu1=1.2, EI1=25.0, l2=0.6, mu2=0.5, EI2=(7.0, 8.0), jz2=2e-3, g=-9.81):
+    a = gi.Link(l1, mu1, EI1, elements=2)
+    b = gi.Link(l2, mu2, EI2, modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "y", 2)],
+                rotary_inertia=(0.0, 0.0, jz2))
+    return gi.Model(gi.Chain([a, b], base=gi.FixedBase((0.1, 0.2), 0.3)), gravity=(0.0, g, 0.0))
+
+
+def test_parametric_equations_match_the_model_and_scale_with_the_parameters(tmp_path):
+    # symbols=True: lengths, masses, stiffnesses, rotary inertia and gravity stay symbols, the
+    # dimensionless modal integrals are named constants. (1) With the recorded values they are
+    # the model's equations; (2) with other values of l, mu, EI, j, g (same constants) they are
+    # the equations of the model built with those parameters: the parameter powers are right.
+    import sympy as sp
+
+    model = _parametric_chain()
+    eqs = gi.derive_equations(model, symbols=True)
+    names = {str(k) for k in eqs.constants}
+    assert {"l_1", "mu_1", "EIz_1", "l_2", "mu_2", "EIz_2", "jz_2", "g_2"} <= names
+    assert "EIy_2" not in names  # no z bending: its stiffness never appears
+    assert any(n.startswith("kappa_1_") for n in names) and any(n.startswith("d_2_") for n in names)
+    assert sp.Symbol("l_1", positive=True) in eqs.mass_matrix[0, 0].free_symbols
+    other = dict(l1=1.3, mu1=0.7, EI1=40.0, l2=0.45, mu2=0.9, EI2=(7.0, 3.0), jz2=5e-3, g=-3.7)
+    changed = _parametric_chain(**other)
+    values = dict(eqs.constants)
+    for k in list(values):
+        new = {"l_1": other["l1"], "mu_1": other["mu1"], "EIz_1": other["EI1"], "l_2": other["l2"],
+               "mu_2": other["mu2"], "EIz_2": other["EI2"][1], "jz_2": other["jz2"], "g_2": other["g"]}.get(str(k))
+        if new is not None:
+            values[k] = new
+    for ref, consts in ((model, eqs.constants), (changed, values)):
+        eqs.constants, eqs._evaluated_copy = consts, None
+        num = eqs.numeric()
+        for q, qd in _states(ref, 7):
+            M, f = num.mass_matrix_and_forcing(q, qd)
+            Mref = ref.mass_matrix(q)
+            assert _rel(M, Mref) <= RTOL
+            assert _rel(f, Mref @ ref.forward_dynamics(q, qd)) <= 1e-11
+    tex = eqs.to_latex(tmp_path / "p.tex").read_text()
+    assert "Parameters and named constants" in tex and "kappa" in tex and "l_{1}" in tex

@@ -156,6 +156,8 @@ class _Algebra:
         self.rational = rational
 
     def const(self, v):
+        if isinstance(v, self.sp.Basic):  # a parametric model's named constant or parameter expression
+            return v
         v = float(v)
         if v == 0.0:
             return self.Z
@@ -164,7 +166,9 @@ class _Algebra:
         return self.sp.Rational(v) if self.rational else self.sp.Float(v, 17)
 
     def cmat(self, a):
-        a = np.asarray(a, dtype=float)
+        a = np.asarray(a)
+        if a.dtype != object:
+            a = a.astype(float)
         if a.ndim == 1:
             return [self.const(v) for v in a]
         return [self.cmat(r) for r in a]
@@ -523,7 +527,108 @@ def _lagrange(model, alg, q, qd):
     return M, forcing
 
 
-def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = False) -> "Equations":
+class _ParametricLink:
+    """The LinkData arrays of one uniform link as expressions of its parameters (object arrays).
+
+    With l, mu, EI and the length exponent a_k of each shape function (0 for
+    a mode or an element deflection function, 1 for an element slope function,
+    whose values are lengths), every moment is a parameter monomial times a
+    dimensionless named constant:
+
+        int mu psi_k = mu l^(1+a_k) c_k          int mu x psi_k = mu l^(2+a_k) cx_k
+        int mu psi_k psi_l = mu l^(1+a_k+a_l) d_kl    K_kl = EI l^(a_k+a_l-3) kappa_kl
+        psi_k(l) = l^(a_k) e_k                   psi_k'(l) = l^(a_k-1) s_k
+        P0 = mu [[l^3/3, l^2/2], [l^2/2, l]] (x and 1 entries),  J = l diag(j_x, j_y, j_z)
+    """
+
+    def __init__(self, sp, link, ld, i: int, values: dict):
+        if callable(link.mass_per_length) or any(callable(e) for e in link.EI):
+            raise ValueError(f"derive_equations symbols=True needs uniform links; link {i} has a callable "
+                             "mass_per_length or EI")
+        self.end_is_rigid, self.has_rotary, self.directions = ld.end_is_rigid, ld.has_rotary, ld.directions
+        l_v, mu_v = link.length, link.mass_per_length
+        l, mu = self._par(sp, values, f"l_{i}", l_v), self._par(sp, values, f"mu_{i}", mu_v)
+        EI = {"y": (f"EIz_{i}", link.EI_z), "z": (f"EIy_{i}", link.EI_y)}  # y-bending resists with EI_z
+        m = len(ld.directions)
+        a = np.array([(k % 2) if link.elements else 0 for k in range(m)])  # element slopes: odd 0-based k
+        obj = lambda shape: np.full(shape, sp.S.Zero, dtype=object)  # noqa: E731
+        self.P0, self.m_r0, self.E0 = obj((4, 4)), obj(4), obj((4, 4))
+        self.P0[0, 0], self.P0[0, 3] = mu * l**3 / 3, mu * l**2 / 2
+        self.P0[3, 0], self.P0[3, 3] = mu * l**2 / 2, mu * l
+        self.m_r0[0], self.m_r0[3] = mu * l**2 / 2, mu * l
+        for k in range(4):
+            self.E0[k, k] = sp.S.One
+        self.E0[0, 3] = l
+
+        self.C, self.D, self.m_psi = obj((m, 4, 4)), obj((m, m, 4, 4)), obj((m, 4))
+        self.K, self.M_dd, self.end_t, self.end_phi = obj((m, m)), obj((m, m)), obj((m, 3)), obj((m, 3))
+        for k in range(m):
+            ak = int(a[k])
+            ax = 1 if ld.directions[k] == "y" else 2
+            c1 = self._const(sp, values, f"c_{i}_{k + 1}", ld.C[k, 3, ax] / (mu_v * l_v ** (1 + ak)))
+            cx = self._const(sp, values, f"cx_{i}_{k + 1}", ld.C[k, 0, ax] / (mu_v * l_v ** (2 + ak)))
+            self.C[k, 3, ax] = mu * l ** (1 + ak) * c1
+            self.C[k, 0, ax] = mu * l ** (2 + ak) * cx
+            self.m_psi[k, ax] = mu * l ** (1 + ak) * c1
+            for j in range(m):
+                aj = int(a[j])
+                axj = 1 if ld.directions[j] == "y" else 2
+                lo, hi = min(k, j), max(k, j)
+                dv = ld.D[k, j, ax, axj]
+                dk = self._const(sp, values, f"d_{i}_{lo + 1}_{hi + 1}", dv / (mu_v * l_v ** (1 + ak + aj)))
+                self.D[k, j, ax, axj] = mu * l ** (1 + ak + aj) * dk
+                if ax == axj:
+                    self.M_dd[k, j] = self.D[k, j, ax, axj]
+                if ld.directions[k] == ld.directions[j] and ld.K[k, j] != 0.0:
+                    nm, ei_v = EI[ld.directions[k]]
+                    ei = self._par(sp, values, nm, ei_v)
+                    kk = self._const(sp, values, f"kappa_{i}_{lo + 1}_{hi + 1}", ld.K[k, j] / (ei_v * l_v ** (ak + aj - 3)))
+                    self.K[k, j] = ei * l ** (ak + aj - 3) * kk
+            e = self._const(sp, values, f"e_{i}_{k + 1}", ld.end_t[k, ax] / l_v ** ak)
+            self.end_t[k, ax] = l ** ak * e
+            rot = 2 if ld.directions[k] == "y" else 1
+            sv = self._const(sp, values, f"s_{i}_{k + 1}", ld.end_phi[k, rot] / l_v ** (ak - 1))
+            self.end_phi[k, rot] = l ** (ak - 1) * sv
+        self.J_body = obj((3, 3))
+        for r, (nm, jv) in enumerate(zip(("jx", "jy", "jz"), link.rotary_inertia)):
+            if jv != 0.0:
+                self.J_body[r, r] = l * self._par(sp, values, f"{nm}_{i}", jv)
+
+    @staticmethod
+    def _par(sp, values, name, v):
+        x = sp.Symbol(name, positive=True)
+        values[x] = float(v)
+        return x
+
+    @staticmethod
+    def _const(sp, values, name, v):
+        if v == 0.0:
+            return sp.S.Zero
+        x = sp.Symbol(name, real=True)
+        values[x] = float(v)
+        return x
+
+
+class _ParametricModel:
+    """A Model whose link data and gravity are expressions of named parameters (attributes else delegated)."""
+
+    def __init__(self, sp, model, values: dict):
+        self._model = model
+        self.link_data = tuple(_ParametricLink(sp, lk, ld, i, values)
+                               for i, (lk, ld) in enumerate(zip(model.chain.links, model.link_data), start=1))
+        g = np.full(3, sp.S.Zero, dtype=object)
+        for a, gv in enumerate(model.gravity):
+            if gv != 0.0:
+                g[a] = sp.Symbol(f"g_{a + 1}", real=True)
+                values[g[a]] = float(gv)
+        self.gravity = g
+
+    def __getattr__(self, name):
+        return getattr(self._model, name)
+
+
+def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = False,
+                     symbols: bool = False) -> "Equations":
     """Symbolic equations of motion M(q) qddot = forcing(q, qdot) of ``model`` (Q = 0).
 
     Parameters
@@ -533,6 +638,13 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
         or "lagrange" (Lagrange's equations on T and V of the same moment form).
     rational : bool
         Model numbers as exact rationals of their binary values instead of floats.
+    symbols : bool
+        Parametric equations (uniform links only): each link's length ``l_i``, mass per
+        length ``mu_i``, stiffnesses ``EIz_i`` / ``EIy_i``, rotary inertias ``jx_i`` ...,
+        and gravity ``g_1 .. g_3`` stay symbols; the dimensionless modal integrals are
+        named constants (``c_i_k``, ``cx_i_k``, ``d_i_k_l``, ``kappa_i_k_l``, ``e_i_k``,
+        ``s_i_k``, see _ParametricLink). ``eqs.constants`` lists every value;
+        numeric() and to_python() substitute them.
 
     Returns
     -------
@@ -556,10 +668,13 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
     q = [sp.Symbol(nm, real=True) for nm in names]
     qd = [sp.Symbol(nm + "_dot", real=True) for nm in names]
     alg = _Algebra(sp, rational)
+    constants: dict = {}
+    source = _ParametricModel(sp, model, constants) if symbols else model
     with distribute(False):  # keep c*(a + b) unexpanded: shared subexpressions stay shared
-        M, forcing = (_gibbs_appell if method == "gibbs-appell" else _lagrange)(model, alg, q, qd)
+        M, forcing = (_gibbs_appell if method == "gibbs-appell" else _lagrange)(source, alg, q, qd)
     eqs = Equations(model, method, tuple(q), tuple(qd), sp.ImmutableMatrix(M), sp.ImmutableMatrix(forcing),
                     time.perf_counter() - t0)
+    eqs.constants = constants
     return eqs
 
 
@@ -656,6 +771,22 @@ class Equations:
         self._cse = None
         self._source = None
         self.cse_seconds = None
+        self.constants = {}  # symbol -> value of a parametric derivation (symbols=True)
+        self._model = model
+        self._evaluated_copy = None
+
+    def evaluated(self) -> "Equations":
+        """These equations with every named constant replaced by its value (self when there are none)."""
+        if not self.constants:
+            return self
+        if self._evaluated_copy is None:
+            import sympy as sp
+
+            sub = {k: sp.Float(v, 17) for k, v in self.constants.items()}
+            self._evaluated_copy = Equations(self._model, self.method, self.coordinates, self.speeds,
+                                             self.mass_matrix.xreplace(sub), self.forcing.xreplace(sub),
+                                             self.derivation_seconds)
+        return self._evaluated_copy
 
     def __repr__(self):
         return f"Equations(method={self.method!r}, N={len(self.coordinates)})"
@@ -686,6 +817,8 @@ class Equations:
         """(adds, muls, functions) to evaluate M and forcing after common-subexpression elimination."""
         import sympy as sp
 
+        if self.constants:
+            return self.evaluated().operation_count()
         repl, Mred, fred = self.cse()
         return _count([e for _, e in repl] + [e for _, e in Mred] + list(fred), sp)
 
@@ -722,6 +855,8 @@ class Equations:
         block("Auxiliary quantities", [(names[x], tex(e)) for x, e in repl])
         block("Mass matrix", [(f"M_{{{j + 1},{k + 1}}}", tex(e)) for (j, k), e in Mred])
         block("Forcing", [(f"f_{{{j + 1}}}", tex(e)) for j, e in enumerate(fred)])
+        if self.constants:
+            block("Parameters and named constants", [(tex(k), f"{v:.17g}") for k, v in self.constants.items()])
         lines.append(r"\end{document}")
         from pathlib import Path
 
@@ -731,6 +866,8 @@ class Equations:
 
     def python_source(self) -> str:
         """Source of a standalone module (math and numpy only) computing M and the forcing."""
+        if self.constants:
+            return self.evaluated().python_source()
         if self._source is None:
             self._source = _python_source(self)
         return self._source
