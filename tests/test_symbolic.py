@@ -301,3 +301,16 @@ def test_parametric_equations_match_the_model_and_scale_with_the_parameters(tmp_
             assert _rel(f, Mref @ ref.forward_dynamics(q, qd)) <= 1e-11
     tex = eqs.to_latex(tmp_path / "p.tex").read_text()
     assert "Parameters and named constants" in tex and "kappa" in tex and "l_{1}" in tex
+
+
+def test_progress_reports_every_link_and_equation(capsys):
+    seen = []
+    model = model_of("planar_2")
+    gi.derive_equations(model, progress=lambda stage, done, total: seen.append((stage, done, total)))
+    assert seen == [("gibbs-appell: link", k, 2) for k in (1, 2)]
+    seen.clear()
+    gi.derive_equations(model, method="lagrange", progress=lambda *a: seen.append(a))
+    N = model.n_dof
+    assert seen[-1] == ("lagrange: equation", N, N) and len(seen) == 2 + N
+    gi.derive_equations(model, progress=True)
+    assert "deriving (gibbs-appell: link 2/2)" in capsys.readouterr().err

@@ -301,7 +301,7 @@ def cmd_equations(args) -> int:
                           EXIT_BAD_INPUT)
     m = case.model
     print(f"{case.name}: N = {m.n_dof} coordinates ({', '.join(m.coordinate_names)})")
-    eqs = derive_equations(m, method=args.method)
+    eqs = derive_equations(m, method=args.method, progress=True if sys.stderr.isatty() else None)
     ops = eqs.operation_count()
     print(f"method {args.method}: derived in {eqs.derivation_seconds:.2f} s, common subexpressions in "
           f"{eqs.cse_seconds:.2f} s")

@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import sys
 import time
 from typing import NamedTuple
 
@@ -154,6 +155,11 @@ class _Algebra:
         self.sp = sp
         self.Z, self.O, self.two = sp.S.Zero, sp.S.One, sp.Integer(2)
         self.rational = rational
+        self.progress = None  # callable(stage, done, total) or None
+
+    def tick(self, stage: str, done: int, total: int):
+        if self.progress is not None:
+            self.progress(stage, done, total)
 
     def const(self, v):
         if isinstance(v, self.sp.Basic):  # a parametric model's named constant or parameter expression
@@ -395,6 +401,7 @@ def _gibbs_appell(model, alg, q, qd):
             Mt[min(j, k)][max(j, k)].append(term)
 
     for i, rec in _link_frames(model, alg, q, qd, True, rotary):
+        alg.tick("gibbs-appell: link", i + 1, model.n_links)
         ld = model.link_data[i]
         idx = [int(k) for k in model.delta_index[i]]
         d, dd = [q[k] for k in idx], [qd[k] for k in idx]
@@ -491,6 +498,7 @@ def _lagrange(model, alg, q, qd):
     kin, pot = [], []
     gt = alg.cmat(np.append(model.gravity, 0.0))
     for i, rec in _link_frames(model, alg, q, qd, False, False):
+        alg.tick("lagrange: T and V of link", i + 1, model.n_links)
         ld = model.link_data[i]
         idx = [int(k) for k in model.delta_index[i]]
         d, dd = [q[k] for k in idx], [qd[k] for k in idx]
@@ -521,6 +529,7 @@ def _lagrange(model, alg, q, qd):
             M[j][k] = M[k][j] = dqd[k](p[j])
     forcing = []
     for j in range(N):
+        alg.tick("lagrange: equation", j + 1, N)
         # d/dt dT/dqdot_j = M_j. qddot + sum_k dp_j/dq_k qdot_k
         dp = alg.add([alg.mul(dq[k](p[j]), qd[k]) for k in range(N)])
         forcing.append(alg.add([dq[j](Tk), -dp, -dq[j](V)]))
@@ -628,7 +637,7 @@ class _ParametricModel:
 
 
 def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = False,
-                     symbols: bool = False) -> "Equations":
+                     symbols: bool = False, progress=None) -> "Equations":
     """Symbolic equations of motion M(q) qddot = forcing(q, qdot) of ``model`` (Q = 0).
 
     Parameters
@@ -645,6 +654,8 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
         named constants (``c_i_k``, ``cx_i_k``, ``d_i_k_l``, ``kappa_i_k_l``, ``e_i_k``,
         ``s_i_k``, see _ParametricLink). ``eqs.constants`` lists every value;
         numeric() and to_python() substitute them.
+    progress : None, True (a line on stderr that counts links / equations), or a
+        callable(stage: str, done: int, total: int)
 
     Returns
     -------
@@ -668,6 +679,11 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
     q = [sp.Symbol(nm, real=True) for nm in names]
     qd = [sp.Symbol(nm + "_dot", real=True) for nm in names]
     alg = _Algebra(sp, rational)
+    if progress is True:
+        def progress(stage, done, total):
+            end = "\n" if done == total else ""
+            print(f"\rderiving ({stage} {done}/{total})", end=end, file=sys.stderr, flush=True)
+    alg.progress = progress or None
     constants: dict = {}
     source = _ParametricModel(sp, model, constants) if symbols else model
     with distribute(False):  # keep c*(a + b) unexpanded: shared subexpressions stay shared
