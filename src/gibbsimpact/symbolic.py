@@ -388,6 +388,16 @@ def _link_moments(alg, ld, d, dd):
     return P, Q, m_r, Pv, Qd, alg.cmat(ld.M_dd)
 
 
+def _links(model, alg, q, qd, velocities, rotary, stage):
+    """Per link: (i, recursion state, link data, its delta indices, delta, deltadot, _link_moments(...))."""
+    for i, rec in _link_frames(model, alg, q, qd, velocities, rotary):
+        alg.tick(stage, i + 1, model.n_links)
+        ld = model.link_data[i]
+        idx = [int(k) for k in model.delta_index[i]]
+        d, dd = [q[k] for k in idx], [qd[k] for k in idx]
+        yield i, rec, ld, idx, d, dd, _link_moments(alg, ld, d, dd)
+
+
 def _gibbs_appell(model, alg, q, qd):
     """M (N, N) and forcing (N,) as nested lists of expressions."""
     N = len(q)
@@ -400,12 +410,8 @@ def _gibbs_appell(model, alg, q, qd):
         if term is not alg.Z:
             Mt[min(j, k)][max(j, k)].append(term)
 
-    for i, rec in _link_frames(model, alg, q, qd, True, rotary):
-        alg.tick("gibbs-appell: link", i + 1, model.n_links)
-        ld = model.link_data[i]
-        idx = [int(k) for k in model.delta_index[i]]
-        d, dd = [q[k] for k in idx], [qd[k] for k in idx]
-        P, Q, m_r, Pv, Qd, Mdd = _link_moments(alg, ld, d, dd)
+    for i, rec, ld, idx, d, dd, (P, Q, m_r, Pv, Qd, Mdd) in _links(model, alg, q, qd, True, rotary,
+                                                                  "gibbs-appell: link"):
         T, Td, Tdd0, A = rec.T, rec.Td, rec.Tdd0, rec.A
         keys = sorted(A)
         # M_jk += tr(A_j P A_k^T)
@@ -497,12 +503,8 @@ def _lagrange(model, alg, q, qd):
     dq = [_Differentiator(alg, x) for x in q]
     kin, pot = [], []
     gt = alg.cmat(np.append(model.gravity, 0.0))
-    for i, rec in _link_frames(model, alg, q, qd, False, False):
-        alg.tick("lagrange: T and V of link", i + 1, model.n_links)
-        ld = model.link_data[i]
-        idx = [int(k) for k in model.delta_index[i]]
-        d, dd = [q[k] for k in idx], [qd[k] for k in idx]
-        P, Q, m_r, Pv, Qd, Mdd = _link_moments(alg, ld, d, dd)
+    for i, rec, ld, idx, d, dd, (P, Q, m_r, Pv, Qd, Mdd) in _links(model, alg, q, qd, False, False,
+                                                                  "lagrange: T and V of link"):
         T = rec.T
         # Td = sum_j dT/dq_j qdot_j by differentiation
         Td = [[alg.add([alg.mul(dq[j](e), qd[j]) for j in range(N)]) for e in row] for row in T]
