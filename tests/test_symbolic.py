@@ -314,3 +314,22 @@ def test_progress_reports_every_link_and_equation(capsys):
     assert seen[-1] == ("lagrange: equation", N, N) and len(seen) == 2 + N
     gi.derive_equations(model, progress=True)
     assert "deriving (gibbs-appell: link 2/2)" in capsys.readouterr().err
+
+
+def test_chosen_parameters_stay_symbolic():
+    import sympy as sp
+
+    model = _parametric_chain()
+    eqs = gi.derive_equations(model, symbols=("l_1", "EIz_2"))
+    free = set().union(*[e.free_symbols for e in eqs.mass_matrix]) | set().union(*[e.free_symbols for e in eqs.forcing])
+    names = {str(x) for x in free}
+    assert {"l_1", "EIz_2"} <= names and not names & {"mu_1", "l_2", "g_2", "jz_2"}
+    assert any(n.startswith("d_1_") for n in names)  # modal integrals stay named constants
+    assert "mu_1" not in {str(k) for k in eqs.constants}
+    num = eqs.numeric()
+    for q, qd in _states(model, 11):
+        M, f = num.mass_matrix_and_forcing(q, qd)
+        assert _rel(M, model.mass_matrix(q)) <= RTOL
+    with pytest.raises(ValueError, match=r"L_1 not parameters of this model; choose from"):
+        gi.derive_equations(model, symbols=("L_1",))
+    assert sp.Symbol("l_1", positive=True) in eqs.constants

@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import re
 import sys
 import time
 from typing import NamedTuple
@@ -639,7 +640,7 @@ class _ParametricModel:
 
 
 def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = False,
-                     symbols: bool = False, progress=None) -> "Equations":
+                     symbols=False, progress=None) -> "Equations":
     """Symbolic equations of motion M(q) qddot = forcing(q, qdot) of ``model`` (Q = 0).
 
     Parameters
@@ -649,13 +650,14 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
         or "lagrange" (Lagrange's equations on T and V of the same moment form).
     rational : bool
         Model numbers as exact rationals of their binary values instead of floats.
-    symbols : bool
-        Parametric equations (uniform links only): each link's length ``l_i``, mass per
-        length ``mu_i``, stiffnesses ``EIz_i`` / ``EIy_i``, rotary inertias ``jx_i`` ...,
-        and gravity ``g_1 .. g_3`` stay symbols; the dimensionless modal integrals are
-        named constants (``c_i_k``, ``cx_i_k``, ``d_i_k_l``, ``kappa_i_k_l``, ``e_i_k``,
-        ``s_i_k``, see _ParametricLink). ``eqs.constants`` lists every value;
-        numeric() and to_python() substitute them.
+    symbols : bool or sequence of str
+        Parametric equations (uniform links only). True: each link's length ``l_i``,
+        mass per length ``mu_i``, stiffnesses ``EIz_i`` / ``EIy_i``, rotary inertias
+        ``jx_i`` ..., and gravity ``g_1 .. g_3`` stay symbols; a sequence of those
+        names keeps only them symbolic (the other parameters become numbers). The
+        dimensionless modal integrals are named constants (``c_i_k``, ``cx_i_k``,
+        ``d_i_k_l``, ``kappa_i_k_l``, ``e_i_k``, ``s_i_k``, see _ParametricLink).
+        ``eqs.constants`` lists every value; numeric() and to_python() substitute them.
     progress : None, True (a line on stderr that counts links / equations), or a
         callable(stage: str, done: int, total: int)
 
@@ -690,8 +692,17 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
     source = _ParametricModel(sp, model, constants) if symbols else model
     with distribute(False):  # keep c*(a + b) unexpanded: shared subexpressions stay shared
         M, forcing = (_gibbs_appell if method == "gibbs-appell" else _lagrange)(source, alg, q, qd)
-    eqs = Equations(model, method, tuple(q), tuple(qd), sp.ImmutableMatrix(M), sp.ImmutableMatrix(forcing),
-                    time.perf_counter() - t0)
+    M, forcing = sp.ImmutableMatrix(M), sp.ImmutableMatrix(forcing)
+    if symbols and symbols is not True:
+        keep = {str(x) for x in ([symbols] if isinstance(symbols, str) else symbols)}
+        params = {str(k): k for k in constants if re.fullmatch(r"(l|mu|EI[yz]|j[xyz])_\d+|g_\d", str(k))}
+        unknown = sorted(keep - set(params))
+        if unknown:
+            raise ValueError(f"derive_equations symbols={tuple(sorted(keep))!r}: {', '.join(unknown)} not parameters "
+                             f"of this model; choose from {', '.join(params)}")
+        fixed = {k: sp.Float(constants.pop(k), 17) for name, k in params.items() if name not in keep}
+        M, forcing = M.xreplace(fixed), forcing.xreplace(fixed)
+    eqs = Equations(model, method, tuple(q), tuple(qd), M, forcing, time.perf_counter() - t0)
     eqs.constants = constants
     return eqs
 
