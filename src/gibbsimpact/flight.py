@@ -74,7 +74,6 @@ class PhaseOutcome(NamedTuple):
 
     t, y : end of the phase [s], state (2N,) there (the event point, or t_end)
     event : index into the EventSpec of the event that ended the phase, or None
-    in_step : True when that event was found by the in-step check (no sign change at step ends)
     sample_t : (K,) stored sample times after the phase start [s], the last one is t
     sample_y : (K, 2N) states at sample_t
     min_gap : smallest gap over all pairs at step ends and in-step samples [m]
@@ -85,7 +84,6 @@ class PhaseOutcome(NamedTuple):
     t: float
     y: np.ndarray
     event: int | None
-    in_step: bool
     sample_t: np.ndarray
     sample_y: np.ndarray
     min_gap: float
@@ -214,9 +212,6 @@ def integrate_phase(
         f = getattr(solver, "f", None)
         return f if f is not None else rhs(t, y)
 
-    def E_of(t, y):
-        return events.values(gap_matrix(y[:N]))
-
     def E_single(k):
         return lambda t, y: float(events.values(gap_matrix(y[:N]))[k])
 
@@ -226,7 +221,7 @@ def integrate_phase(
     t_a, y_a, f_a = t0, y0.copy(), derivative(t0, y0)
     sample_t, sample_y = [], []
     n_steps = n_examined = 0
-    event, in_step, failed = None, False, None
+    event, failed = None, None
 
     while solver.status == "running":
         message = solver.step()
@@ -276,19 +271,19 @@ def integrate_phase(
                 dense = solver.dense_output()
             for k in np.nonzero(crossed)[0]:
                 if up[k]:
-                    roots[int(k)] = (brentq(lambda t: E_single(k)(t, dense(t)), t_a, t_b,
-                                            xtol=4 * _EPS, rtol=4 * _EPS), False)
+                    roots[int(k)] = brentq(lambda t: E_single(k)(t, dense(t)), t_a, t_b,
+                                           xtol=4 * _EPS, rtol=4 * _EPS)
                 else:
-                    roots[int(k)] = (_first_crossing(E_single(k), dense, t_a, t_b, E_prev[k], E_b[k]), False)
+                    roots[int(k)] = _first_crossing(E_single(k), dense, t_a, t_b, E_prev[k], E_b[k])
             if np.any(examine):
                 n_examined += 1
                 for k in np.nonzero(examine)[0]:
                     tk = _first_crossing(E_single(k), dense, t_a, t_b, E_prev[k], E_b[k])
                     if tk is not None:
-                        roots[int(k)] = (tk, True)
+                        roots[int(k)] = tk
         if roots:
-            event = min(roots, key=lambda k: roots[k][0])
-            t_ev, in_step = roots[event]
+            event = min(roots, key=roots.get)
+            t_ev = roots[event]
             y_ev = dense(t_ev)
             if grid.size:
                 grid = grid[grid < t_ev]
@@ -298,7 +293,7 @@ def integrate_phase(
             # Gaps over the step up to the event (in-step samples beyond it are not part of the phase).
             sample_t.append(np.array([t_ev]))
             sample_y.append(y_ev[None, :])
-            return PhaseOutcome(t_ev, y_ev, event, in_step, np.concatenate(sample_t), np.concatenate(sample_y),
+            return PhaseOutcome(t_ev, y_ev, event, np.concatenate(sample_t), np.concatenate(sample_y),
                                 min_gap, n_steps, n_examined, None)
         min_gap = min(min_gap, step_min)  # the step of an event counts only up to the event, checked by its root
         if output_dt is None:
@@ -317,5 +312,5 @@ def integrate_phase(
     y_last = sample_y[-1][-1] if sample_y else y0
     if failed is not None and not sample_t:
         sample_t, sample_y = [np.empty(0)], [np.empty((0, y0.shape[0]))]
-    return PhaseOutcome(float(t_last), np.asarray(y_last), None, False, np.concatenate(sample_t),
+    return PhaseOutcome(float(t_last), np.asarray(y_last), None, np.concatenate(sample_t),
                         np.concatenate(sample_y), min_gap, n_steps, n_examined, failed)

@@ -339,19 +339,10 @@ def shape_functions(link: Link, x, derivative: int = 0) -> tuple[tuple, np.ndarr
 
 def _basis(link: Link, x: np.ndarray):
     """The link's shape functions: directions (m,), psi and psi'' at x (m, K), psi and psi' at l (m,)."""
-    l = link.length
-    if link.elements:
-        ne = link.elements
-        one = [hermite_shape(ne, l, x, d) for d in (0, 2)] + [hermite_shape(ne, l, [l], d)[:, 0] for d in (0, 1)]
-        dirs = [d for d in link.element_directions for _ in range(2 * ne)]
-        return dirs, *(np.concatenate([a] * len(link.element_directions)) for a in one)
-    m = len(link.modes)
-    dirs = [md.direction for md in link.modes]
-    psi = np.array([shape(md, l, x, 0) for md in link.modes]).reshape(m, x.size)
-    psi2 = np.array([shape(md, l, x, 2) for md in link.modes]).reshape(m, x.size)
-    end_v = np.array([float(shape(md, l, np.array([l]), 0)[0]) for md in link.modes])
-    end_dv = np.array([float(shape(md, l, np.array([l]), 1)[0]) for md in link.modes])
-    return dirs, psi, psi2, end_v, end_dv
+    l = [link.length]
+    directions, psi = shape_functions(link, x, 0)
+    return (list(directions), psi, shape_functions(link, x, 2)[1],
+            shape_functions(link, l, 0)[1][:, 0], shape_functions(link, l, 1)[1][:, 0])
 
 
 def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE) -> LinkData:
