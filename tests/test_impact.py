@@ -157,4 +157,7 @@ def test_single_contact_is_one_round(e):
     G = w @ np.linalg.solve(M, w)
     assert len(sol.rounds) == 1
     np.testing.assert_allclose(sol.impulses, [(1 + e) / G], rtol=1e-12)
-    np.testing.assert_allclose(sol.v_after, [e], rtol=1e-12, atol=1e-15)
+    # v_after = w.qdot_after cancels O(1) terms: its round-off over 200 random states is
+    # 2.2e-16 (median) to 6.3e-15 (worst) with the numpy kernel of 54f2dfd, 4.2e-15 with
+    # the compiled kernel; 1e-14 m/s is that floor, not a physics tolerance.
+    np.testing.assert_allclose(sol.v_after, [e], rtol=1e-12, atol=1e-14)

@@ -1,36 +1,12 @@
 """Gibbs-Appell equations of the flight phase (formulation.md section 4).
 
 All functions are pure: ``f(model, q, qdot)`` with q, qdot of shape (N,).
+They are thin wrappers of the compiled kernel (``kernel.py``, whose module
+docstring derives the O(n^2) composite-body recursion):
 
-For a point of link i, p(x) = T_i r(x), r(x) = r0(x) + sum_k psihat_k(x) delta_k
-with r0 = (x, 0, 0, 1) and psihat_k = (e_dir psi_k(x), 0). Its acceleration is
-p'' = J(x) qddot + a0(x) with J columns A_j r (A_j = dT_i/dq_j, upstream q_j)
-and T_i psihat_l (own modes l), and a0 = Tdd0_i r + 2 Td_i rdot.
-
-The Gibbs function S = 1/2 sum int mu |p''|^2 dx + rotary part gives
-dS/dqddot = M qddot + h. Because J and a0 are linear in r, every integral over
-x is a trace against the precomputed moments of the link (model.LinkData):
-
-    P   = int mu r r^T     = P0 + sum_k delta_k (C_k + C_k^T) + sum_kl delta_k delta_l D_kl
-    Q_l = int mu r psihat_l^T = C_l + sum_k delta_k D_kl
-    Pv  = int mu r rdot^T  = sum_l deltadot_l Q_l
-    Qd_l = int mu rdot psihat_l^T = sum_k deltadot_k D_kl
-
-    M_jk   += tr(A_j P A_k^T)                    (j, k upstream)
-    M_jl   += tr(A_j Q_l T^T)                    (j upstream, l own mode)
-    M_kl   += tr(D_kl)                           (own modes; constant)
-    h_j    += tr(A_j (P Tdd0^T + 2 Pv Td^T))
-    h_l    += tr(Tdd0 Q_l T^T) + 2 tr(Td Qd_l T^T)
-
-Rotary inertia of the link frame, with body angular velocity
-omega = W qdot, W_j = vee(R^T dR/dq_j), body angular acceleration
-alpha = W qddot + alpha0, alpha0 = vee(skew part of R^T Rdd0):
-
-    S_rot = 1/2 alpha.J alpha + alpha.(omega x J omega)
-    M += W^T J W,   h += W^T (J alpha0 + omega x J omega)
-
-Potential V = -g~^T sum T_i m_r,i + 1/2 delta^T K delta, g~ = (g, 0),
-m_r = int mu r = m_r0 + sum_k delta_k m_psi,k.
+    M(q) qddot + h(q, qdot) + dV/dq = Q,
+    M = sum_i int mu J^T J dx (+ rotary),  h = sum_i int mu J^T a0 dx (+ rotary),
+    V = -g~ . sum_i T_i m_r,i + 1/2 delta^T K delta.
 """
 
 from __future__ import annotations
@@ -39,9 +15,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from scipy.linalg.lapack import dposv as _dposv
-
-from .kinematics import frames
+from . import kernel as _k
+from .kinematics import joint_positions, run_kernel, states
 
 
 class SingularMassMatrixError(np.linalg.LinAlgError, ValueError):
@@ -64,82 +39,31 @@ def _vee_skew(S: np.ndarray) -> np.ndarray:
     )
 
 
-def _link_moments(ld, delta, delta_dot=None):
-    """P (4,4), Q (m,4,4), m_r (4,) and, with delta_dot, Pv (4,4), Qd (m,4,4)."""
-    Cd = np.einsum("k,kij->ij", delta, ld.C)
-    Q = ld.C + np.einsum("k,klij->lij", delta, ld.D)
-    # P = P0 + sum_k d_k (C_k + C_k^T) + sum_kl d_k d_l D_kl
-    P = ld.P0 + Cd + Cd.T + np.einsum("l,lij->ij", delta, Q - ld.C)
-    m_r = ld.m_r0 + delta @ ld.m_psi
-    if delta_dot is None:
-        return P, Q, m_r, None, None
-    Pv = np.einsum("l,lij->ij", delta_dot, Q)
-    Qd = np.einsum("k,klij->lij", delta_dot, ld.D)
-    return P, Q, m_r, Pv, Qd
-
-
-def _assemble(model, q, qdot, want_h: bool, want_dV: bool):
-    """M (N,N), h (N,) or None, dV/dq (N,) or None."""
-    N = q.shape[0]
-    fr = frames(model, q, qdot if want_h else None)
-    M = np.zeros((N, N))
-    h = np.zeros(N) if want_h else None
-    dV = model.stiffness_matrix @ q if want_dV else None
-    gt = np.append(model.gravity, 0.0)
-    for i, ld in enumerate(model.link_data):
-        idx = model.delta_slice[i]
-        m = idx.stop - idx.start
-        T, A = fr.T[i], fr.dT[i]
-        delta = q[idx]
-        P, Q, m_r, Pv, Qd = _link_moments(ld, delta, qdot[idx] if want_h else None)
-        A2 = A.reshape(N, 16)
-        # M_jk += tr(A_j P A_k^T) = sum_ab (A_j P)_ab (A_k)_ab
-        M += (A @ P).reshape(N, 16) @ A2.T
-        if m:
-            # M_jl += tr(A_j Q_l T^T) = sum_ab (A_j)_ab (T Q_l^T)_ab
-            F = (T @ np.swapaxes(Q, 1, 2)).reshape(m, 16)
-            cross = A2 @ F.T
-            M[:, idx] += cross
-            M[idx, :] += cross.T
-            # A_l = 0 for the link's own modes, so the own block is only tr(D_kl).
-            M[idx, idx] += ld.M_dd
-        if want_h:
-            Td, Tdd0 = fr.Td[i], fr.Tdd0[i]
-            # h_j += tr(A_j (P Tdd0^T + 2 Pv Td^T)) = sum_ab A_ab (Tdd0 P^T + 2 Td Pv^T)_ab
-            h += A2 @ (Tdd0 @ P.T + 2.0 * Td @ Pv.T).ravel()
-            if m:
-                # h_l += tr(Tdd0 Q_l T^T) + 2 tr(Td Qd_l T^T)
-                h[idx] += F @ Tdd0.ravel() + 2.0 * (T @ np.swapaxes(Qd, 1, 2)).reshape(m, 16) @ Td.ravel()
-        if want_dV:
-            # V_g = -g~^T T m_r:  dV/dq_j = -g~^T A_j m_r,  dV/ddelta_l = -g~^T T m_psi,l
-            dV -= (A @ m_r) @ gt
-            if m:
-                dV[idx] -= (ld.m_psi @ T.T) @ gt
-        if ld.has_rotary:
-            R = T[:3, :3]
-            W = _vee_skew(np.einsum("ba,jbc->jac", R, A[:, :3, :3]))  # (N, 3)
-            Jb = ld.J_body
-            M += W @ Jb @ W.T
-            if want_h:
-                w = W.T @ qdot
-                alpha0 = _vee_skew(R.T @ fr.Tdd0[i][:3, :3])
-                h += W @ (Jb @ alpha0 + np.cross(w, Jb @ w))
-    return M, h, dV
+def _dynamics(model, q, qdot, job, Q=None):
+    out = run_kernel(model, states(q, qdot), job, Q)
+    return out
 
 
 def mass_matrix(model, q: np.ndarray) -> np.ndarray:
-    """Mass matrix M(q) = sum int mu J^T J dx + sum W^T J W, shape (N, N)."""
-    return _assemble(model, q, None, False, False)[0]
+    """Mass matrix M(q), shape (N, N) [kg, kg m, kg m^2 by block]."""
+    N = model.n_dof
+    return _dynamics(model, q, None, _k.JOB_M)[3:3 + N * N].reshape(N, N)
+
+
+def _h_dV(model, q, qdot):
+    N = model.n_dof
+    out = _dynamics(model, q, qdot, _k.JOB_H)
+    return out[3:3 + N], out[3 + N:3 + 2 * N]
 
 
 def bias_forces(model, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
-    """Velocity-product terms h(q, qdot) = sum int mu J^T a0 dx + rotary, shape (N,)."""
-    return _assemble(model, q, qdot, True, False)[1]
+    """Velocity-product terms h(q, qdot), shape (N,) [N, N m]."""
+    return _h_dV(model, q, qdot)[0].copy()
 
 
 def potential_forces(model, q: np.ndarray) -> np.ndarray:
-    """dV/dq of gravity and strain energy, shape (N,)."""
-    return _assemble(model, q, None, False, True)[2]
+    """dV/dq of gravity and strain energy, shape (N,) [N, N m]."""
+    return _h_dV(model, q, None)[1].copy()
 
 
 def diagnose_singular(model, q: np.ndarray) -> str:
@@ -157,7 +81,7 @@ def diagnose_singular(model, q: np.ndarray) -> str:
         )
     lds = model.link_data
     if model.free_base and all(np.count_nonzero(ld.J_body) == 0 for ld in lds) and model.n_links > 1:
-        pos = frames(model, q).T[:, :3, 3]
+        pos = joint_positions(model, q)
         d = pos[1:] - pos[0]
         if np.linalg.matrix_rank(d, tol=1e-9 * max(1.0, np.abs(d).max())) <= 1 and not any(
             np.any(q[i]) for i in model.delta_index
@@ -171,33 +95,35 @@ def diagnose_singular(model, q: np.ndarray) -> str:
     return "; ".join(causes)
 
 
+def _raise_singular(model, q, status, dmin, dmax):
+    if status == 1:
+        raise SingularMassMatrixError(f"mass matrix is not positive definite: {diagnose_singular(model, q)}")
+    raise SingularMassMatrixError(
+        f"mass matrix is numerically singular (condition ~{(dmax / dmin) ** 2:.1e}): {diagnose_singular(model, q)}")
+
+
 def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | None = None) -> np.ndarray:
     """Generalised accelerations from M qddot = Q - h - dV/dq, shape (N,).
 
     Parameters
     ----------
+    q, qdot : (N,) state [m, rad; m/s, rad/s].
     Q : (N,) optional applied generalised forces [N, N m].
 
     Raises
     ------
     SingularMassMatrixError
-        When M is not positive definite; the message names the likely cause.
+        When M is not positive definite or its Cholesky pivots spread beyond
+        1e7 (condition beyond 1e14); the message names the likely cause.
     """
-    M, h, dV = _assemble(model, q, qdot, True, True)
-    rhs = -h - dV
-    if Q is not None:
-        rhs = rhs + Q
-    # Cholesky factor and solve in one LAPACK call; info > 0: not positive definite.
-    c, x, info = _dposv(M, rhs, lower=1)
-    if info != 0:
-        raise SingularMassMatrixError(f"mass matrix is not positive definite: {diagnose_singular(model, q)}")
-    d = np.diag(c)
-    if d.min() < 1e-7 * d.max():
-        raise SingularMassMatrixError(
-            f"mass matrix is numerically singular (condition ~{(d.max() / d.min())**2:.1e}): "
-            f"{diagnose_singular(model, q)}"
-        )
-    return x
+    N = model.n_dof
+    ys = np.concatenate((q, qdot))
+    if ys.dtype != np.float64:
+        ys = ys.astype(float)
+    out = run_kernel(model, ys, _k.JOB_SOLVE, None if Q is None else np.ascontiguousarray(Q, dtype=float))
+    if out[0] != 0.0:
+        _raise_singular(model, q, out[0], out[1], out[2])
+    return out[3 + N:3 + 2 * N]  # a view of a private array
 
 
 def energy(model, q: np.ndarray, qdot: np.ndarray) -> Energy:
@@ -205,24 +131,20 @@ def energy(model, q: np.ndarray, qdot: np.ndarray) -> Energy:
 
     E_k = 1/2 qdot^T M qdot,  V_g = -g~^T sum T_i m_r,i,  V_s = 1/2 delta^T K delta
     """
-    M = mass_matrix(model, q)
-    return _energy_from(model, q, qdot, M)
-
-
-def _energy_from(model, q, qdot, M) -> Energy:
-    kin = 0.5 * qdot @ M @ qdot
-    grav = -model.gravity @ center_of_mass(model, q) * model.total_mass
-    strain = 0.5 * q @ model.stiffness_matrix @ q
+    kin, grav, strain = run_kernel(model, states(q, qdot), _k.JOB_ENERGY)[3:6]
     return Energy(float(kin), float(grav), float(strain), float(kin + grav + strain))
+
+
+def energies(model, qs: np.ndarray, qdots: np.ndarray) -> Energy:
+    """Energies of the states qs, qdots (K, N): Energy of arrays (K,) [J], one kernel call."""
+    qs = np.asarray(qs, dtype=float)
+    E = run_kernel(model, states(qs, qdots), _k.JOB_ENERGY)[3:].reshape(-1, 3)
+    return Energy(E[:, 0].copy(), E[:, 1].copy(), E[:, 2].copy(), E.sum(axis=1))
 
 
 def center_of_mass(model, q: np.ndarray) -> np.ndarray:
     """Mass centre sum T_i m_r,i / m, shape (3,) [m]."""
-    fr = frames(model, q)
-    s = np.zeros(4)
-    for i, ld in enumerate(model.link_data):
-        s += fr.T[i] @ (ld.m_r0 + q[model.delta_index[i]] @ ld.m_psi)
-    return s[:3] / model.total_mass
+    return run_kernel(model, states(q), _k.JOB_MOMENTUM)[9:12] / model.total_mass
 
 
 def momentum(model, q: np.ndarray, qdot: np.ndarray):
@@ -230,22 +152,7 @@ def momentum(model, q: np.ndarray, qdot: np.ndarray):
     [kg m^2/s], and mass centre c (3,) [m].
 
     L  = sum (Td m_r + T m_rdot),       m_rdot = int mu rdot
-    H0 = sum int mu p x pdot + R J omega, int mu p pdot^T = T P Td^T + T Pv T^T
+    H0 = sum int mu p x pdot (rotary inertia included), int mu p pdot^T = T P Td^T + T Pv T^T
     """
-    fr = frames(model, q, qdot)
-    L = np.zeros(3)
-    H = np.zeros(3)
-    s = np.zeros(4)
-    for i, ld in enumerate(model.link_data):
-        idx = model.delta_index[i]
-        T, Td = fr.T[i], fr.Td[i]
-        P, Q, m_r, Pv, Qd = _link_moments(ld, q[idx], qdot[idx])
-        L += (Td @ m_r + T @ (qdot[idx] @ ld.m_psi))[:3]
-        s += T @ m_r
-        X = (T @ P @ Td.T + T @ Pv @ T.T)[:3, :3]
-        H += np.array([X[1, 2] - X[2, 1], X[2, 0] - X[0, 2], X[0, 1] - X[1, 0]])
-        if ld.has_rotary:
-            R = T[:3, :3]
-            w = _vee_skew(R.T @ Td[:3, :3])
-            H += R @ (ld.J_body @ w)
-    return L, H, s[:3] / model.total_mass
+    out = run_kernel(model, states(q, qdot), _k.JOB_MOMENTUM)
+    return out[3:6].copy(), out[6:9].copy(), out[9:12] / model.total_mass

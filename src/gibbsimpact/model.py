@@ -509,6 +509,19 @@ class Model:
     total_mass = property(lambda self: self._total_mass, doc="Total mass [kg].")
 
     @property
+    def kernel_data(self):
+        """(fdat (F,), idat (I,), zeros (N,)): the model packed for the compiled kernel (built once)."""
+        data = getattr(self, "_kernel_data", None)
+        if data is None:
+            from .kernel import pack
+
+            fdat, idat = pack(self)
+            # Writable on purpose: numba types read-only arrays differently (a recompile).
+            zeros = np.zeros(self.n_dof)
+            data = self._kernel_data = (fdat, idat, zeros)
+        return data
+
+    @property
     def n_dof(self) -> int:
         return len(self._names)
 

@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .dynamics import Energy, _energy_from, mass_matrix
+from .dynamics import Energy, energies
 
 #: Status values of a Result.
 STATUS_FINISHED = "finished"  # reached t_span[1]
@@ -103,16 +103,14 @@ class Result:
     def energy(self) -> Energy:
         """Energy(kinetic, gravity, strain, total), each an array (K,) [J]."""
         if self._energy_cache is None:
-            rows = [_energy_from(self.model, q, qd, mass_matrix(self.model, q)) for q, qd in zip(self.q, self.qdot)]
-            arr = np.array(rows, dtype=float).reshape(len(rows), 4)
-            self._energy_cache = Energy(*(arr[:, k].copy() for k in range(4)))
+            self._energy_cache = energies(self.model, self.q, self.qdot)
         return self._energy_cache
 
     def joint_positions(self) -> np.ndarray:
         """O_1 ... O_(n+1) at every sample, shape (K, n+1, 3) [m]."""
-        from .kinematics import joint_positions
+        from .kinematics import joint_positions_batch
 
-        return np.array([joint_positions(self.model, q) for q in self.q]).reshape(len(self.t), -1, 3)
+        return joint_positions_batch(self.model, self.q)
 
     def joint_velocities(self) -> np.ndarray:
         """Absolute joint velocities at every sample, shape (K, n+1, 3) [m/s]."""

@@ -1,0 +1,1048 @@
+"""The compiled kernel: kinematics, Gibbs-Appell dynamics, energies, momentum.
+
+One source, compiled with numba (``njit``, explicit signatures, on-disk
+cache). With ``NUMBA_DISABLE_JIT=1`` the same functions run as plain Python
+(slow; the tests use it to check the compiled code against itself). The
+public wrappers are in ``kinematics.py`` and ``dynamics.py``.
+
+Derivation: a composite-body recursion in the 4x4 form (O(n^2))
+--------------------------------------------------------------------------
+
+Notation (formulation.md sections 2 and 4): link i has the frame T_i (4x4),
+material points p(x) = T_i r(x), r(x) = r0(x) + sum_l psihat_l(x) delta_l,
+psihat_l = (e_{a_l} psi_l(x), 0) with a_l in {y, z} the bending axis of mode l.
+
+1. *Twists.* Every coordinate c enters the chain exactly once, through one
+   local transform G_c (Trans(X), an axis rotation, or a link end E(delta)).
+   Writing B_c for the frame just before G_c, every frame T_i downstream of it
+   satisfies T_i = B_c G_c (rest independent of q_c), hence
+
+       dT_i/dq_c = S_c T_i,    S_c = B_c (dG_c/dq_c G_c^-1) B_c^-1      (4x4)
+
+   S_c is a world twist ([[skew(w), v], [0, 0]]), the same for every frame it
+   moves. f_c denotes the first frame moved by c (0 .. n; frame n is the tip,
+   which carries no mass): theta_i moves frames i.., delta_i moves i+1...
+
+2. *Mass matrix.* M = sum_i int mu J^T J dx with J_c = S_c T_i r (c moves
+   link i) or T_i psihat_l (c = delta_l, own mode of link i). With the body
+   moments P_i = int mu r r^T (plus the rotary pseudo-inertia, item 5) and
+   Q_l = int mu r psihat_l^T = q_l e_{a_l}^T:
+
+       M_cd = tr(S_c Pi^c_{f_d} S_d^T)                  f_c <= f_d
+            + e_d . (S_c y_d)                           d own mode of link o, f_c <= o
+            + M_dd[c, d]                                c, d own modes of one link
+       Pi_i = T_i P_i T_i^T,  Pi^c_j = sum_{i >= j} Pi_i   (composite, one backward pass)
+       y_d = T_o q_d,  e_d = T_o e_{a_d}   (world 4-vectors)
+
+   Each entry costs O(1): M costs O(N^2), N = O(n).
+
+3. *Bias forces.* h = sum_i int mu J^T a0 dx, a0 = Tdd0_i r + 2 Td_i rdot:
+
+       h_c = tr(S_c F^c_{f_c}) + [c own mode of link o] e_c . (Tdd0_o q_c + 2 Td_o qd_c)
+       F_i = T_i P_i Tdd0_i^T + 2 T_i Pv_i Td_i^T,   Pv = int mu r rdot^T = sum_l deltadot_l Q_l
+       qd_l = int mu rdot psi_l along a_l (a 4-vector)
+
+   T_i, Td_i and the qddot-free Tdd0_i come from the forward recursion
+   T' = T G, Td' = Td G + T Gd, Tdd0' = Tdd0 G + 2 Td Gd + T Gdd0.
+
+4. *Potential.* V = -g~ . sum_i T_i m_r,i + 1/2 delta^T K delta, so
+
+       dV_c = -g~ . (S_c mu^c_{f_c}) + [own] (-c1_c g~ . e_c + (K delta)_c)
+       mu_i = T_i m_r,i,  mu^c_j = sum_{i >= j} mu_i,  c1_l = int mu psi_l.
+
+5. *Rotary inertia* J = l diag(j_x, j_y, j_z) about the link frame enters as the
+   pseudo-inertia Sigma = tr(J)/2 I - J added to P_i[:3, :3]: a body with
+   second moment Sigma has angular momentum J omega and Gibbs function
+   1/2 alpha.J alpha + alpha.(omega x J omega), the term of formulation.md
+   section 4 (Gibbs-Appell of a rigid body is linear in its pseudo-inertia).
+
+Kinetic energy per link: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 deltadot^T M_dd deltadot.
+
+Data layout (``pack``): one float64 and one int64 array per model, so that a
+call passes few arguments (numba's dispatch cost grows with their number).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import threading
+import time
+
+import numpy as np
+
+# -- data layout --------------------------------------------------------------
+# idat: [n, N, free, 0, 0, 0, 0, 0] + per coordinate (N rows of _CI ints)
+#       + per link (n rows of _LI ints)
+_H = 8
+_CI = 6  # kind, axis, first frame, own link (-1), local index, 0
+_LI = 6  # m, first delta index in q, theta index in q, offset in fdat, end kind, 0
+KIND_TRANSLATION, KIND_ROTATION, KIND_MODE = 0, 1, 2
+END_RIGID, END_TRANSLATION, END_GENERAL = 0, 1, 2
+# fdat: base T0 (16), g~ (4), then per link: P0+Sigma (16), m_r0 (4), length,
+#       cx (m), c1 (m), Mpsi (m*m), K (m*m), end_t (3m), end_phi (3m)
+_F_BASE, _F_G, _F_LINKS = 0, 16, 20
+
+
+def pack(model):
+    """The model as (fdat float64 (F,), idat int64 (I,)) for the kernel."""
+    n, N = model.n_links, model.n_dof
+    free = model.free_base
+    idat = np.zeros(_H + _CI * N + _LI * n, dtype=np.int64)
+    idat[0], idat[1], idat[2] = n, N, int(free)
+    ci = idat[_H:_H + _CI * N].reshape(N, _CI)
+    li = idat[_H + _CI * N:].reshape(n, _LI) if n else np.zeros((0, _LI), dtype=np.int64)
+    ci[:, 3] = -1
+    if free:
+        for a in range(3):
+            ci[a, :3] = (KIND_TRANSLATION, a, 0)
+        ci[3, :3] = (KIND_ROTATION, 0, 0)
+        ci[4, :3] = (KIND_ROTATION, 1, 0)
+    f = [np.eye(4).ravel() if free else np.asarray(model.base_transform, dtype=float).ravel(),
+         np.append(model.gravity, 0.0)]
+    off = _F_LINKS
+    axis_of = {"y": 1, "z": 2}
+    for i, ld in enumerate(model.link_data):
+        th = model.theta_index[i]
+        ci[th, :3] = (KIND_ROTATION, 2, i)
+        idx = model.delta_index[i]
+        m = idx.size
+        for l, c in enumerate(idx):
+            ci[c] = (KIND_MODE, axis_of[ld.directions[l]], i + 1, i, l, 0)
+        end = END_RIGID if ld.end_is_rigid else (END_TRANSLATION if not np.any(ld.end_phi) else END_GENERAL)
+        li[i] = (m, idx[0] if m else 0, th, off, end, 0)
+        P0 = np.array(ld.P0, dtype=float)
+        J = ld.J_body
+        # Rotary inertia as a pseudo-inertia: Sigma = tr(J)/2 I - J (module docstring, item 5).
+        P0[:3, :3] += 0.5 * np.trace(J) * np.eye(3) - J
+        axes = np.array([axis_of[d] for d in ld.directions], dtype=int)
+        cx = ld.C[np.arange(m), 0, axes] if m else np.zeros(0)
+        c1 = ld.C[np.arange(m), 3, axes] if m else np.zeros(0)
+        Mpsi = ld.D[np.arange(m)[:, None], np.arange(m)[None, :], axes[:, None], axes[None, :]] if m else np.zeros((0, 0))
+        block = [P0.ravel(), ld.m_r0, [ld.length], cx, c1, Mpsi.ravel(), np.asarray(ld.K).ravel(),
+                 np.asarray(ld.end_t).ravel(), np.asarray(ld.end_phi).ravel()]
+        f += block
+        off += sum(np.size(b) for b in block)
+    fdat = np.ascontiguousarray(np.concatenate([np.ravel(np.asarray(b, dtype=float)) for b in f]))
+    assert fdat.size == off
+    return fdat, np.ascontiguousarray(idat)
+
+
+# -- small 4x4 helpers ----------------------------------------------------------------
+# Every 4x4 matrix of a kernel call lives in one array B (k, 4, 4) and is named by
+# its index k: passing or slicing arrays costs a reference count per array in
+# numba (~25 ns), more than a 4x4 product; an index costs nothing.
+
+def _mm(B, a, b, o):
+    """B[o] = B[a] @ B[b] (o differs from a and b)."""
+    for i in range(4):
+        for j in range(4):
+            s = 0.0
+            for k in range(4):
+                s += B[a, i, k] * B[b, k, j]
+            B[o, i, j] = s
+
+
+def _mm_add(B, a, b, alpha, o):
+    """B[o] += alpha B[a] @ B[b]."""
+    for i in range(4):
+        for j in range(4):
+            s = 0.0
+            for k in range(4):
+                s += B[a, i, k] * B[b, k, j]
+            B[o, i, j] += alpha * s
+
+
+def _mmt(B, a, b, o):
+    """B[o] = B[a] @ B[b]^T."""
+    for i in range(4):
+        for j in range(4):
+            s = 0.0
+            for k in range(4):
+                s += B[a, i, k] * B[b, j, k]
+            B[o, i, j] = s
+
+
+def _copy4(B, src, dst):
+    """B[dst] = B[src]."""
+    for i in range(4):
+        for j in range(4):
+            B[dst, i, j] = B[src, i, j]
+
+
+def _zero4(B, o):
+    for i in range(4):
+        for j in range(4):
+            B[o, i, j] = 0.0
+
+
+def _conjugate(B, t, l, o, tl):
+    """B[o] = B[t] B[l] B[t]^-1 for a homogeneous transform B[t] and a twist B[l] (last row 0).
+
+    T L = [[R w, R v], [0, 0]],  T^-1 = [[R^T, -R^T p], [0, 1]]; B[tl] is scratch.
+    """
+    _mm(B, t, l, tl)
+    for i in range(3):
+        for j in range(3):
+            s = 0.0
+            for k in range(3):
+                s += B[tl, i, k] * B[t, j, k]
+            B[o, i, j] = s
+    for i in range(3):
+        s = B[tl, i, 3]
+        for j in range(3):
+            s -= B[o, i, j] * B[t, j, 3]
+        B[o, i, 3] = s
+    for j in range(4):
+        B[o, 3, j] = 0.0
+
+
+# -- Rodrigues --------------------------------------------------------------------
+_SERIES = 14
+_SERIES_A = np.array([(-1.0) ** k / np.prod(np.arange(1, 2 * k + 2, dtype=float)) for k in range(_SERIES)])
+_SERIES_B = np.array([(-1.0) ** k / np.prod(np.arange(1, 2 * k + 3, dtype=float)) for k in range(_SERIES)])
+
+
+def rodrigues_coefficients(s):
+    """a = sin t / t, b = (1 - cos t)/t^2 (t = sqrt s) and their s-derivatives.
+
+    Returns (a, a_s, a_ss, b, b_s, b_ss). A power series for s < 1 (no 0/0),
+    closed forms with a_s = (cos t - a)/(2s), b_s = (a - 2b)/(2s),
+    a_ss = (-a/2 - 3 a_s)/(2s), b_ss = (a_s - 4 b_s)/(2s) otherwise.
+    """
+    if s < 1.0:
+        # 14 terms of the alternating series; s < 1, so they converge to round-off.
+        a = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        b = 0.0
+        b1 = 0.0
+        b2 = 0.0
+        p = 1.0
+        for k in range(_SERIES):
+            a += _SERIES_A[k] * p
+            b += _SERIES_B[k] * p
+            if k + 1 < _SERIES:
+                a1 += (k + 1) * _SERIES_A[k + 1] * p
+                b1 += (k + 1) * _SERIES_B[k + 1] * p
+            if k + 2 < _SERIES:
+                a2 += (k + 2) * (k + 1) * _SERIES_A[k + 2] * p
+                b2 += (k + 2) * (k + 1) * _SERIES_B[k + 2] * p
+            p *= s
+        return a, a1, a2, b, b1, b2
+    t = math.sqrt(s)
+    a = math.sin(t) / t
+    b = (1.0 - math.cos(t)) / s
+    a_s = (math.cos(t) - a) / (2.0 * s)
+    b_s = (a - 2.0 * b) / (2.0 * s)
+    a_ss = (-0.5 * a - 3.0 * a_s) / (2.0 * s)
+    b_ss = (a_s - 4.0 * b_s) / (2.0 * s)
+    return a, a_s, a_ss, b, b_s, b_ss
+
+
+def _skew3(B, kv, row, o):
+    """B[o][:3, :3] = skew(B[kv, row, :3])."""
+    v0 = B[kv, row, 0]
+    v1 = B[kv, row, 1]
+    v2 = B[kv, row, 2]
+    B[o, 0, 0] = 0.0
+    B[o, 0, 1] = -v2
+    B[o, 0, 2] = v1
+    B[o, 1, 0] = v2
+    B[o, 1, 1] = 0.0
+    B[o, 1, 2] = -v0
+    B[o, 2, 0] = -v1
+    B[o, 2, 1] = v0
+    B[o, 2, 2] = 0.0
+
+
+def rodrigues_directional(B, kv, rphi, ru, rw, kR, kdR, kd2R, ks):
+    """R(phi), dR[u] and d2R[w, w] into the upper-left 3x3 of B[kR], B[kdR], B[kd2R].
+
+    phi, u, w are the rows rphi, ru, rw of B[kv] (first three entries); B[ks],
+    B[ks+1], B[ks+2] are scratch. R = I + a K + b K^2, K = skew(phi); with
+    s = phi.phi, Ku = skew(u), s' = 2 phi.u, s'' = 2 u.u (along u):
+      dR[u]    = a_s s' K + a Ku + b_s s' K^2 + b (Ku K + K Ku)
+      d2R[u,u] = (a_ss s'^2 + a_s s'') K + 2 a_s s' Ku + (b_ss s'^2 + b_s s'') K^2
+                 + 2 b_s s' (Ku K + K Ku) + 2 b Ku^2
+    """
+    p0 = B[kv, rphi, 0]
+    p1 = B[kv, rphi, 1]
+    p2 = B[kv, rphi, 2]
+    a, a_s, a_ss, b, b_s, b_ss = rodrigues_coefficients(p0 * p0 + p1 * p1 + p2 * p2)
+    kK = ks
+    kK2 = ks + 1
+    kKv = ks + 2
+    _skew3(B, kv, rphi, kK)
+    for i in range(3):
+        for j in range(3):
+            t = 0.0
+            for k in range(3):
+                t += B[kK, i, k] * B[kK, k, j]
+            B[kK2, i, j] = t
+    for i in range(3):
+        for j in range(3):
+            B[kR, i, j] = a * B[kK, i, j] + b * B[kK2, i, j]
+        B[kR, i, i] += 1.0
+    for which in range(2):
+        row = ru if which == 0 else rw
+        _skew3(B, kv, row, kKv)
+        v0 = B[kv, row, 0]
+        v1 = B[kv, row, 1]
+        v2 = B[kv, row, 2]
+        s1 = 2.0 * (p0 * v0 + p1 * v1 + p2 * v2)
+        s2 = 2.0 * (v0 * v0 + v1 * v1 + v2 * v2)
+        for i in range(3):
+            for j in range(3):
+                sym = 0.0
+                vv = 0.0
+                for k in range(3):
+                    sym += B[kKv, i, k] * B[kK, k, j] + B[kK, i, k] * B[kKv, k, j]
+                    vv += B[kKv, i, k] * B[kKv, k, j]
+                if which == 0:
+                    B[kdR, i, j] = (a_s * s1 * B[kK, i, j] + a * B[kKv, i, j] + b_s * s1 * B[kK2, i, j]
+                                    + b * sym)
+                else:
+                    B[kd2R, i, j] = ((a_ss * s1 * s1 + a_s * s2) * B[kK, i, j] + 2.0 * a_s * s1 * B[kKv, i, j]
+                                     + (b_ss * s1 * s1 + b_s * s2) * B[kK2, i, j] + 2.0 * b_s * s1 * sym
+                                     + 2.0 * b * vv)
+
+
+# -- forward recursion -----------------------------------------------------------
+# Work slots relative to w (the running frame): w T, w+1 Td, w+2 Tdd0, then the
+# scratch of _end_step (w+3 .. w+19) and of the link moments (w+20 .. w+23).
+_W_SIZE = 24
+
+
+def _rot_step(B, w, si, axis, th, thd, vel):
+    """T <- T Rot_axis(th) for T = B[w] (with Td = B[w+1], Tdd0 = B[w+2] when vel);
+    B[si] = the world twist of th."""
+    # S = T_prev skew(e_axis) T_prev^-1 = [[skew(w), p x w], [0, 0]],  w = R_prev e_axis
+    w0 = B[w, 0, axis]
+    w1 = B[w, 1, axis]
+    w2 = B[w, 2, axis]
+    p0 = B[w, 0, 3]
+    p1 = B[w, 1, 3]
+    p2 = B[w, 2, 3]
+    B[si, 0, 0] = 0.0
+    B[si, 0, 1] = -w2
+    B[si, 0, 2] = w1
+    B[si, 1, 0] = w2
+    B[si, 1, 1] = 0.0
+    B[si, 1, 2] = -w0
+    B[si, 2, 0] = -w1
+    B[si, 2, 1] = w0
+    B[si, 2, 2] = 0.0
+    B[si, 0, 3] = p1 * w2 - p2 * w1
+    B[si, 1, 3] = p2 * w0 - p0 * w2
+    B[si, 2, 3] = p0 * w1 - p1 * w0
+    for j in range(4):
+        B[si, 3, j] = 0.0
+    # G = Rot_axis(th) turns columns i, j of T (axis and origin stay):
+    # X G -> (c x_i + s x_j, -s x_i + c x_j); X G1 -> (-s x_i + c x_j, -c x_i - s x_j); X G2 = -X G on i, j.
+    # T' = T G;  Td' = Td G + thd T G1;  Tdd0' = Tdd0 G + 2 thd Td G1 + thd^2 T G2
+    i = (axis + 1) % 3
+    j = (axis + 2) % 3
+    c = math.cos(th)
+    s = math.sin(th)
+    for r in range(4):
+        ti = B[w, r, i]
+        tj = B[w, r, j]
+        tgi = c * ti + s * tj
+        tgj = -s * ti + c * tj
+        if vel:
+            di = B[w + 1, r, i]
+            dj = B[w + 1, r, j]
+            ei = B[w + 2, r, i]
+            ej = B[w + 2, r, j]
+            B[w + 2, r, i] = c * ei + s * ej + 2.0 * thd * (-s * di + c * dj) - thd * thd * tgi
+            B[w + 2, r, j] = -s * ei + c * ej + 2.0 * thd * (-c * di - s * dj) - thd * thd * tgj
+            B[w + 1, r, i] = c * di + s * dj + thd * (-s * ti + c * tj)
+            B[w + 1, r, j] = -s * di + c * dj + thd * (-c * ti - s * tj)
+        B[w, r, i] = tgi
+        B[w, r, j] = tgj
+
+
+def _end_step(fdat, idat, link, q, qd, vel, B, w, ss):
+    """T <- T E(delta) for the end of ``link`` (T, Td, Tdd0 = B[w], B[w+1], B[w+2]);
+    B[ss + c] = the world twist of each end coordinate c of the link.
+
+    E = [[R(phi), t], [0, 1]], t = l e_x + end_t^T delta, phi = end_phi^T delta;
+    Ed = [[dR[phidot], tdot], [0, 0]], Edd0 = [[d2R[phidot, phidot], 0], [0, 0]];
+    local twist of delta_k: dE_k E^-1 = [[dR_k R^T, t_k - dR_k R^T t], [0, 0]].
+    """
+    N = idat[1]
+    base = _H + _CI * N + _LI * link
+    m = idat[base]
+    d0 = idat[base + 1]
+    off = idat[base + 3]
+    kind = idat[base + 4]
+    l = fdat[off + 20]
+    if kind == END_RIGID:
+        # E = Trans(l e_x): the origin column gains l times the x column.
+        for r in range(4):
+            B[w, r, 3] += l * B[w, r, 0]
+            if vel:
+                B[w + 1, r, 3] += l * B[w + 1, r, 0]
+                B[w + 2, r, 3] += l * B[w + 2, r, 0]
+        return
+    o_t = off + 21 + 2 * m + 2 * m * m
+    o_phi = o_t + 3 * m
+    kv = w + 3     # rows: t, tdot, phi, phidot
+    kR = w + 4
+    kdR = w + 5
+    kd2R = w + 6
+    kG = w + 7
+    kGd = w + 8
+    kGdd = w + 9
+    kL = w + 10
+    kdRk = w + 11
+    kTn = w + 12
+    kTdn = w + 13
+    kTddn = w + 14
+    ku = w + 15    # row 0: u
+    ks = w + 16    # w+16 .. w+18: Rodrigues scratch; w+19: _conjugate scratch
+    for k in range(kv, kTddn + 2):
+        _zero4(B, k)
+    B[kv, 0, 0] = l
+    for k in range(m):
+        dk = q[d0 + k]
+        vk = qd[d0 + k]
+        for a in range(3):
+            B[kv, 0, a] += fdat[o_t + 3 * k + a] * dk
+            B[kv, 1, a] += fdat[o_t + 3 * k + a] * vk
+            B[kv, 2, a] += fdat[o_phi + 3 * k + a] * dk
+            B[kv, 3, a] += fdat[o_phi + 3 * k + a] * vk
+    for a in range(3):
+        B[kR, a, a] = 1.0
+    B[kG, 3, 3] = 1.0
+    general = kind == END_GENERAL
+    if general:
+        rodrigues_directional(B, kv, 2, 3, 3, kR, kdR, kd2R, ks)
+    for a in range(3):
+        B[kG, a, 3] = B[kv, 0, a]
+        B[kGd, a, 3] = B[kv, 1, a]
+        for b in range(3):
+            B[kG, a, b] = B[kR, a, b]
+            B[kGd, a, b] = B[kdR, a, b]
+            B[kGdd, a, b] = B[kd2R, a, b]
+    # Twists of the link's own end coordinates, from the frame before E.
+    for k in range(m):
+        zero = True
+        for a in range(3):
+            B[ku, 0, a] = fdat[o_phi + 3 * k + a]
+            if fdat[o_phi + 3 * k + a] != 0.0 or fdat[o_t + 3 * k + a] != 0.0:
+                zero = False
+        if zero:
+            _zero4(B, ss + d0 + k)  # an interior FE node: E does not depend on it
+            continue
+        if general:
+            # B[kv] row 2 is phi; u is row 0 of B[ku]: copy u into row 3 of a scratch vector slot
+            for a in range(3):
+                B[ks + 3, 0, a] = B[kv, 2, a]
+                B[ks + 3, 1, a] = B[ku, 0, a]
+            rodrigues_directional(B, ks + 3, 0, 1, 1, kR, kdRk, kd2R, ks)
+        # L = [[dR_k R^T, t_k - dR_k R^T t], [0, 0]]
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                for c in range(3):
+                    s += B[kdRk, a, c] * B[kR, b, c]
+                B[kL, a, b] = s
+        for a in range(3):
+            s = fdat[o_t + 3 * k + a]
+            for b in range(3):
+                s -= B[kL, a, b] * B[kv, 0, b]
+            B[kL, a, 3] = s
+        _conjugate(B, w, kL, ss + d0 + k, ks + 3)
+    # T' = T G;  Td' = Td G + T Gd;  Tdd0' = Tdd0 G + 2 Td Gd + T Gdd0
+    _mm(B, w, kG, kTn)
+    if vel:
+        _mm(B, w + 1, kG, kTdn)
+        _mm_add(B, w, kGd, 1.0, kTdn)
+        _mm(B, w + 2, kG, kTddn)
+        _mm_add(B, w + 1, kGd, 2.0, kTddn)
+        _mm_add(B, w, kGdd, 1.0, kTddn)
+        _copy4(B, kTdn, w + 1)
+        _copy4(B, kTddn, w + 2)
+    _copy4(B, kTn, w)
+
+
+def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w):
+    """Frames of the n links and of the tip into B[ts + i], i = 0 .. n (and their
+    time derivatives into B[tds + i], B[tdds + i] when vel); twists into B[ss + c].
+
+    B[w .. w + _W_SIZE) is work space.
+    """
+    n = idat[0]
+    N = idat[1]
+    _zero4(B, w + 1)
+    _zero4(B, w + 2)
+    for a in range(4):
+        for b in range(4):
+            B[w, a, b] = fdat[_F_BASE + 4 * a + b]
+    if idat[2] == 1:
+        # Trans(X): twists e_a in the origin column; then Rx(theta_-1), Ry(theta_0).
+        for a in range(3):
+            B[w, a, 3] = q[a]
+            if vel:
+                B[w + 1, a, 3] = qd[a]
+            _zero4(B, ss + a)
+            B[ss + a, a, 3] = 1.0
+        for c in range(3, 5):
+            _rot_step(B, w, ss + c, idat[_H + _CI * c + 1], q[c], qd[c], vel)
+    for i in range(n):
+        th = idat[_H + _CI * N + _LI * i + 2]
+        _rot_step(B, w, ss + th, idat[_H + _CI * th + 1], q[th], qd[th], vel)
+        _copy4(B, w, ts + i)
+        if vel:
+            _copy4(B, w + 1, tds + i)
+            _copy4(B, w + 2, tdds + i)
+        _end_step(fdat, idat, i, q, qd, vel, B, w, ss)
+    _copy4(B, w, ts + n)
+    if vel:
+        _copy4(B, w + 1, tds + n)
+        _copy4(B, w + 2, tdds + n)
+
+
+# -- per-link moments ---------------------------------------------------------------
+
+def _link_body(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv):
+    """Body moments of ``link`` at delta, deltadot.
+
+    B[kP] = P = P0 + Cd^T + sum_l delta_l Q_l (rotary pseudo-inertia included),
+    V[kmr] = m_r, V[kqv + l] = q_l = c0_l + sum_k delta_k Mpsi_kl e_{a_k}, c0_l = (cx_l, 0, 0, c1_l),
+    V[kqdv + l] = sum_k deltadot_k Mpsi_kl e_{a_k}, B[kPv] = Pv = sum_l deltadot_l q_l e_{a_l}^T.
+    """
+    N = idat[1]
+    base = _H + _CI * N + _LI * link
+    m = idat[base]
+    d0 = idat[base + 1]
+    off = idat[base + 3]
+    for a in range(4):
+        V[kmr, a] = fdat[off + 16 + a]
+        for b in range(4):
+            B[kP, a, b] = fdat[off + 4 * a + b]
+            B[kPv, a, b] = 0.0
+    o_cx = off + 21
+    o_c1 = o_cx + m
+    o_M = o_c1 + m
+    for l in range(m):
+        V[kqv + l, 0] = fdat[o_cx + l]
+        V[kqv + l, 1] = 0.0
+        V[kqv + l, 2] = 0.0
+        V[kqv + l, 3] = fdat[o_c1 + l]
+        for a in range(4):
+            V[kqdv + l, a] = 0.0
+    for k in range(m):
+        ak = idat[_H + _CI * (d0 + k) + 1]
+        dk = q[d0 + k]
+        vk = qd[d0 + k]
+        for l in range(m):
+            Mkl = fdat[o_M + m * k + l]
+            V[kqv + l, ak] += dk * Mkl
+            V[kqdv + l, ak] += vk * Mkl
+    for l in range(m):
+        al = idat[_H + _CI * (d0 + l) + 1]
+        dl = q[d0 + l]
+        vl = qd[d0 + l]
+        V[kmr, al] += dl * fdat[o_c1 + l]
+        for r in range(4):
+            B[kP, r, al] += dl * V[kqv + l, r]
+            B[kPv, r, al] += vl * V[kqv + l, r]
+        B[kP, al, 0] += dl * fdat[o_cx + l]
+        B[kP, al, 3] += dl * fdat[o_c1 + l]
+
+
+def _mmax(idat):
+    n = idat[0]
+    N = idat[1]
+    mmax = 0
+    for i in range(n):
+        mmax = max(mmax, idat[_H + _CI * N + _LI * i])
+    return mmax
+
+
+# -- dynamics -------------------------------------------------------------------------
+
+def assemble(fdat, idat, q, qd, vel, M, h, dV):
+    """M (N, N), and h (N,) when vel, and dV/dq (N,) (module docstring, items 2-4).
+
+    h and dV must be zero on entry.
+    """
+    n = idat[0]
+    N = idat[1]
+    mmax = _mmax(idat)
+    n1 = n + 1
+    # B: 4x4 matrices by index (frames, composites, twists, X_d, work); V: 4-vectors.
+    TS = 0
+    TDS = n1
+    TDDS = 2 * n1
+    PIC = 3 * n1
+    FC = 4 * n1
+    SS = 5 * n1
+    XS = SS + N
+    WK = XS + N
+    B = np.zeros((WK + _W_SIZE, 4, 4))
+    kP = WK + 20
+    kPv = WK + 21
+    kX = WK + 22
+    chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK)
+    MUC = 0
+    YY = n1
+    EE = n1 + N
+    QV = n1 + 2 * N
+    QDV = QV + mmax
+    MR = QDV + mmax
+    V = np.zeros((MR + 1, 4))
+    for i in range(n):
+        base = _H + _CI * N + _LI * i
+        m = idat[base]
+        d0 = idat[base + 1]
+        off = idat[base + 3]
+        _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV)
+        # Pi_i = T P T^T;  mu_i = T m_r
+        _mm(B, TS + i, kP, kX)
+        _mmt(B, kX, TS + i, PIC + i)
+        for a in range(4):
+            s = 0.0
+            for b in range(4):
+                s += B[TS + i, a, b] * V[MR, b]
+            V[MUC + i, a] = s
+        if vel:
+            # F_i = T P Tdd0^T + 2 T Pv Td^T
+            _mmt(B, kX, TDDS + i, FC + i)
+            _mm(B, TS + i, kPv, kX)
+            for a in range(4):
+                for b in range(4):
+                    s = 0.0
+                    for c in range(4):
+                        s += B[kX, a, c] * B[TDS + i, b, c]
+                    B[FC + i, a, b] += 2.0 * s
+        o_c1 = off + 21 + m
+        o_K = off + 21 + 2 * m + m * m
+        for l in range(m):
+            c = d0 + l
+            al = idat[_H + _CI * c + 1]
+            # y_c = T q_c;  e_c = T e_{a_c}
+            for a in range(4):
+                s = 0.0
+                for b in range(4):
+                    s += B[TS + i, a, b] * V[QV + l, b]
+                V[YY + c, a] = s
+                V[EE + c, a] = B[TS + i, a, al]
+            # own part of dV: -c1_l g~.e_l + (K delta)_l
+            s = 0.0
+            for a in range(3):
+                s += fdat[_F_G + a] * V[EE + c, a]
+            kd = 0.0
+            for k in range(m):
+                kd += fdat[o_K + m * l + k] * q[d0 + k]
+            dV[c] = -fdat[o_c1 + l] * s + kd
+            if vel:
+                # own part of h: e_l . (Tdd0 q_l + 2 Td qd_l)
+                s = 0.0
+                for a in range(3):
+                    x = 0.0
+                    for b in range(4):
+                        x += B[TDDS + i, a, b] * V[QV + l, b] + 2.0 * B[TDS + i, a, b] * V[QDV + l, b]
+                    s += V[EE + c, a] * x
+                h[c] = s
+    # Composites: sums over the links from frame j outwards.
+    for i in range(n - 1, -1, -1):
+        for a in range(4):
+            V[MUC + i, a] += V[MUC + i + 1, a]
+            for b in range(4):
+                B[PIC + i, a, b] += B[PIC + i + 1, a, b]
+                B[FC + i, a, b] += B[FC + i + 1, a, b]
+    # X_d = Pi^c_{f_d} S_d^T
+    for d in range(N):
+        _mmt(B, PIC + idat[_H + _CI * d + 2], SS + d, XS + d)
+    for c in range(N):
+        fc = idat[_H + _CI * c + 2]
+        for d in range(c, N):
+            fd = idat[_H + _CI * d + 2]
+            if fc <= fd:
+                a = c
+                b = d
+            else:
+                a = d
+                b = c
+            # tr(S_a X_b); S has a zero last row
+            val = 0.0
+            for r in range(3):
+                for k in range(4):
+                    val += B[SS + a, r, k] * B[XS + b, k, r]
+            ob = idat[_H + _CI * b + 3]
+            oa = idat[_H + _CI * a + 3]
+            if ob >= 0 and min(fc, fd) < max(fc, fd):
+                # e_b . (S_a y_b): a moves the link that b deforms
+                for r in range(3):
+                    x = 0.0
+                    for k in range(4):
+                        x += B[SS + a, r, k] * V[YY + b, k]
+                    val += V[EE + b, r] * x
+            elif ob >= 0 and oa == ob and idat[_H + _CI * a + 1] == idat[_H + _CI * b + 1]:
+                # M_dd of two modes of one link along one axis
+                bl = _H + _CI * N + _LI * ob
+                m = idat[bl]
+                o_M = idat[bl + 3] + 21 + 2 * m
+                val += fdat[o_M + m * idat[_H + _CI * a + 4] + idat[_H + _CI * b + 4]]
+            M[c, d] = val
+            M[d, c] = val
+    for c in range(N):
+        fc = idat[_H + _CI * c + 2]
+        # dV_c += -g~ . (S_c mu^c_{f_c})
+        s = 0.0
+        for r in range(3):
+            x = 0.0
+            for k in range(4):
+                x += B[SS + c, r, k] * V[MUC + fc, k]
+            s += fdat[_F_G + r] * x
+        dV[c] -= s
+        if vel:
+            # h_c += tr(S_c F^c_{f_c})
+            x = 0.0
+            for r in range(3):
+                for k in range(4):
+                    x += B[SS + c, r, k] * B[FC + fc, k, r]
+            h[c] += x
+
+
+def _cholesky_solve(M, b):
+    """Solve M x = b by Cholesky (M is kept). Returns (x, status, dmin, dmax).
+
+    status 0: solved; 1: not positive definite; 2: pivots spread beyond 1e7
+    (dmin, dmax: smallest and largest diagonal entry of the factor).
+    """
+    N = b.shape[0]
+    L = np.zeros((N, N))
+    dmin = math.inf
+    dmax = 0.0
+    x = np.zeros(N)
+    for j in range(N):
+        s = M[j, j]
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if s <= 0.0:  # (a NaN state gives NaN pivots and a NaN x: the integrator rejects it)
+            return x, 1, 0.0, dmax
+        d = math.sqrt(s)
+        L[j, j] = d
+        dmin = min(dmin, d)
+        dmax = max(dmax, d)
+        for i in range(j + 1, N):
+            s = M[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = s / d
+    for i in range(N):
+        s = b[i]
+        for k in range(i):
+            s -= L[i, k] * x[k]
+        x[i] = s / L[i, i]
+    for i in range(N - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, N):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+    return x, (2 if dmin < 1e-7 * dmax else 0), dmin, dmax
+
+
+def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out):
+    """out (12,): kinetic, gravity, strain energy [J]; linear momentum L [kg m/s];
+    angular momentum about the origin H0 [kg m^2/s]; first moment sum T m_r [kg m].
+
+    Frames in B[ts + i], B[tds + i]; B[w + 20 .. w + 23] and V (2 mmax + 2, 4) are scratch.
+    E_k = sum 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 deltadot^T M_dd deltadot,
+    V_g = -g~ . sum T m_r,  V_s = 1/2 delta^T K delta,
+    L = sum (Td m_r + T m_rdot),  H0 = sum vee(X),  X = T P Td^T + T Pv T^T = int mu p pdot^T.
+    """
+    n = idat[0]
+    N = idat[1]
+    mmax = _mmax(idat)
+    kP = w + 20
+    kPv = w + 21
+    kX = w + 22
+    kA = w + 23
+    MR = 0
+    MRD = 1
+    QV = 2
+    QDV = 2 + mmax
+    for a in range(12):
+        out[a] = 0.0
+    for i in range(n):
+        base = _H + _CI * N + _LI * i
+        m = idat[base]
+        d0 = idat[base + 1]
+        off = idat[base + 3]
+        _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV)
+        T = ts + i
+        Td = tds + i
+        # Kinetic energy: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) here, the modal part below.
+        for a in range(4):
+            for b in range(4):
+                x = 0.0
+                z = 0.0
+                for c in range(4):
+                    x += B[Td, a, c] * B[kP, c, b]
+                    z += B[Td, a, c] * B[kPv, c, b]
+                out[0] += 0.5 * x * B[Td, a, b] + z * B[T, a, b]
+        o_K = off + 21 + 2 * m + m * m
+        for a in range(4):
+            V[MRD, a] = 0.0
+        for l in range(m):
+            al = idat[_H + _CI * (d0 + l) + 1]
+            out[0] += 0.5 * qd[d0 + l] * V[QDV + l, al]
+            V[MRD, al] += qd[d0 + l] * fdat[off + 21 + m + l]
+            for k in range(m):
+                out[2] += 0.5 * q[d0 + l] * fdat[o_K + m * l + k] * q[d0 + k]
+        for a in range(3):
+            s = 0.0
+            p = 0.0
+            for b in range(4):
+                s += B[Td, a, b] * V[MR, b] + B[T, a, b] * V[MRD, b]
+                p += B[T, a, b] * V[MR, b]
+            out[3 + a] += s
+            out[9 + a] += p
+            out[1] -= fdat[_F_G + a] * p
+        # X = T P Td^T + (T Pv) T^T
+        _mm(B, T, kP, kA)
+        _mmt(B, kA, Td, kX)
+        _mm(B, T, kPv, kA)
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                for c in range(4):
+                    s += B[kA, a, c] * B[T, b, c]
+                B[kX, a, b] += s
+        out[6] += B[kX, 1, 2] - B[kX, 2, 1]
+        out[7] += B[kX, 2, 0] - B[kX, 0, 2]
+        out[8] += B[kX, 0, 1] - B[kX, 1, 0]
+
+
+# Bits of ``job`` in ``kernel``.
+JOB_M, JOB_H, JOB_SOLVE, JOB_ENERGY, JOB_MOMENTUM, JOB_POINTS, JOB_JACOBIANS, JOB_FRAMES = 1, 2, 4, 8, 16, 32, 64, 128
+
+
+# Sections of ``kernel``'s output, in order (``layout`` gives their offsets).
+SECTIONS = ("status", "ydot", "M", "h", "dV", "energy", "momentum", "points", "jacobians", "frames")
+_S_STATUS, _S_YDOT, _S_M, _S_H, _S_DV, _S_EN, _S_MO, _S_PTS, _S_JAC, _S_FR = range(10)
+
+
+def layout(n, N, K, job):
+    """Start offsets (11,) of the sections of ``kernel``'s output (SECTIONS), then its length."""
+    hv = (job & (JOB_H | JOB_SOLVE)) != 0
+    off = np.zeros(11, dtype=np.int64)
+    off[_S_STATUS + 1] = 3
+    off[_S_YDOT + 1] = 2 * N if job & JOB_SOLVE else 0
+    off[_S_M + 1] = N * N if job & (JOB_M | JOB_SOLVE) else 0
+    off[_S_H + 1] = N if hv else 0
+    off[_S_DV + 1] = N if hv else 0
+    off[_S_EN + 1] = 3 * K if job & JOB_ENERGY else 0
+    off[_S_MO + 1] = 9 * K if job & JOB_MOMENTUM else 0
+    off[_S_PTS + 1] = 3 * (n + 1) * K if job & JOB_POINTS else 0
+    off[_S_JAC + 1] = 3 * (n + 1) * N * K if job & JOB_JACOBIANS else 0
+    off[_S_FR + 1] = 48 * (n + 1) * K if job & JOB_FRAMES else 0
+    for i in range(10):  # sizes -> offsets
+        off[i + 1] += off[i]
+    return off
+
+
+def kernel(fdat, idat, ys, Q, job):
+    """The one compiled entry point: everything the package computes from states.
+
+    ys: K states y = (q, qdot) concatenated, (K 2N,); Q: applied forces (N,)
+    (with JOB_SOLVE, for ys[0]); job: a bit mask of JOB_*. Returns one float64
+    array laid out as ``layout(n, N, K, job)``:
+
+    * status (3,): Cholesky status of M (0 solved; 1 not positive definite;
+      2 pivots spread beyond 1e7) and its smallest and largest pivot;
+    * JOB_SOLVE: ydot (2N,) = (qdot, qddot), M qddot = Q - h - dV/dq (NaN when
+      status != 0, so that an integrator rejects the step); also M, h, dV;
+    * JOB_M: M (N N,) row-major; JOB_H: h (N,), dV/dq (N,)  (state ys[0]);
+    * JOB_ENERGY: (K 3,) kinetic, gravity, strain [J]; JOB_MOMENTUM: (K 9,) as in
+      _link_observables (L, H0, first moment); JOB_POINTS: joint points O_1 .. O_(n+1) (K (n+1) 3,) [m];
+      JOB_JACOBIANS: dO_j/dq (K (n+1) 3 N,), dO_j/dq_c = (S_c O_j)[:3] when
+      f_c <= j, else 0; JOB_FRAMES: T, Tdot, Tddot0 (K 3 (n+1) 16,).
+
+    One entry point, because numba links and optimises every entry point with
+    all the code it calls: one entry compiles in about half the time of two.
+    """
+    n = idat[0]
+    N = idat[1]
+    K = ys.shape[0] // (2 * N)
+    L = layout(n, N, K, job)
+    out = np.zeros(L[10])
+    q = np.zeros(N)
+    qd = np.zeros(N)
+    if job & (JOB_M | JOB_H | JOB_SOLVE):
+        for i in range(N):
+            q[i] = ys[i]
+            qd[i] = ys[N + i]
+        M = np.zeros((N, N))
+        h = np.zeros(N)
+        dV = np.zeros(N)
+        assemble(fdat, idat, q, qd, (job & (JOB_H | JOB_SOLVE)) != 0, M, h, dV)
+        o = L[_S_M]
+        if L[_S_M + 1] > o:
+            for i in range(N):
+                for j in range(N):
+                    out[o + N * i + j] = M[i, j]
+        o = L[_S_H]
+        o2 = L[_S_DV]
+        if L[_S_H + 1] > o:
+            for i in range(N):
+                out[o + i] = h[i]
+                out[o2 + i] = dV[i]
+        if job & JOB_SOLVE:
+            rhs = np.zeros(N)
+            for i in range(N):
+                rhs[i] = Q[i] - h[i] - dV[i]
+            x, status, dmin, dmax = _cholesky_solve(M, rhs)
+            out[0] = status
+            out[1] = dmin
+            out[2] = dmax
+            o = L[_S_YDOT]
+            for i in range(N):
+                out[o + i] = qd[i]
+                out[o + N + i] = x[i] if status == 0 else math.nan
+    obs = job & (JOB_ENERGY | JOB_MOMENTUM | JOB_POINTS | JOB_JACOBIANS | JOB_FRAMES)
+    if obs == 0:
+        return out
+    vel = (job & (JOB_ENERGY | JOB_MOMENTUM | JOB_FRAMES)) != 0
+    TS = 0
+    TDS = n + 1
+    TDDS = 2 * n + 2
+    SS = 3 * n + 3
+    WK = SS + N
+    B = np.zeros((WK + _W_SIZE, 4, 4))
+    V = np.zeros((2 * _mmax(idat) + 2, 4))
+    part = np.zeros(12)
+    for k in range(K):
+        for i in range(N):
+            q[i] = ys[2 * N * k + i]
+            qd[i] = ys[2 * N * k + N + i]
+        chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK)
+        if job & (JOB_ENERGY | JOB_MOMENTUM):
+            _link_observables(fdat, idat, q, qd, B, TS, TDS, WK, V, part)
+            if job & JOB_ENERGY:
+                o = L[_S_EN] + 3 * k
+                for a in range(3):
+                    out[o + a] = part[a]
+            if job & JOB_MOMENTUM:
+                o = L[_S_MO] + 9 * k
+                for a in range(9):
+                    out[o + a] = part[3 + a]
+        for j in range(n + 1):
+            if job & JOB_POINTS:
+                o = L[_S_PTS] + 3 * ((n + 1) * k + j)
+                for a in range(3):
+                    out[o + a] = B[TS + j, a, 3]
+            if job & JOB_FRAMES:
+                o = L[_S_FR] + 48 * ((n + 1) * k + j)
+                for a in range(4):
+                    for b in range(4):
+                        out[o + 4 * a + b] = B[TS + j, a, b]
+                        out[o + 16 + 4 * a + b] = B[TDS + j, a, b]
+                        out[o + 32 + 4 * a + b] = B[TDDS + j, a, b]
+            if job & JOB_JACOBIANS:
+                o = L[_S_JAC] + 3 * N * ((n + 1) * k + j)
+                for c in range(N):
+                    if idat[_H + _CI * c + 2] <= j:
+                        for a in range(3):
+                            s = B[SS + c, a, 3]
+                            for b in range(3):
+                                s += B[SS + c, a, b] * B[TS + j, b, 3]
+                            out[o + N * a + c] = s
+    return out
+
+
+# -- compilation ----------------------------------------------------------------------
+# The entry point called from Python gets an explicit signature (C-contiguous
+# float64 / int64 arrays): compiled once, then frozen (no silent recompiles for
+# other types). Every entry point is linked and optimised with all the code it
+# calls, so fewer entry points compile faster. Helpers are compiled for the types
+# their callers use; called from Python they run uncompiled.
+_HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_skew3",
+            "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "chain_frames",
+            "_link_body", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
+_A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
+_ENTRIES = {"kernel": f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, int64)"}
+_state = {"ready": False, "cached": None, "seconds": 0.0}
+_lock = threading.Lock()
+NOTICE_AFTER_S = 1.0
+
+
+def _compile_all():
+    """Replace this module's kernel functions by numba dispatchers (compiled or loaded)."""
+    g = globals()
+    try:
+        import numba
+        import numba.extending
+    except ImportError:  # pragma: no cover - numba is a dependency
+        import warnings
+
+        warnings.warn("numba is not installed: gibbsimpact's kernel runs as plain Python (about 1000x "
+                      "slower); install it with 'pip install numba'", RuntimeWarning, stacklevel=3)
+        _state["cached"] = False
+        return
+    cached = True
+
+    def jit(f, sig=None):
+        nonlocal cached
+        kw = dict(cache=cached, nogil=True)
+        try:
+            return numba.njit(sig, **kw)(f) if sig else numba.njit(**kw)(f)
+        except RuntimeError as exc:  # read-only install and no user cache directory
+            if "cannot cache" not in str(exc):
+                raise
+            cached = False
+            return numba.njit(sig, nogil=True)(f) if sig else numba.njit(nogil=True)(f)
+
+    for name in _HELPERS:
+        # Compiled inside the entry points that call them (no wrapper, no separate finalisation).
+        numba.extending.register_jitable(g[name])
+    for name, sig in _ENTRIES.items():
+        g[name] = jit(g[name], sig)
+        if hasattr(g[name], "disable_compile"):
+            g[name].disable_compile()
+    _state["cached"] = cached
+
+
+def ensure_compiled():
+    """Compile the kernel on first use (or load it from numba's cache); cheap afterwards.
+
+    A one-line notice goes to stderr when this takes longer than NOTICE_AFTER_S
+    (a first compile, about 10-20 s of CPU; later runs load the cache).
+    """
+    if _state["ready"]:
+        return
+    with _lock:
+        if _state["ready"]:
+            return
+        t0 = time.perf_counter()
+        shown = []
+
+        def notice():
+            shown.append(True)
+            print("gibbsimpact: compiling the dynamics kernel (first use only; cached afterwards) ...",
+                  file=sys.stderr, flush=True)
+
+        timer = threading.Timer(NOTICE_AFTER_S, notice)
+        timer.daemon = True
+        timer.start()
+        try:
+            _compile_all()
+        finally:
+            timer.cancel()
+        _state["seconds"] = time.perf_counter() - t0
+        _state["ready"] = True
+        if shown:
+            where = "" if _state["cached"] else " (not cached: no writable cache directory; set NUMBA_CACHE_DIR)"
+            print(f"gibbsimpact: kernel ready in {_state['seconds']:.1f} s{where}", file=sys.stderr, flush=True)
+
+
+def jit_disabled() -> bool:
+    """True when numba runs the kernel as plain Python (NUMBA_DISABLE_JIT=1)."""
+    return os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
