@@ -117,10 +117,20 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
         1e7 (condition beyond 1e14); the message names the likely cause.
     """
     N = model.n_dof
+    if np.shape(q) != (N,) or np.shape(qdot) != (N,):
+        raise ValueError(f"forward_dynamics q, qdot have shapes {np.shape(q)}, {np.shape(qdot)}; this model needs "
+                         f"({N},) each")
     ys = np.concatenate((q, qdot))
     if ys.dtype != np.float64:
         ys = ys.astype(float)
-    out = run_kernel(model, ys, _k.JOB_SOLVE, None if Q is None else np.ascontiguousarray(Q, dtype=float))
+    if Q is not None:
+        Q = np.ascontiguousarray(Q, dtype=float)
+        if Q.shape != (N,):
+            raise ValueError(f"forward_dynamics Q has shape {Q.shape}; this model needs ({N},) generalised forces "
+                             f"ordered as {', '.join(model.coordinate_names)}")
+        if not Q.flags.writeable:
+            Q = Q.copy()  # numba types a read-only array differently (no recompiles: a copy)
+    out = run_kernel(model, ys, _k.JOB_SOLVE, Q)
     if out[0] != 0.0:
         _raise_singular(model, q, out[0], out[1], out[2])
     return out[3 + N:3 + 2 * N]  # a view of a private array

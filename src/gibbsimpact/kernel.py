@@ -79,7 +79,7 @@ _H = 8
 _CI = 6  # kind, axis, first frame, own link (-1), local index, 0
 _LI = 6  # m, first delta index in q, theta index in q, offset in fdat, end kind, 0
 KIND_TRANSLATION, KIND_ROTATION, KIND_MODE = 0, 1, 2
-END_RIGID, END_TRANSLATION, END_GENERAL = 0, 1, 2
+END_RIGID, END_GENERAL = 0, 2  # a link end fixed to its frame, or moved by its modes
 # fdat: base T0 (16), g~ (4), then per link: P0+Sigma (16), m_r0 (4), length,
 #       cx (m), c1 (m), Mpsi (m*m), K (m*m), end_t (3m), end_phi (3m)
 _F_BASE, _F_G, _F_LINKS = 0, 16, 20
@@ -110,7 +110,8 @@ def pack(model):
         m = idx.size
         for l, c in enumerate(idx):
             ci[c] = (KIND_MODE, axis_of[ld.directions[l]], i + 1, i, l, 0)
-        end = END_RIGID if ld.end_is_rigid else (END_TRANSLATION if not np.any(ld.end_phi) else END_GENERAL)
+        # A moving end always takes the Rodrigues path (exact at phi = 0: R = I, dR[u] = a skew(u)).
+        end = END_RIGID if ld.end_is_rigid else END_GENERAL
         li[i] = (m, idx[0] if m else 0, th, off, end, 0)
         P0 = np.array(ld.P0, dtype=float)
         J = ld.J_body
@@ -414,12 +415,8 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss):
             B[kv, 1, a] += fdat[o_t + 3 * k + a] * vk
             B[kv, 2, a] += fdat[o_phi + 3 * k + a] * dk
             B[kv, 3, a] += fdat[o_phi + 3 * k + a] * vk
-    for a in range(3):
-        B[kR, a, a] = 1.0
     B[kG, 3, 3] = 1.0
-    general = kind == END_GENERAL
-    if general:
-        rodrigues_directional(B, kv, 2, 3, 3, kR, kdR, kd2R, ks)
+    rodrigues_directional(B, kv, 2, 3, 3, kR, kdR, kd2R, ks)
     for a in range(3):
         B[kG, a, 3] = B[kv, 0, a]
         B[kGd, a, 3] = B[kv, 1, a]
@@ -437,12 +434,11 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss):
         if zero:
             _zero4(B, ss + d0 + k)  # an interior FE node: E does not depend on it
             continue
-        if general:
-            # B[kv] row 2 is phi; u is row 0 of B[ku]: copy u into row 3 of a scratch vector slot
-            for a in range(3):
-                B[ks + 3, 0, a] = B[kv, 2, a]
-                B[ks + 3, 1, a] = B[ku, 0, a]
-            rodrigues_directional(B, ks + 3, 0, 1, 1, kR, kdRk, kd2R, ks)
+        # phi and u side by side in the scratch slot ks + 3 (rows 0, 1)
+        for a in range(3):
+            B[ks + 3, 0, a] = B[kv, 2, a]
+            B[ks + 3, 1, a] = B[ku, 0, a]
+        rodrigues_directional(B, ks + 3, 0, 1, 1, kR, kdRk, kd2R, ks)
         # L = [[dR_k R^T, t_k - dR_k R^T t], [0, 0]]
         for a in range(3):
             for b in range(3):
@@ -1010,6 +1006,15 @@ def _compile_all():
     _state["cached"] = cached
 
 
+def compiled():
+    """The compiled entry point ``kernel`` (compiling or loading it on first use)."""
+    f = _state.get("kernel")
+    if f is None:
+        ensure_compiled()
+        f = _state["kernel"] = globals()["kernel"]
+    return f
+
+
 def ensure_compiled():
     """Compile the kernel on first use (or load it from numba's cache); cheap afterwards.
 
@@ -1026,7 +1031,7 @@ def ensure_compiled():
 
         def notice():
             shown.append(True)
-            print("gibbsimpact: compiling the dynamics kernel (first use only; cached afterwards) ...",
+            print("gibbsimpact: compiling the dynamics kernel (first use; about 15-20 s of CPU) ...",
                   file=sys.stderr, flush=True)
 
         timer = threading.Timer(NOTICE_AFTER_S, notice)
@@ -1039,7 +1044,8 @@ def ensure_compiled():
         _state["seconds"] = time.perf_counter() - t0
         _state["ready"] = True
         if shown:
-            where = "" if _state["cached"] else " (not cached: no writable cache directory; set NUMBA_CACHE_DIR)"
+            where = (" and cached for later runs" if _state["cached"] else
+                     " (not cached: no writable cache directory; set NUMBA_CACHE_DIR to one)")
             print(f"gibbsimpact: kernel ready in {_state['seconds']:.1f} s{where}", file=sys.stderr, flush=True)
 
 

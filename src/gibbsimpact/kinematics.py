@@ -44,9 +44,12 @@ class Frames(NamedTuple):
 
 def run_kernel(model, ys: np.ndarray, job: int, Q: np.ndarray | None = None) -> np.ndarray:
     """Call the compiled kernel on the states ys (K 2N,) for the JOB_* bits ``job``."""
-    _k.ensure_compiled()
     fdat, idat, zeros = model.kernel_data
-    return _k.kernel(fdat, idat, ys, zeros if Q is None else Q, job)
+    # The compiled kernel does not check bounds: a state of the wrong size is refused here.
+    if ys.ndim != 1 or ys.size == 0 or ys.size % (2 * zeros.size):
+        raise ValueError(f"states of shape {ys.shape}: this model needs (q, qdot) of {zeros.size} entries each "
+                         f"({', '.join(model.coordinate_names)})")
+    return _k.compiled()(fdat, idat, ys, zeros if Q is None else Q, job)
 
 
 def section(model, out: np.ndarray, K: int, job: int, name: str) -> np.ndarray:
@@ -59,9 +62,10 @@ def section(model, out: np.ndarray, K: int, job: int, name: str) -> np.ndarray:
 def states(q: np.ndarray, qdot: np.ndarray | None = None) -> np.ndarray:
     """Kernel input (K 2N,) from q (N,) or (K, N) and qdot of the same shape (zeros if None)."""
     q = np.asarray(q, dtype=float)
-    qs = q.reshape(-1, q.shape[-1])
-    qds = np.zeros_like(qs) if qdot is None else np.asarray(qdot, dtype=float).reshape(qs.shape)
-    return np.ascontiguousarray(np.hstack((qs, qds))).ravel()
+    if q.ndim == 1:
+        return np.concatenate((q, np.zeros(q.size) if qdot is None else np.asarray(qdot, dtype=float)))
+    qds = np.zeros_like(q) if qdot is None else np.asarray(qdot, dtype=float).reshape(q.shape)
+    return np.concatenate((q, qds), axis=1).ravel()
 
 
 def skew(v) -> np.ndarray:
@@ -155,6 +159,21 @@ def joint_positions_and_jacobians(model, q: np.ndarray) -> tuple[np.ndarray, np.
     n1, N = model.n_links + 1, model.n_dof
     out = run_kernel(model, states(q), job)
     return out[3:3 + 3 * n1].reshape(n1, 3), out[3 + 3 * n1:].reshape(n1, 3, N)
+
+
+def joint_velocities_batch(model, qs: np.ndarray, qdots: np.ndarray, chunk: int = 512) -> np.ndarray:
+    """Joint velocities dO_j/dt = J_j(q) qdot of the states qs, qdots (K, N): (K, n+1, 3) [m/s].
+
+    One kernel call per ``chunk`` states (the Jacobians of a chunk are (chunk, n+1, 3, N)).
+    """
+    qs, qdots = np.asarray(qs, dtype=float), np.asarray(qdots, dtype=float)
+    n1, N = model.n_links + 1, model.n_dof
+    out = np.empty((qs.shape[0], n1, 3))
+    for a in range(0, qs.shape[0], chunk):
+        b = min(a + chunk, qs.shape[0])
+        J = run_kernel(model, states(qs[a:b]), _k.JOB_JACOBIANS)[3:].reshape(b - a, n1, 3, N)
+        out[a:b] = np.einsum("kjcn,kn->kjc", J, qdots[a:b])
+    return out
 
 
 def joint_jacobians(model, q: np.ndarray) -> np.ndarray:

@@ -511,7 +511,10 @@ class Model:
     @property
     def kernel_data(self):
         """(fdat (F,), idat (I,), zeros (N,)): the model packed for the compiled kernel (built once)."""
-        data = getattr(self, "_kernel_data", None)
+        try:
+            return self._kernel_data
+        except AttributeError:
+            data = None
         if data is None:
             from .kernel import pack
 

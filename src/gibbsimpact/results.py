@@ -114,11 +114,9 @@ class Result:
 
     def joint_velocities(self) -> np.ndarray:
         """Absolute joint velocities at every sample, shape (K, n+1, 3) [m/s]."""
-        from .kinematics import joint_jacobians
+        from .kinematics import joint_velocities_batch
 
-        return np.array([joint_jacobians(self.model, q) @ qd for q, qd in zip(self.q, self.qdot)]).reshape(
-            len(self.t), -1, 3
-        )
+        return joint_velocities_batch(self.model, self.q, self.qdot)
 
     @property
     def impact_times(self) -> np.ndarray:
