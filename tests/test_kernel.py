@@ -255,14 +255,14 @@ def test_one_signature_and_no_recompiles(compiled):
     kernel = _k.kernel
     assert hasattr(kernel, "signatures") and len(kernel.signatures) == 1, kernel.signatures
     fdat, idat, zeros = model.kernel_data
-    ys = kin.states(q, qd)
-    assert np.all(np.isfinite(kernel(fdat, idat, ys, zeros, _k.JOB_SOLVE)))
+    qs, qds = kin.states(q, qd)
+    assert np.all(np.isfinite(kernel(fdat, idat, qs, qds, zeros, _k.JOB_SOLVE)))
     bad_calls = {
-        "float32 states": (fdat, idat, ys.astype(np.float32), zeros, _k.JOB_SOLVE),
-        "non-contiguous states": (fdat, idat, np.repeat(ys, 2)[::2], zeros, _k.JOB_SOLVE),
-        "non-contiguous fdat": (np.repeat(fdat, 2)[::2], idat, ys, zeros, _k.JOB_M),
-        "int32 idat": (fdat, idat.astype(np.int32), ys, zeros, _k.JOB_M),
-        "2-d states": (fdat, idat, ys.reshape(2, -1), zeros, _k.JOB_M),
+        "float32 states": (fdat, idat, qs.astype(np.float32), qds, zeros, _k.JOB_SOLVE),
+        "non-contiguous states": (fdat, idat, np.repeat(qs, 2)[::2], qds, zeros, _k.JOB_SOLVE),
+        "non-contiguous fdat": (np.repeat(fdat, 2)[::2], idat, qs, qds, zeros, _k.JOB_M),
+        "int32 idat": (fdat, idat.astype(np.int32), qs, qds, zeros, _k.JOB_M),
+        "2-d states": (fdat, idat, qs.reshape(1, -1), qds, zeros, _k.JOB_M),
     }
     for what, args in bad_calls.items():
         try:
@@ -288,7 +288,7 @@ def test_read_only_applied_forces_and_wrong_sizes():
         dy.forward_dynamics(model, q, qd, np.ones(1))
     with pytest.raises(ValueError, match="shapes"):
         dy.forward_dynamics(model, q[:-1], qd[:-1])
-    with pytest.raises(ValueError, match="states of shape"):
+    with pytest.raises(ValueError, match="states of shapes"):
         dy.mass_matrix(model, q[:-2])
 
 

@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import kernel as _k
-from .kinematics import joint_positions, run_kernel, states
+from .kinematics import as_vector, joint_positions, run_kernel, states
 
 
 class SingularMassMatrixError(np.linalg.LinAlgError, ValueError):
@@ -116,13 +116,13 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
         When M is not positive definite or its Cholesky pivots spread beyond
         1e7 (condition beyond 1e14); the message names the likely cause.
     """
-    N = model.n_dof
-    if np.shape(q) != (N,) or np.shape(qdot) != (N,):
-        raise ValueError(f"forward_dynamics q, qdot have shapes {np.shape(q)}, {np.shape(qdot)}; this model needs "
+    # The hot path of every simulation (one call per RHS): no helper calls beyond the kernel.
+    fdat, idat, zeros = model.kernel_data
+    N = zeros.size
+    q, qdot = as_vector(q), as_vector(qdot)
+    if q.size != N or qdot.size != N:
+        raise ValueError(f"forward_dynamics q, qdot have shapes {q.shape}, {qdot.shape}; this model needs "
                          f"({N},) each")
-    ys = np.concatenate((q, qdot))
-    if ys.dtype != np.float64:
-        ys = ys.astype(float)
     if Q is not None:
         Q = np.ascontiguousarray(Q, dtype=float)
         if Q.shape != (N,):
@@ -130,7 +130,7 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
                              f"ordered as {', '.join(model.coordinate_names)}")
         if not Q.flags.writeable:
             Q = Q.copy()  # numba types a read-only array differently (no recompiles: a copy)
-    out = run_kernel(model, ys, _k.JOB_SOLVE, Q)
+    out = _k.compiled()(fdat, idat, q, qdot, zeros if Q is None else Q, _k.JOB_SOLVE)
     if out[0] != 0.0:
         _raise_singular(model, q, out[0], out[1], out[2])
     return out[3 + N:3 + 2 * N]  # a view of a private array

@@ -845,18 +845,18 @@ def layout(n, N, K, job):
     return off
 
 
-def kernel(fdat, idat, ys, Q, job):
+def kernel(fdat, idat, qs, qds, Q, job):
     """The one compiled entry point: everything the package computes from states.
 
-    ys: K states y = (q, qdot) concatenated, (K 2N,); Q: applied forces (N,)
-    (with JOB_SOLVE, for ys[0]); job: a bit mask of JOB_*. Returns one float64
+    qs, qds: K states q and qdot one after the other, (K N,) each; Q: applied
+    forces (N,) (with JOB_SOLVE, for the first state); job: a bit mask of JOB_*. Returns one float64
     array laid out as ``layout(n, N, K, job)``:
 
     * status (3,): Cholesky status of M (0 solved; 1 not positive definite;
       2 pivots spread beyond 1e7) and its smallest and largest pivot;
     * JOB_SOLVE: ydot (2N,) = (qdot, qddot), M qddot = Q - h - dV/dq (NaN when
       status != 0, so that an integrator rejects the step); also M, h, dV;
-    * JOB_M: M (N N,) row-major; JOB_H: h (N,), dV/dq (N,)  (state ys[0]);
+    * JOB_M: M (N N,) row-major; JOB_H: h (N,), dV/dq (N,)  (the first state);
     * JOB_ENERGY: (K 3,) kinetic, gravity, strain [J]; JOB_MOMENTUM: (K 9,) as in
       _link_observables (L, H0, first moment); JOB_POINTS: joint points O_1 .. O_(n+1) (K (n+1) 3,) [m];
       JOB_JACOBIANS: dO_j/dq (K (n+1) 3 N,), dO_j/dq_c = (S_c O_j)[:3] when
@@ -867,15 +867,15 @@ def kernel(fdat, idat, ys, Q, job):
     """
     n = idat[0]
     N = idat[1]
-    K = ys.shape[0] // (2 * N)
+    K = qs.shape[0] // N
     L = layout(n, N, K, job)
     out = np.zeros(L[10])
     q = np.zeros(N)
     qd = np.zeros(N)
     if job & (JOB_M | JOB_H | JOB_SOLVE):
         for i in range(N):
-            q[i] = ys[i]
-            qd[i] = ys[N + i]
+            q[i] = qs[i]
+            qd[i] = qds[i]
         M = np.zeros((N, N))
         h = np.zeros(N)
         dV = np.zeros(N)
@@ -917,8 +917,8 @@ def kernel(fdat, idat, ys, Q, job):
     part = np.zeros(12)
     for k in range(K):
         for i in range(N):
-            q[i] = ys[2 * N * k + i]
-            qd[i] = ys[2 * N * k + N + i]
+            q[i] = qs[N * k + i]
+            qd[i] = qds[N * k + i]
         chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK)
         if job & (JOB_ENERGY | JOB_MOMENTUM):
             _link_observables(fdat, idat, q, qd, B, TS, TDS, WK, V, part)
@@ -964,8 +964,8 @@ _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_skew3"
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "chain_frames",
             "_link_body", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
-_ENTRIES = {"kernel": f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, int64)"}
-_state = {"ready": False, "cached": None, "seconds": 0.0}
+_ENTRIES = {"kernel": f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64)"}
+_state = {"ready": False, "cached": None, "seconds": 0.0, "kernel": None}
 _lock = threading.Lock()
 NOTICE_AFTER_S = 1.0
 
@@ -1008,7 +1008,7 @@ def _compile_all():
 
 def compiled():
     """The compiled entry point ``kernel`` (compiling or loading it on first use)."""
-    f = _state.get("kernel")
+    f = _state["kernel"]
     if f is None:
         ensure_compiled()
         f = _state["kernel"] = globals()["kernel"]

@@ -42,14 +42,16 @@ class Frames(NamedTuple):
     Tdd0: np.ndarray | None
 
 
-def run_kernel(model, ys: np.ndarray, job: int, Q: np.ndarray | None = None) -> np.ndarray:
-    """Call the compiled kernel on the states ys (K 2N,) for the JOB_* bits ``job``."""
+def run_kernel(model, st, job: int, Q: np.ndarray | None = None) -> np.ndarray:
+    """Call the compiled kernel on the states st = (qs, qds) (K N,) each for the JOB_* bits ``job``."""
     fdat, idat, zeros = model.kernel_data
-    # The compiled kernel does not check bounds: a state of the wrong size is refused here.
-    if ys.ndim != 1 or ys.size == 0 or ys.size % (2 * zeros.size):
-        raise ValueError(f"states of shape {ys.shape}: this model needs (q, qdot) of {zeros.size} entries each "
-                         f"({', '.join(model.coordinate_names)})")
-    return _k.compiled()(fdat, idat, ys, zeros if Q is None else Q, job)
+    qs, qds = st
+    # The compiled kernel does not check bounds: states of the wrong size are refused here.
+    N = zeros.size
+    if qs.size != qds.size or qs.size == 0 or qs.size % N:
+        raise ValueError(f"states of shapes {qs.shape}, {qds.shape}: this model needs q and qdot of {N} entries "
+                         f"each ({', '.join(model.coordinate_names)})")
+    return _k.compiled()(fdat, idat, qs, qds, zeros if Q is None else Q, job)
 
 
 def section(model, out: np.ndarray, K: int, job: int, name: str) -> np.ndarray:
@@ -59,13 +61,25 @@ def section(model, out: np.ndarray, K: int, job: int, name: str) -> np.ndarray:
     return out[off[i]:off[i + 1]]
 
 
-def states(q: np.ndarray, qdot: np.ndarray | None = None) -> np.ndarray:
-    """Kernel input (K 2N,) from q (N,) or (K, N) and qdot of the same shape (zeros if None)."""
-    q = np.asarray(q, dtype=float)
-    if q.ndim == 1:
-        return np.concatenate((q, np.zeros(q.size) if qdot is None else np.asarray(qdot, dtype=float)))
-    qds = np.zeros_like(q) if qdot is None else np.asarray(qdot, dtype=float).reshape(q.shape)
-    return np.concatenate((q, qds), axis=1).ravel()
+_F64 = np.dtype(np.float64)
+
+
+def as_vector(a) -> np.ndarray:
+    """``a`` as the kernel takes it: a writable, C-contiguous float64 array, flattened.
+
+    Already such an array (the common case) costs four attribute reads, no copy.
+    """
+    if a.__class__ is np.ndarray and a.dtype is _F64:
+        f = a.flags
+        if f.c_contiguous and f.writeable:
+            return a.reshape(-1) if a.ndim != 1 else a
+    return np.array(a, dtype=float, order="C").reshape(-1)
+
+
+def states(q, qdot=None) -> tuple[np.ndarray, np.ndarray]:
+    """Kernel input (qs, qds), (K N,) each, from q (N,) or (K, N) and qdot of the same shape (zeros if None)."""
+    qs = as_vector(q)
+    return qs, (np.zeros(qs.size) if qdot is None else as_vector(qdot))
 
 
 def skew(v) -> np.ndarray:
