@@ -10,6 +10,7 @@ from .model import Chain, FixedBase, Link, Model, Revolute
 from .modes import Mode, natural_frequency
 from .results import ImpactRecord, Result
 from .simulate import simulate
+from .sweep import sweep
 from .symbolic import derive_equations
 from .case import Case, CaseError, load_case
 from .io import load_result
@@ -19,5 +20,5 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Case", "CaseError", "Chain", "Circle", "Energy", "FixedBase", "ImpactRecord", "Link", "Mode", "Model", "Plane",
-    "Result", "Revolute", "SingularMassMatrixError", "Sphere", "derive_equations", "load_case", "load_result", "natural_frequency", "simulate", "__version__",
+    "Result", "Revolute", "SingularMassMatrixError", "Sphere", "derive_equations", "load_case", "load_result", "natural_frequency", "simulate", "sweep", "__version__",
 ]

@@ -966,6 +966,7 @@ _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_skew3"
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
 _ENTRIES = {"kernel": f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64)"}
 _state = {"ready": False, "cached": None, "seconds": 0.0, "kernel": None}
+_PY_KERNEL = kernel  # the plain-Python entry point (the global is replaced by the compiled one)
 _lock = threading.Lock()
 NOTICE_AFTER_S = 1.0
 
@@ -1015,11 +1016,25 @@ def compiled():
     return f
 
 
+def _cache_is_warm():
+    """True if numba's on-disk cache holds a valid entry for ``kernel`` (False: a compile
+    is coming; None: cannot tell)."""
+    try:
+        import numba
+
+        probe = numba.njit(cache=True)(_PY_KERNEL)
+        # The index is keyed by the source file's stamp: a stale one loads as empty.
+        return bool(probe._cache._cache_file._load_index())
+    except Exception:  # no cache location, numba internals changed, JIT disabled ...
+        return None
+
+
 def ensure_compiled():
     """Compile the kernel on first use (or load it from numba's cache); cheap afterwards.
 
-    A one-line notice goes to stderr when this takes longer than NOTICE_AFTER_S
-    (a first compile, about 10-20 s of CPU; later runs load the cache).
+    A one-line notice goes to stderr before a compile (about 15-20 s of CPU);
+    loading from the cache (~0.5 s) is silent. If the cache state cannot be
+    read, the notice appears once compiling has taken NOTICE_AFTER_S.
     """
     if _state["ready"]:
         return
@@ -1034,13 +1049,19 @@ def ensure_compiled():
             print("gibbsimpact: compiling the dynamics kernel (first use; about 15-20 s of CPU) ...",
                   file=sys.stderr, flush=True)
 
-        timer = threading.Timer(NOTICE_AFTER_S, notice)
-        timer.daemon = True
-        timer.start()
+        warm = None if jit_disabled() else _cache_is_warm()
+        timer = None
+        if warm is False:
+            notice()
+        elif warm is None and not jit_disabled():
+            timer = threading.Timer(NOTICE_AFTER_S, notice)
+            timer.daemon = True
+            timer.start()
         try:
             _compile_all()
         finally:
-            timer.cancel()
+            if timer is not None:
+                timer.cancel()
         _state["seconds"] = time.perf_counter() - t0
         _state["ready"] = True
         if shown:

@@ -1,0 +1,911 @@
+"""Parameter sweeps: one case, many overrides of its keys, one tidy table.
+
+```python
+from gibbsimpact.sweep import sweep
+sw = sweep("cases/circle_two_link.toml",
+           {"restitution": [0.5, 0.75, 1.0], "links[1].EI_N_m2": [10, 20, 40]},
+           workers=2, out="out/my_sweep")
+sw.table        # out/my_sweep/sweep.csv: one row per run
+sw.rows[0]      # {"run": 1, "run_id": ..., "restitution": 0.5, ..., "status": "finished", ...}
+```
+
+and from the shell ``gibbsimpact sweep CASE.toml --vary restitution=0.5:1:6
+--vary links.1.EI_N_m2=10,20,40 [--workers K] [--scheduler ADDRESS]``.
+
+Decisions
+---------
+* **Key paths are those of the case file** (docs/case-format.md) and of its
+  messages: ``restitution``, ``time.t_end_s``, ``solver.rtol``,
+  ``initial.coordinates.theta_1_deg``, ``links[1].EI_N_m2``,
+  ``walls[1].radius_m``. Entries of arrays of tables are numbered from 1 and
+  may also be written ``links.1.EI_N_m2`` (the shell form). There are no
+  aliases: ``restitution`` *is* the path of the global coefficient (the
+  top-level key); a wall's own one is ``walls[1].restitution``. Columns of the
+  table and messages use the bracket form. A missing table on the way is
+  created (``solver.rtol`` in a case without ``[solver]``); a missing entry of
+  an array of tables (``links[3]`` of a two-link chain) is an error.
+* **An override edits the parsed TOML table** (``Case.source``) and the result
+  goes through the normal loader (``case_from_dict``), so a bad value gives the
+  message a case file with that value would give.
+* **Grid order**: a dict ``{key: values}`` is the full Cartesian product in the
+  order the keys are given, the last key varying fastest (nested loops,
+  ``itertools.product``). A value that is not a list, tuple or array is a single
+  value; a vector key therefore takes a list of vectors
+  (``{"gravity_m_per_s2": [[0, -9.81, 0], [0, -1.62, 0]]}``). A list of dicts
+  is an explicit list of runs (keys may differ between runs; a key a run does
+  not set keeps the case's value and its cell is empty).
+* **Checked before any run**: the key paths, and every distinct (key, value)
+  pair applied alone to the case: a problem the loader reports *at that key or
+  below it* (unknown key, wrong type, out of range, too stiff a link ...) makes
+  the sweep raise one :class:`~gibbsimpact.case.CaseError` (source
+  ``"overrides"``) listing every such problem, before anything runs or is
+  written. Problems of a combination, or elsewhere in the case (a joint
+  outside a wall, a singular mass matrix), belong to the run: its row has
+  status ``"invalid"`` and the loader's message. A run whose simulation raises
+  has status ``"error"`` and ``"<ExceptionType>: <message>"``; a run that stops
+  early keeps the simulator's status (``zeno``, ``max_impacts``,
+  ``penetration``, ``failed``) and message. No failure loses the sweep.
+* **Run id**: the first 16 hex digits of SHA-256 of the canonical JSON of the
+  case actually run (the case table with the overrides applied, without
+  ``name``, ``description`` and ``[output]``, which do not change the result;
+  integers that fit a double hashed as floats, so ``20`` and ``20.0`` are one
+  run). The same run in two sweeps (or spelt ``links.1`` and ``links[1]``) has
+  one id; editing the case file changes the ids of the runs it affects.
+  Duplicate runs in one sweep are an error. The id does not cover the version
+  of gibbsimpact: after an upgrade, remove ``runs/`` to recompute.
+* **Files** (``out`` defaults to ``<case output directory>/sweep``, i.e.
+  ``out/<case name>/sweep``): ``runs/<run id>.npz`` is the run's whole Result
+  (``gi.load_result``; its metadata hold the run id, the overrides and the case
+  table run), ``sweep.csv`` the table, ``sweep.parquet`` the same table when
+  pyarrow is importable (a stale one is removed when it is not). Every file is
+  written to a temporary file in its folder and moved into place with
+  ``os.replace``, so a file present is complete.
+* **Table**: one row per run in grid (or list) order: ``run`` (1-based),
+  ``run_id``, one column per varied key, ``status``, ``message``,
+  ``n_impacts``, ``first_impact_s``, ``t_final_s`` (last sample, where a run
+  that stopped early stopped), ``energy_error``, ``nfev``, ``wall_time_s``,
+  ``result`` (``runs/<id>.npz``, relative to the folder of the table; empty
+  without a result). Numbers are written as the shortest text that reads back
+  to the same double; an empty cell is "no value". Every row with a result is
+  read back from its file, so a fresh row and a resumed row are the same text.
+* **Resume**: a run whose result file exists, reads back (``gi.load_result``)
+  and carries its run id is not run again. ``invalid`` and ``error`` rows have
+  no result file and are retried. An interrupted sweep (Ctrl-C, an exception)
+  still writes the table, with status ``"pending"`` for the runs not done.
+* **Routes**: ``workers=1`` runs serially in this process; ``workers=K > 1`` on
+  a ``concurrent.futures.ProcessPoolExecutor`` with the *spawn* start method
+  (the same on every OS, and no fork of a process that may hold threads; a
+  script that sweeps with workers needs ``if __name__ == "__main__":``; a
+  single run left to do runs here);
+  ``scheduler=`` (an address ``"tcp://host:8786"``, a ``distributed.Client``
+  or anything ``distributed.Client`` accepts, e.g. a ``LocalCluster``) on
+  dask.distributed, imported only then (``pip install "gibbsimpact[dask]"``)
+  and reached before anything is written; ``workers`` is then the cluster's
+  business. Every route calls the same
+  module-level :func:`_run_task` with plain data (the case table of the run,
+  its name and source) and gets plain data back (status and message, or the
+  bytes of the NPZ file), so no model object crosses a process and remote
+  workers need no shared file system (the client writes every file). Worker
+  processes load the compiled kernel from numba's on-disk cache (the pool
+  route compiles or loads it in this process first, so that the workers do
+  not all compile it at once). The runs are deterministic, so the three routes
+  give the same table bit for bit except ``wall_time_s``.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import itertools
+import json
+import math
+import os
+import re
+import sys
+import tempfile
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from numbers import Integral, Real
+from pathlib import Path
+
+from .case import Case, CaseError, case_from_dict, load_case
+
+__all__ = ["SweepResult", "sweep", "expand_runs", "run_id", "parse_vary", "add_parser", "main",
+           "TABLE_NAME", "PARQUET_NAME", "RUNS_DIR", "RESULT_COLUMNS"]
+
+TABLE_NAME = "sweep.csv"
+PARQUET_NAME = "sweep.parquet"
+RUNS_DIR = "runs"
+#: Statuses of a row besides those of a Result (finished, zeno, max_impacts, penetration, failed).
+STATUS_INVALID = "invalid"  # the loader rejected the run's case (e.g. a joint outside a wall)
+STATUS_ERROR = "error"  # the simulation raised, or the worker running it died
+STATUS_PENDING = "pending"  # not run: the sweep was interrupted
+#: Columns after ``run``, ``run_id`` and the varied keys.
+RESULT_COLUMNS = ("status", "message", "n_impacts", "first_impact_s", "t_final_s", "energy_error", "nfev",
+                  "wall_time_s", "result")
+#: Top-level case keys that do not change a run's result: left out of the run id.
+_NOT_IN_RUN_ID = ("name", "description", "output")
+_DASK_HINT = 'running a sweep on a dask cluster needs dask.distributed: pip install "gibbsimpact[dask]"'
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """What :func:`sweep` returns.
+
+    Attributes
+    ----------
+    out : Path, the sweep folder
+    table : Path, ``out/sweep.csv``
+    parquet : Path or None, ``out/sweep.parquet`` (None without pyarrow)
+    columns : tuple of str, the table's columns
+    rows : tuple of dict, one per run in sweep order, {column: value}; None for an empty cell
+    n_run : int, runs simulated by this call
+    n_skipped : int, runs whose result file was already there
+    """
+
+    out: Path
+    table: Path
+    parquet: Path | None
+    columns: tuple
+    rows: tuple
+    n_run: int
+    n_skipped: int
+
+    @property
+    def all_finished(self) -> bool:
+        """True when every run reached its end time (status "finished")."""
+        return all(r["status"] == "finished" for r in self.rows)
+
+    def status_counts(self) -> dict:
+        """{status: number of rows}, in order of first appearance."""
+        counts = {}
+        for r in self.rows:
+            counts[r["status"]] = counts.get(r["status"], 0) + 1
+        return counts
+
+
+# --------------------------------------------------------------------------
+# Key paths and values
+
+class _PathProblem(Exception):
+    def __init__(self, path: str, message: str):
+        super().__init__(f"{path}: {message}")
+        self.path, self.message = path, message
+
+
+def _join(path: str, token) -> str:
+    """The case-file spelling: ``links`` + 0 -> ``links[1]``, ``links[1]`` + ``EI_N_m2`` -> ``links[1].EI_N_m2``."""
+    if isinstance(token, int):
+        return f"{path}[{token + 1}]"
+    return f"{path}.{token}" if path else token
+
+
+def _split_key(key: str) -> list:
+    """``links[1].EI_N_m2`` or ``links.1.EI_N_m2`` -> ['links', 1 or '1', 'EI_N_m2'].
+
+    A bracketed number becomes an int (1-based entry); a dotted number stays a
+    string and is an entry only where the case has an array there.
+    """
+    if not isinstance(key, str) or not key.strip():
+        raise _PathProblem(str(key), "a key path is a non-empty string such as links[1].EI_N_m2")
+    tokens = []
+    for part in key.strip().split("."):
+        m = re.fullmatch(r"([^\[\]]*)((?:\[\d+\])*)", part)
+        if not m or not (m.group(1) or m.group(2)):
+            raise _PathProblem(key, "not a key path (write it as in the case file, e.g. links[1].EI_N_m2, "
+                                    "walls[1].radius_m, initial.coordinates.theta_1_deg)")
+        if m.group(1):
+            tokens.append(m.group(1))
+        tokens += [int(k) for k in re.findall(r"\[(\d+)\]", m.group(2))]
+    return tokens
+
+
+def _type_name(v) -> str:
+    if isinstance(v, dict):
+        return "a table"
+    if isinstance(v, list):
+        return "an array"
+    return f"the value {v!r}"
+
+
+def _resolve(data: dict, key: str) -> tuple:
+    """(canonical path, tokens with 0-based entry indices) of ``key`` in the case table ``data``.
+
+    Raises _PathProblem for an entry that does not exist or a step into a value
+    that is no table. Missing tables are allowed (created by _set).
+    """
+    tokens = _split_key(key)
+    node, path, out = data, "", []
+    for pos, tok in enumerate(tokens):
+        last = pos == len(tokens) - 1
+        if isinstance(node, list):
+            if isinstance(tok, str) and not tok.isdigit():
+                raise _PathProblem(path, f"is an array of {len(node)} tables; give the entry number from 1, "
+                                         f"e.g. {path}[1].{tok}")
+            k = int(tok)
+            if not 1 <= k <= len(node):
+                raise _PathProblem(f"{path}[{k}]", f"no such entry: the case has {len(node)} {path} "
+                                                   "(numbered from 1)")
+            tok = k - 1
+            node = node[tok]
+        elif isinstance(node, dict):
+            if isinstance(tok, int):
+                raise _PathProblem(f"{path}[{tok}]", f"{path or 'the case'} is a table, not an array of tables")
+            child = node.get(tok)
+            if child is None and not last and isinstance(tokens[pos + 1], int):
+                raise _PathProblem(_join(path, tok), "no such array of tables in the case")
+            node = child if child is not None else {}
+        else:
+            raise _PathProblem(path, f"is {_type_name(node)}, not a table: nothing to set below it")
+        out.append(tok)
+        path = _join(path, tok)
+    return path, tuple(out)
+
+
+def _set(data: dict, tokens: tuple, value) -> None:
+    """Set data[t0][t1]...[tn] = value, creating missing tables on the way (data is a private copy)."""
+    node = data
+    for tok in tokens[:-1]:
+        if isinstance(node, dict) and tok not in node:
+            node[tok] = {}
+        node = node[tok]
+    node[tokens[-1]] = value
+
+
+def _plain(value, key: str):
+    """A value as TOML data: bool, int, float, str, or lists and tables of them (numpy scalars and arrays too)."""
+    if isinstance(value, (bool, str)):
+        return value
+    if isinstance(value, Integral):
+        return int(value)
+    if isinstance(value, Real):
+        return float(value)
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v, key) for k, v in value.items()}
+    if isinstance(value, (list, tuple)) or hasattr(value, "tolist"):
+        v = value.tolist() if hasattr(value, "tolist") else value
+        return [_plain(x, key) for x in v] if isinstance(v, list) else _plain(v, key)
+    raise _PathProblem(key, f"cannot set it to {type(value).__name__} {value!r}; give a number, a string, "
+                            "a boolean or an array of them")
+
+
+def _hashable(x):
+    """x with integers that fit a double as floats (20 and 20.0 are one run) and keys sorted by json."""
+    if isinstance(x, bool) or x is None or isinstance(x, str):
+        return x
+    if isinstance(x, int):
+        return float(x) if abs(x) <= 2**53 else x
+    if isinstance(x, float):
+        return x
+    if isinstance(x, dict):
+        return {str(k): _hashable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_hashable(v) for v in x]
+    return repr(x)
+
+
+def _canonical_json(x) -> str:
+    return json.dumps(_hashable(x), sort_keys=True, separators=(",", ":"), allow_nan=True)
+
+
+def run_id(case_table: dict) -> str:
+    """Stable id of one run: 16 hex digits of SHA-256 of the case table it runs.
+
+    case_table : the parsed case (``Case.source``) with the run's overrides applied.
+    ``name``, ``description`` and ``[output]`` are left out (they do not change the
+    result); integers that fit a double count as floats.
+    """
+    kept = {k: v for k, v in case_table.items() if k not in _NOT_IN_RUN_ID}
+    return hashlib.sha256(_canonical_json(kept).encode()).hexdigest()[:16]
+
+
+def expand_runs(overrides) -> list[dict]:
+    """The runs of a sweep, each {key path: value}, in sweep order.
+
+    overrides : {key path: values} -- the Cartesian product in the order of the keys,
+        the last varying fastest; a value that is no list, tuple or array is one value --
+        or a list of {key path: value}, one per run.
+    """
+    if isinstance(overrides, Mapping):
+        keys = list(overrides)
+        values = []
+        for k in keys:
+            v = overrides[k]
+            v = v.tolist() if hasattr(v, "tolist") else v
+            values.append(list(v) if isinstance(v, (list, tuple)) else [v])
+        return [dict(zip(keys, combo, strict=True)) for combo in itertools.product(*values)]
+    if isinstance(overrides, (list, tuple)) and all(isinstance(r, Mapping) for r in overrides):
+        return [dict(r) for r in overrides]
+    raise TypeError("overrides: give {key path: list of values} (a full grid) or a list of {key path: value} "
+                    f"(one per run), got {type(overrides).__name__}")
+
+
+def _with_overrides(base: dict, run: dict) -> dict:
+    """A copy of the case table ``base`` with run = {canonical path: (tokens, value)} applied."""
+    data = copy.deepcopy(base)
+    for tokens, value in run.values():
+        _set(data, tokens, copy.deepcopy(value))
+    return data
+
+
+def _canonical_runs(base: dict, runs: list) -> tuple[list, list]:
+    """([{canonical path: (tokens, value)} per run], problems); problems are (path, message)."""
+    problems, resolved, out = [], {}, []
+    for run in runs:
+        canon = {}
+        for key, value in run.items():
+            try:
+                if key not in resolved:
+                    resolved[key] = _resolve(base, key)
+                path, tokens = resolved[key]
+                if path in canon:
+                    raise _PathProblem(path, f"set twice in one run (as {canon[path][2]!r} and {key!r})")
+                canon[path] = (tokens, _plain(value, path), key)
+            except _PathProblem as exc:
+                if (exc.path, exc.message) not in problems:
+                    problems.append((exc.path, exc.message))
+        out.append({p: (t, v) for p, (t, v, _) in canon.items()})
+    return out, problems
+
+
+def _under(problem_path: str, key: str) -> bool:
+    """Whether a loader problem at problem_path is about key (the key itself or inside it)."""
+    return problem_path == key or problem_path.startswith(key + ".") or problem_path.startswith(key + "[")
+
+
+def _value_problems(base: dict, runs: list, name: str) -> list:
+    """Problems of every distinct (key, value) applied alone to the case, at that key or below it."""
+    problems, seen = [], set()
+    for run in runs:
+        for path, (tokens, value) in run.items():
+            sig = (path, _canonical_json(value))
+            if sig in seen:
+                continue
+            seen.add(sig)
+            try:
+                case_from_dict(_with_overrides(base, {path: (tokens, value)}), name=name, source="overrides")
+            except CaseError as exc:
+                for p, m in exc.problems:
+                    if _under(p, path) and (p, m) not in problems:
+                        problems.append((p, m))
+    return problems
+
+
+# --------------------------------------------------------------------------
+# One run (executed by every route)
+
+def _run_task(task: dict) -> dict:
+    """Load and simulate one run; plain data in and out (what a worker process receives and returns).
+
+    task : {"run_id", "data" (the case table of the run), "name", "source", "path", "overrides"}
+    Returns {"run_id", "status", "message", "npz"}: status "result" with the bytes of the
+    run's NPZ file (gi.load_result format), or "invalid" / "error" with a message.
+    """
+    rid = task["run_id"]
+    try:
+        case = case_from_dict(copy.deepcopy(task["data"]), name=task["name"], source=task["source"],
+                              path=task["path"])
+    except CaseError as exc:
+        return {"run_id": rid, "status": STATUS_INVALID, "message": str(exc), "npz": None}
+    try:
+        result = case.simulate()
+        metadata = {"case": case.name, "case_source": task["source"], "run_id": rid,
+                    "overrides": task["overrides"], "case_data": task["data"]}
+        with tempfile.TemporaryDirectory(prefix="gibbsimpact_run_") as tmp:
+            blob = result.save(Path(tmp) / f"{rid}.npz", metadata=metadata).read_bytes()
+    except Exception as exc:  # noqa: BLE001 - a failed run is a row, never a lost sweep
+        return {"run_id": rid, "status": STATUS_ERROR, "message": f"{type(exc).__name__}: {exc}", "npz": None}
+    return {"run_id": rid, "status": "result", "message": "", "npz": blob}
+
+
+def _execute_serial(tasks: list, pending: list, on_done) -> None:
+    for i in pending:
+        on_done(i, _run_task(tasks[i]))
+
+
+def _failed(task: dict, exc: BaseException) -> dict:
+    """The outcome of a run whose worker failed (died, was lost, could not be reached)."""
+    return {"run_id": task["run_id"], "status": STATUS_ERROR,
+            "message": f"the worker running it failed: {type(exc).__name__}: {exc}", "npz": None}
+
+
+def _execute_pool(tasks: list, pending: list, on_done, workers: int) -> None:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    from .kernel import ensure_compiled
+
+    # Compile (first use) or load the kernel here once, so that the workers load it
+    # from numba's on-disk cache instead of all compiling it at the same time.
+    ensure_compiled()
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(pending)),
+                               mp_context=multiprocessing.get_context("spawn"))
+    try:
+        futures = {pool.submit(_run_task, tasks[i]): i for i in pending}
+        for f in as_completed(futures):
+            i = futures[f]
+            try:
+                outcome = f.result()
+            except Exception as exc:  # noqa: BLE001 - e.g. BrokenProcessPool: the run is a row
+                outcome = _failed(tasks[i], exc)
+            on_done(i, outcome)
+    except BaseException:
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _dask_client(scheduler):
+    """(client, whether this sweep opened it)."""
+    try:
+        import distributed
+    except ImportError as exc:
+        raise ImportError(_DASK_HINT) from exc
+    if isinstance(scheduler, distributed.Client):
+        return scheduler, False
+    return distributed.Client(scheduler), True
+
+
+def _execute_dask(tasks: list, pending: list, on_done, client) -> None:
+    import distributed
+
+    futures = {}
+    try:
+        futures = {client.submit(_run_task, tasks[i], pure=False): i for i in pending}
+        for f in distributed.as_completed(list(futures)):
+            i = futures[f]
+            try:
+                outcome = f.result()
+            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: the run is a row
+                outcome = _failed(tasks[i], exc)
+            on_done(i, outcome)
+    finally:
+        client.cancel([f for f in futures if not f.done()])
+
+
+# --------------------------------------------------------------------------
+# Files and rows
+
+def _write_atomic(path: Path, write) -> Path:
+    """Call write(file object) on a temporary file next to path, then move it into place (os.replace)."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return path
+
+
+def _row_from_file(path: Path, rid: str):
+    """The result columns of a run from its NPZ file, or None when it is missing, unreadable or another run's."""
+    from .io import load_result
+
+    if not path.is_file():
+        return None
+    try:
+        res, meta = load_result(path, with_metadata=True)
+    except Exception:  # noqa: BLE001 - a damaged file is a run still to do
+        return None
+    if not isinstance(meta, dict) or meta.get("run_id") != rid:
+        return None
+    return {
+        "status": res.status, "message": res.message, "n_impacts": len(res.impacts),
+        "first_impact_s": float(res.impacts[0].time) if res.impacts else None,
+        "t_final_s": float(res.t[-1]) if len(res.t) else None,
+        "energy_error": float(res.energy_error), "nfev": int(res.nfev), "wall_time_s": float(res.wall_time),
+        "result": f"{RUNS_DIR}/{path.name}",
+    }
+
+
+def _row_without_result(status: str, message: str) -> dict:
+    return {"status": status, "message": message, "n_impacts": None, "first_impact_s": None, "t_final_s": None,
+            "energy_error": None, "nfev": None, "wall_time_s": None, "result": None}
+
+
+def _cell(v) -> str:
+    """Table text of a value: shortest round-trip text of a float, JSON for booleans and arrays, '' for None."""
+    if v is None:
+        return ""
+    if isinstance(v, bool) or isinstance(v, (list, dict)):
+        return json.dumps(v)
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+def _write_csv(path: Path, columns: list, rows: list) -> Path:
+    import csv
+    import io
+
+    text = io.StringIO()
+    w = csv.writer(text, lineterminator="\n")
+    w.writerow(columns)
+    for r in rows:
+        w.writerow([_cell(r.get(c)) for c in columns])
+    return _write_atomic(path, lambda fh: fh.write(text.getvalue().encode("utf-8")))
+
+
+def _write_parquet(path: Path, columns: list, rows: list):
+    """Write the table as Parquet when pyarrow is importable; otherwise remove a stale one and return None."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        path.unlink(missing_ok=True)
+        return None
+    types = {"run": pa.int64(), "run_id": pa.string(), "status": pa.string(), "message": pa.string(),
+             "n_impacts": pa.int64(), "first_impact_s": pa.float64(), "t_final_s": pa.float64(),
+             "energy_error": pa.float64(), "nfev": pa.int64(), "wall_time_s": pa.float64(), "result": pa.string()}
+    arrays = {}
+    for c in columns:
+        values = [r.get(c) for r in rows]
+        if any(isinstance(v, (list, dict)) for v in values):
+            values = [None if v is None else _cell(v) for v in values]
+        try:
+            arrays[c] = pa.array(values, type=types.get(c))  # a varied key: its type inferred
+        except (pa.ArrowInvalid, pa.ArrowTypeError, TypeError):  # mixed kinds in one column
+            arrays[c] = pa.array([None if v is None else _cell(v) for v in values], type=pa.string())
+    table = pa.table(arrays)
+    return _write_atomic(path, lambda fh: pq.write_table(table, fh))
+
+
+# --------------------------------------------------------------------------
+# The sweep
+
+def _base_case(case) -> Case:
+    if isinstance(case, Case):
+        if not case.source:
+            raise ValueError("case: this Case has no case table (Case.source) to override; load it with "
+                             "gi.load_case(path) or gi.case.case_from_dict(table)")
+        return case
+    return load_case(case)
+
+
+def sweep(case, overrides, workers: int = 1, out=None, scheduler=None, t_end: float | None = None,
+          progress=None) -> SweepResult:
+    """Run one case many times with keys overridden; write every result and one table.
+
+    Parameters
+    ----------
+    case : path of a case file, or a Case (from gi.load_case)
+    overrides : {key path: list of values} (full grid, last key fastest) or a list of
+        {key path: value} (one per run). Key paths as in the case file:
+        ``restitution``, ``links[1].EI_N_m2`` (or ``links.1.EI_N_m2``), ``time.t_end_s``,
+        ``initial.coordinates.theta_1_deg``; values in the key's unit.
+    workers : int >= 1; 1 runs serially here, K > 1 on K spawned processes
+    out : folder of the sweep (default ``<case output directory>/sweep``): ``sweep.csv``,
+        ``sweep.parquet`` (with pyarrow), ``runs/<run id>.npz``
+    scheduler : None, a dask.distributed address ``"tcp://host:port"``, a ``distributed.Client``
+        or a cluster object: run on dask (then ``workers`` is ignored)
+    t_end : float [s] or None: the end time of every run (sets ``time.t_end_s`` of the case;
+        not a column)
+    progress : callable(row, done, total) or None, called after each run simulated by this
+        call (row: that run's table row)
+
+    Returns
+    -------
+    SweepResult (rows in sweep order; ``n_run``, ``n_skipped``).
+
+    Raises
+    ------
+    CaseError
+        Before any run, for a bad key path or a value the case file would reject at that
+        key (source ``"overrides"``), duplicate runs, or a bad ``t_end`` (source ``"options"``).
+    ImportError
+        With a scheduler but without dask.distributed.
+    """
+    base_case = _base_case(case)
+    if isinstance(workers, bool) or not isinstance(workers, Integral) or workers < 1:
+        raise ValueError(f"workers: give a whole number >= 1 (1 runs serially), got {workers!r}")
+    if scheduler is not None:  # before anything is written
+        try:
+            import distributed  # noqa: F401
+        except ImportError as exc:
+            raise ImportError(_DASK_HINT) from exc
+    if t_end is not None:
+        problems = base_case.override_problems(names={"t_end": "t_end"}, t_end=t_end)
+        if problems:
+            raise CaseError("options", problems)
+
+    base = copy.deepcopy(base_case.source)
+    if t_end is not None:
+        _set(base, ("time", "t_end_s"), float(t_end))
+    runs, problems = _canonical_runs(base, expand_runs(overrides))
+    if not runs:
+        raise CaseError("overrides", [("", "no runs: give at least one value or one run")])
+    problems += _value_problems(base, runs, base_case.name)
+    if problems:
+        raise CaseError("overrides", problems)
+
+    source = str(base_case.path) if base_case.path is not None else base_case.name
+    tasks, first = [], {}
+    for k, run in enumerate(runs):
+        data = _with_overrides(base, run)
+        rid = run_id(data)
+        if rid in first:
+            raise CaseError("overrides", [("", f"runs {first[rid] + 1} and {k + 1} run the same case "
+                                              f"(run id {rid}); remove one")])
+        first[rid] = k
+        tasks.append({"run_id": rid, "data": data, "name": base_case.name, "source": source,
+                      "path": str(base_case.path) if base_case.path is not None else None,
+                      "overrides": {p: v for p, (_, v) in run.items()}})
+    keys = list(dict.fromkeys(p for run in runs for p in run))
+    columns = ["run", "run_id", *keys, *RESULT_COLUMNS]
+
+    out = Path(out) if out is not None else base_case.output_directory / "sweep"
+    runs_dir = out / RUNS_DIR
+
+    def head(k):
+        return {"run": k + 1, "run_id": tasks[k]["run_id"], **{p: tasks[k]["overrides"].get(p) for p in keys}}
+
+    rows = [None] * len(tasks)
+    for k, t in enumerate(tasks):
+        found = _row_from_file(runs_dir / f"{t['run_id']}.npz", t["run_id"])
+        if found is not None:
+            rows[k] = {**head(k), **found}
+    pending = [k for k in range(len(tasks)) if rows[k] is None]
+    n_skipped = len(tasks) - len(pending)
+    done = []
+    # Reach the cluster before anything is written: an unreachable scheduler is an error, not a table.
+    client, own_client = _dask_client(scheduler) if scheduler is not None and pending else (None, False)
+    try:
+        runs_dir.mkdir(parents=True, exist_ok=True)
+    except BaseException:
+        if own_client:
+            client.close()
+        raise
+
+    def on_done(k, outcome):
+        rid = tasks[k]["run_id"]
+        if outcome["status"] == "result":
+            path = _write_atomic(runs_dir / f"{rid}.npz", lambda fh: fh.write(outcome["npz"]))
+            found = _row_from_file(path, rid)
+            row = found if found is not None else _row_without_result(
+                STATUS_ERROR, f"the result file {path} does not read back")
+        else:
+            row = _row_without_result(outcome["status"], outcome["message"])
+        rows[k] = {**head(k), **row}
+        done.append(k)
+        if progress is not None:
+            progress(rows[k], len(done), len(pending))
+
+    try:
+        if not pending:
+            pass
+        elif client is not None:
+            _execute_dask(tasks, pending, on_done, client)
+        elif workers > 1 and len(pending) > 1:
+            _execute_pool(tasks, pending, on_done, workers)
+        else:
+            _execute_serial(tasks, pending, on_done)
+    finally:
+        if own_client:
+            client.close()
+        # Also when interrupted: the table shows what is done and what is pending.
+        for k in range(len(rows)):
+            if rows[k] is None:
+                rows[k] = {**head(k), **_row_without_result(
+                    STATUS_PENDING, "not run: the sweep was interrupted; run it again to resume")}
+        table = _write_csv(out / TABLE_NAME, columns, rows)
+        parquet = _write_parquet(out / PARQUET_NAME, columns, rows)
+    return SweepResult(out=out, table=table, parquet=parquet, columns=tuple(columns), rows=tuple(rows),
+                       n_run=len(done), n_skipped=n_skipped)
+
+
+# --------------------------------------------------------------------------
+# Command line: gibbsimpact sweep CASE.toml --vary KEY=SPEC ...
+
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_STOPPED = 0, 1, 2, 3
+
+
+class VaryError(ValueError):
+    """A --vary option that cannot be read."""
+
+
+def _split_list(spec: str) -> list[str]:
+    """Split at commas outside brackets and quotes: '[0,0],[1,0]' -> ['[0,0]', '[1,0]']."""
+    items, depth, quote, cur = [], 0, None, []
+    for ch in spec:
+        if quote:
+            quote = None if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "[":
+            depth += 1
+        elif ch == "]":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            items.append("".join(cur).strip())
+            cur = []
+            continue
+        cur.append(ch)
+    items.append("".join(cur).strip())
+    return items
+
+
+def _value(text: str):
+    """One value of a --vary list: a TOML value (10 -> int, 1e-3, inf, true, [0, 1], "RK45"), else a
+    number, else the bare text as a string (RK45)."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def parse_vary(option: str) -> tuple[str, list]:
+    """``KEY=SPEC`` of ``--vary`` -> (key, values).
+
+    SPEC is ``a:b:n`` (n values from a to b evenly spaced, both ends included,
+    rounded to 15 significant digits so that 0.5:1:6 gives 0.5, 0.6, ..., 1.0) or a
+    comma list of values (``10,20,40``; ``RK45,DOP853``; ``[0,0],[0.1,0]``).
+    """
+    key, eq, spec = option.partition("=")
+    key, spec = key.strip(), spec.strip()
+    if not eq or not key or not spec:
+        raise VaryError(f"--vary {option}: expected KEY=a:b:n or KEY=v1,v2,... "
+                        "(e.g. restitution=0.5:1:6 or links.1.EI_N_m2=10,20,40)")
+    m = re.fullmatch(r"([^:,\[\]]+):([^:,\[\]]+):([^:,\[\]]+)", spec)
+    if m:
+        try:
+            a, b = float(m.group(1)), float(m.group(2))
+            n = int(m.group(3))
+        except ValueError:
+            raise VaryError(f"--vary {option}: a:b:n needs numbers a, b and a whole number n >= 1") from None
+        if n < 1 or not (math.isfinite(a) and math.isfinite(b)):
+            raise VaryError(f"--vary {option}: a:b:n needs finite a, b and a whole number n >= 1")
+        if n == 1:
+            return key, [a]
+        # x_k = a + k (b - a) / (n - 1), the last exactly b (numpy.linspace's rule).
+        step = (b - a) / (n - 1)
+        return key, [float(f"{a + k * step:.15g}") for k in range(n - 1)] + [b]
+    items = _split_list(spec)
+    if any(not s for s in items):
+        raise VaryError(f"--vary {option}: an empty value in the list")
+    return key, [_value(s) for s in items]
+
+
+def _positive_int(text: str) -> int:
+    import argparse
+
+    try:
+        k = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if k < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {k}")
+    return k
+
+
+def _float(text: str) -> float:
+    import argparse
+
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+
+
+def add_parser(subparsers):
+    """Register the ``sweep`` subcommand on an argparse subparsers object; returns its parser."""
+    s = subparsers.add_parser(
+        "sweep", help="run a case over a grid of key values; one table of the runs",
+        description="Run CASE for every combination of the --vary values (the last varying fastest) and write "
+                    "sweep.csv (one row per run: its values, status, impacts, energy error, wall time, result "
+                    "file) and runs/<run id>.npz. Runs already in the output folder are not run again.",
+        epilog="Exit codes: 0 every run finished, 2 bad input, 3 some run stopped early or failed.")
+    s.add_argument("case", metavar="CASE.toml", help="case file")
+    s.add_argument("--vary", action="append", required=True, metavar="KEY=SPEC",
+                   help="a case-file key and its values: KEY=a:b:n (n values from a to b) or KEY=v1,v2,...; "
+                        "repeat for a grid, e.g. --vary restitution=0.5:1:6 --vary links.1.EI_N_m2=10,20,40")
+    s.add_argument("--workers", type=_positive_int, default=1, metavar="K",
+                   help="processes running the sweep (default 1: in this process)")
+    s.add_argument("--scheduler", metavar="ADDRESS",
+                   help='run on a dask.distributed cluster, e.g. tcp://host:8786 (pip install "gibbsimpact[dask]")')
+    s.add_argument("--out", metavar="DIR",
+                   help="sweep folder (default: <[output] directory, else out/<case name>>/sweep)")
+    s.add_argument("--t-end", type=_float, metavar="T", help="end time of every run in s (overrides [time] t_end_s)")
+    s.add_argument("--quiet", "-q", action="store_true", help="no line per run and no report on stdout")
+    return s
+
+
+def _error(msg: str, code: int) -> int:
+    print(f"gibbsimpact: error: {msg}", file=sys.stderr)
+    return code
+
+
+def _load(path: str):
+    """(case, None), or (None, exit code) after one error line naming the CASE.toml argument."""
+    hint = "give the path of a case file (e.g. cases/circle_two_link.toml)"
+    p = Path(path)
+    if not path:
+        return None, _error(f"CASE.toml: '' is not a file; {hint}", EXIT_BAD_INPUT)
+    if p.is_dir():
+        return None, _error(f"CASE.toml: {path!r} is a directory, not a case file; {hint}", EXIT_BAD_INPUT)
+    if not p.is_file():
+        return None, _error(f"CASE.toml: {path!r}: no such file; {hint}", EXIT_BAD_INPUT)
+    try:
+        return load_case(p), None
+    except CaseError as exc:
+        return None, _error(str(exc), EXIT_BAD_INPUT)
+    except OSError as exc:
+        return None, _error(f"CASE.toml: {path!r}: cannot read ({exc.strerror or exc})", EXIT_BAD_INPUT)
+
+
+def _describe_values(row: dict, keys) -> str:
+    return " ".join(f"{k}={_cell(row[k])}" for k in keys if row.get(k) is not None)
+
+
+def main(args) -> int:
+    """Run ``gibbsimpact sweep`` from parsed arguments (add_parser); returns the exit code.
+
+    0 every run finished; 2 bad input (case file, --vary, options, output folder,
+    dask missing or unreachable); 3 some run stopped early, was invalid or failed
+    (the table and every result are still written).
+    """
+    case, code = _load(args.case)
+    if case is None:
+        return code
+    grid = {}
+    try:
+        for option in args.vary:
+            key, values = parse_vary(option)
+            if key in grid:
+                raise VaryError(f"--vary {option}: {key} is already varied; give all its values in one --vary")
+            grid[key] = values
+    except VaryError as exc:
+        return _error(str(exc), EXIT_BAD_INPUT)
+    if args.t_end is not None:
+        problems = case.override_problems(names={"t_end": "--t-end"}, t_end=args.t_end)
+        if problems:
+            return _error(str(CaseError("options", problems)), EXIT_BAD_INPUT)
+    say = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
+
+    def progress(row, done, total):
+        varied = [c for c in row if c not in ("run", "run_id") and c not in RESULT_COLUMNS]
+        impacts = f", {row['n_impacts']} impacts" if row["n_impacts"] is not None else ""
+        took = f", {row['wall_time_s']:.2f} s" if row["wall_time_s"] is not None else ""
+        say(f"  [{done}/{total}] run {row['run']} ({row['run_id']}) {_describe_values(row, varied)}: "
+            f"{row['status']}{impacts}{took}")
+
+    route = (f"on the dask scheduler {args.scheduler}" if args.scheduler else
+             f"on {args.workers} processes" if args.workers > 1 else "in this process")
+    say(f"gibbsimpact: sweep of {case.name} over {', '.join(grid)}, {route}")
+    try:
+        result = sweep(case, grid, workers=args.workers, out=args.out, scheduler=args.scheduler,
+                       t_end=args.t_end, progress=progress)
+    except CaseError as exc:
+        if exc.source == "overrides":
+            exc = CaseError("--vary", exc.problems)
+        return _error(str(exc), EXIT_BAD_INPUT)
+    except ImportError as exc:
+        return _error(str(exc), EXIT_BAD_INPUT)
+    except KeyboardInterrupt:
+        return _error("interrupted; the runs done are kept: run the same command again to resume", 130)
+    except OSError as exc:
+        where = f"scheduler {args.scheduler}" if args.scheduler else "the output folder"
+        return _error(f"{where}: {exc.strerror or exc}", EXIT_BAD_INPUT)
+
+    counts = result.status_counts()
+    say(f"{len(result.rows)} runs: " + ", ".join(f"{n} {s}" for s, n in counts.items())
+        + f" ({result.n_run} run now, {result.n_skipped} already done)")
+    say(f"table: {result.table}" + (f" and {result.parquet}" if result.parquet else "")
+        + f"; results in {result.out / RUNS_DIR}")
+    if not result.all_finished:
+        bad = [r for r in result.rows if r["status"] != "finished"]
+        first = bad[0]
+        return _error(f"{len(bad)} of {len(result.rows)} runs did not finish (first: run {first['run']}, "
+                      f"{first['status']}: {first['message']}); see {result.table}", EXIT_STOPPED)
+    return EXIT_OK
