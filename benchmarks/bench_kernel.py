@@ -1,0 +1,548 @@
+"""Speed of the dynamics kernel: per-call cost, scaling in n, simulate and cold start, in one run.
+
+Every ratio below is measured in this same run, so it can be compared across
+machines; absolute times depend on the machine (a shared 2-core one: timings
+are the minimum of several repeats of a timeit-style loop, which is the least
+disturbed estimate of a call's own cost). Sections (each a function; a section
+that fails prints its error and the next one runs):
+
+1. ``forward_dynamics`` per call [us] (Python call included) on a rigid,
+   free-flying chain of n = 2 ... 32 thin rods (l = 1 m, mu = 1 kg/m, rotary
+   inertia (j_x, j_y, j_z) = (5e-5, 2.5e-5, 2.5e-5) kg m, a rod of radius 1 cm),
+   at a random bent state, against Pinocchio's ABA (``pin.aba``) on the same
+   chain: a free-flyer root (the frame of link 1) and n-1 revolute-Z joints
+   placed at (l, 0, 0) of the parent, each body of mass mu l with its centre
+   at (l/2, 0, 0) and inertia about it diag(0, m l^2/12, m l^2/12) + l diag(j).
+   The ``match`` column checks that the two are the same system: Pinocchio's
+   q̈ against gibbsimpact's q̈ mapped to Pinocchio's velocities (body-frame twist
+   of link 1, then the joint rates), v = G(q) qdot, a = G qddot + Gdot qdot
+   (Gdot by a central difference); max relative difference, ~1e-11 measured.
+   ``gi/pin`` is the ratio of the per-call times (targets: <= 5 for n = 2,
+   <= 3 for n >= 4). Without Pinocchio (PyPI package ``pin``) that column is
+   skipped.
+2. The same chain with 1 mode per link (clamped-clamped, y) and with 2 modes
+   per link (clamped-clamped y and z): per-call cost, and the growth exponent
+   of the cost in n (least-squares slope of log cost against log n over
+   n >= 4) for rigid, 1 mode and 2 modes (target <= 2).
+3. Case 1 (cases/circle_two_link.toml, N = 9): ``forward_dynamics`` against the
+   lambdified symbolic equations of the same chain,
+   ``gi.derive_equations(model).numeric().forward_dynamics`` (target speed-up
+   sympy/gibbsimpact >= 20). The symbolic route is also timed on the rigid
+   chains of section 1 for the small n whose derivation stays under ~30 s.
+4. ``gi.simulate`` of case 1 (t_end = 1 s, rtol 1e-10, 4 impacts), warm (one
+   run first, then the minimum of 3) in a subprocess, against the same run with
+   the pre-numba kernel of commit 54f2dfd (a temporary git worktree, PYTHONPATH
+   to its src/; if that commit is unavailable, the current code with
+   NUMBA_DISABLE_JIT=1). Targets: speed-up >= 12, warm wall time <= 0.15 s.
+5. Cold start: ``python -m gibbsimpact run cases/circle_two_link.toml
+   --no-plots --out TMP`` in a subprocess with a fresh NUMBA_CACHE_DIR (CPU
+   time of the child from getrusage, and wall time), then the same command
+   again with the cache filled (wall). Targets: first run <= 20 s CPU, second
+   run <= 1.5 s wall.
+6. benchmarks/scaling.png: per-call cost against n, log-log, for gibbsimpact
+   (rigid, 1 mode, 2 modes), Pinocchio and the symbolic route.
+
+Usage:
+    python benchmarks/bench_kernel.py [--quick] [--skip-cold] [--skip-simulate] [--repeats R]
+
+``--quick`` is a smoke run: n = 2, 4, 8, 3 repeats of short loops, 1 timed
+simulate run, sympy for n <= 4 only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import timeit
+import traceback
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+
+import gibbsimpact as gi
+from gibbsimpact.dynamics import forward_dynamics
+
+ROOT = Path(__file__).resolve().parent.parent
+CASE1 = ROOT / "cases" / "circle_two_link.toml"
+PNG = Path(__file__).resolve().parent / "scaling.png"
+BASELINE_COMMIT = "54f2dfd"  # the last commit with the numpy kernel
+
+LENGTH, MU, EI = 1.0, 1.0, 20.0
+ROTARY = (5e-5, 2.5e-5, 2.5e-5)  # (j_x, j_y, j_z) [kg m]: a rod of radius 1 cm, mu = 1 kg/m
+GRAVITY = (0.0, -9.81, 0.0)
+MODE_SETS = {
+    "rigid": (),
+    "1 mode": (gi.Mode("clamped-clamped", "y"),),
+    "2 modes": (gi.Mode("clamped-clamped", "y"), gi.Mode("clamped-clamped", "z")),
+}
+SYMPY_BUDGET_S = 30.0  # largest derivation (+ numeric()) time to attempt, estimated from the previous n
+
+
+# -- helpers ------------------------------------------------------------------------------------------
+
+def per_call_us(fn, repeats: int, budget: float) -> float:
+    """Minimum over ``repeats`` loops of the time per call [us]; each loop runs for about ``budget`` s."""
+    fn()  # warm: a compiled kernel compiles (or loads its cache) here
+    timer = timeit.Timer(fn)
+    number = 1
+    while True:
+        t = timer.timeit(number)
+        if t >= budget or number >= 1 << 20:
+            break
+        number = max(number * 2, int(number * budget / max(t, 1e-9) * 1.1))
+    return min(timer.repeat(repeat=repeats, number=number)) / number * 1e6
+
+
+def chain_model(n: int, modes=()) -> gi.Model:
+    link = gi.Link(length=LENGTH, mass_per_length=MU, EI=EI, modes=list(modes), rotary_inertia=ROTARY)
+    return gi.Model(gi.Chain([link] * n), gravity=GRAVITY)
+
+
+def random_state(model: gi.Model, seed: int = 0):
+    """A random bent state: angles in +-1 rad (theta_0 in +-0.5, away from gimbal lock), deflections ~1 cm."""
+    rng = np.random.default_rng(seed)
+    N = model.n_dof
+    names = model.coordinate_names
+    q = rng.uniform(-1.0, 1.0, N)
+    qd = rng.normal(size=N)
+    for k, nm in enumerate(names):
+        if nm.startswith("delta"):
+            q[k] *= 0.01
+            qd[k] *= 0.1
+        elif nm == "theta_0":
+            q[k] *= 0.5
+    return q, qd
+
+
+def slope(ns, ts, n_min=4) -> float:
+    pts = [(n, t) for n, t in zip(ns, ts) if n >= n_min and t is not None and np.isfinite(t)]
+    if len(pts) < 2:
+        return float("nan")
+    x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+    return float(np.polyfit(x, y, 1)[0])
+
+
+def verdict(ok) -> str:
+    return "" if ok is None else ("ok" if ok else "MISS")
+
+
+def fmt(v, spec="{:.1f}", width=9):
+    s = "-" if v is None or (isinstance(v, float) and not np.isfinite(v)) else spec.format(v)
+    return f"{s:>{width}}"
+
+
+def section(title):
+    print(f"\n== {title} " + "=" * max(0, 88 - len(title)), flush=True)
+
+
+def run_section(fn, *args):
+    """Run one section; on failure print the error and return None so the next section runs."""
+    try:
+        return fn(*args)
+    except Exception:  # noqa: BLE001 - a benchmark goes on after a failing section
+        print(f"!! section {fn.__name__} failed:", flush=True)
+        traceback.print_exc(file=sys.stdout)
+        return None
+
+
+# -- Pinocchio ----------------------------------------------------------------------------------------
+
+def import_pinocchio():
+    try:
+        import pinocchio as pin
+    except ImportError as exc:
+        print(f"Pinocchio not installed ({exc}); its column is skipped. Install it with `pip install pin`.")
+        return None
+    return pin
+
+
+def pinocchio_chain(pin, n: int):
+    """Free-flyer + (n-1) revolute-Z joints, thin rods along local x, the same as chain_model(n) rigid."""
+    m = MU * LENGTH
+    I_c = np.diag([0.0, m * LENGTH**2 / 12.0, m * LENGTH**2 / 12.0]) + LENGTH * np.diag(ROTARY)
+    inertia = pin.Inertia(m, np.array([LENGTH / 2.0, 0.0, 0.0]), I_c)
+    pm = pin.Model()
+    parent = 0
+    for i in range(n):
+        if i == 0:
+            joint, place = pin.JointModelFreeFlyer(), pin.SE3.Identity()
+        else:
+            joint, place = pin.JointModelRZ(), pin.SE3(np.eye(3), np.array([LENGTH, 0.0, 0.0]))
+        parent = pm.addJoint(parent, joint, place, f"joint_{i + 1}")
+        pm.appendBodyToJoint(parent, inertia, pin.SE3.Identity())
+    pm.gravity = pin.Motion(np.array(GRAVITY), np.zeros(3))
+    return pm, pm.createData()
+
+
+def _rot(axis, a):
+    c, s = np.cos(a), np.sin(a)
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    R = np.eye(3)
+    R[i, i] = R[j, j] = c
+    R[i, j], R[j, i] = -s, s
+    return R
+
+
+def _to_pinocchio(pin, q):
+    """(q_pin, G) for gibbsimpact's rigid free-chain q: v_pin = G qdot (link-1 body twist, joint rates)."""
+    a, b, c = q[3:6]
+    R = _rot(0, a) @ _rot(1, b) @ _rot(2, c)
+    qp = np.concatenate([q[:3], pin.Quaternion(R).coeffs(), q[6:]])  # coeffs: (x, y, z, w)
+    N = q.size
+    G = np.zeros((N, N))
+    G[:3, :3] = R.T
+    Rz, Ry = _rot(2, c), _rot(1, b)
+    G[3:6, 3] = Rz.T @ Ry.T @ [1.0, 0.0, 0.0]  # body angular velocity of Rx(a) Ry(b) Rz(c)
+    G[3:6, 4] = Rz.T @ [0.0, 1.0, 0.0]
+    G[3:6, 5] = [0.0, 0.0, 1.0]
+    G[6:, 6:] = np.eye(N - 6)
+    return qp, G
+
+
+def pinocchio_match(pin, pm, pd, model, q, qd) -> float:
+    """max |a_pin - (G qddot + Gdot qdot)| / max |a_pin|, with gibbsimpact's qddot at (q, qd)."""
+    qdd = forward_dynamics(model, q, qd)
+    qp, G = _to_pinocchio(pin, q)
+    h = 1e-6
+    Gdot = (_to_pinocchio(pin, q + h * qd)[1] - _to_pinocchio(pin, q - h * qd)[1]) / (2 * h)
+    a_pin = np.array(pin.aba(pm, pd, qp, G @ qd, np.zeros(pm.nv)))
+    a_map = G @ qdd + Gdot @ qd
+    return float(np.abs(a_pin - a_map).max() / np.abs(a_pin).max())
+
+
+# -- sections -----------------------------------------------------------------------------------------
+
+def rigid_vs_pinocchio(cfg):
+    """Section 1: rigid chains, gibbsimpact forward_dynamics against Pinocchio's ABA."""
+    section("1. forward_dynamics per call, rigid free-flying chain of thin rods, against Pinocchio ABA")
+    pin = import_pinocchio()
+    if pin is not None:
+        print(f"pinocchio {pin.__version__}: free-flyer + (n-1) revolute-Z, rods along x, same inertia")
+    out = {"n": [], "N": [], "gi": [], "pin": [], "ratio": [], "match": []}
+    print(f"{'n':>3} {'N':>4} {'gi[us]':>9} {'pin[us]':>9} {'gi/pin':>8} {'target':>7} {'':>5} {'match':>9}")
+    for n in cfg.sizes:
+        model = chain_model(n)
+        q, qd = random_state(model, seed=n)
+        t_gi = per_call_us(partial(forward_dynamics, model, q, qd), cfg.repeats, cfg.budget)
+        t_pin = ratio = match = target = ok = None
+        if pin is not None:
+            pm, pd = pinocchio_chain(pin, n)
+            qp, G = _to_pinocchio(pin, q)
+            vp, tau = G @ qd, np.zeros(pm.nv)
+            t_pin = per_call_us(partial(pin.aba, pm, pd, qp, vp, tau), cfg.repeats, cfg.budget)
+            match = pinocchio_match(pin, pm, pd, model, q, qd)
+            ratio = t_gi / t_pin
+            target = 5.0 if n < 4 else 3.0
+            ok = ratio <= target
+        for k, v in zip(out, (n, model.n_dof, t_gi, t_pin, ratio, match)):
+            out[k].append(v)
+        print(f"{n:>3} {model.n_dof:>4} {fmt(t_gi)} {fmt(t_pin, '{:.2f}')} {fmt(ratio, '{:.2f}', 8)} "
+              f"{fmt(target, '<= {:.0f}', 7)} {verdict(ok):>5} {fmt(match, '{:.1e}')}", flush=True)
+    return out
+
+
+def modes_scaling(cfg, rigid):
+    """Section 2: 1 and 2 modes per link; growth exponent in n for rigid, 1 mode, 2 modes."""
+    section("2. forward_dynamics per call with modes (clamped-clamped y; y and z), growth in n")
+    out = {"n": list(cfg.sizes)}
+    if rigid is not None and list(rigid["n"]) == list(cfg.sizes):
+        out["rigid"] = rigid["gi"]
+        out["N rigid"] = rigid["N"]
+    for label, modes in MODE_SETS.items():
+        if label in out:
+            continue
+        ts, Ns = [], []
+        for n in cfg.sizes:
+            model = chain_model(n, modes)
+            q, qd = random_state(model, seed=n)
+            ts.append(per_call_us(partial(forward_dynamics, model, q, qd), cfg.repeats, cfg.budget))
+            Ns.append(model.n_dof)
+        out[label], out[f"N {label}"] = ts, Ns
+    labels = list(MODE_SETS)
+    print(f"{'n':>3} " + " ".join(f"{'N':>4} {lb + '[us]':>13}" for lb in labels))
+    for k, n in enumerate(cfg.sizes):
+        print(f"{n:>3} " + " ".join(f"{out[f'N {lb}'][k]:>4} {fmt(out[lb][k], width=13)}" for lb in labels))
+    out["exponent"] = {lb: slope(cfg.sizes, out[lb]) for lb in labels}
+    print("growth exponent of cost in n (slope of log cost vs log n, n >= 4; target <= 2):")
+    for lb, e in out["exponent"].items():
+        print(f"  {lb:<8} {fmt(e, '{:.2f}', 6)}  {verdict(None if not np.isfinite(e) else e <= 2.0)}")
+    return out
+
+
+def case1_vs_sympy(cfg):
+    """Section 3: case 1, forward_dynamics against the lambdified symbolic equations."""
+    section("3. case 1 (circle_two_link, N = 9): forward_dynamics against lambdified sympy equations")
+    case = gi.load_case(CASE1)
+    model, q, qd = case.model, case.q0.copy(), case.qdot0.copy()
+    rng = np.random.default_rng(3)
+    qd = qd + rng.normal(size=qd.size)  # the case starts at rest: give the velocity terms some work
+    t0 = time.perf_counter()
+    eqs = gi.derive_equations(model)
+    num = eqs.numeric()
+    t_derive = time.perf_counter() - t0
+    a_sym, a_gi = num.forward_dynamics(q, qd), forward_dynamics(model, q, qd)
+    err = float(np.abs(a_sym - a_gi).max() / np.abs(a_gi).max())
+    t_gi = per_call_us(partial(forward_dynamics, model, q, qd), cfg.repeats, cfg.budget)
+    t_sym = per_call_us(partial(num.forward_dynamics, q, qd), cfg.repeats, cfg.budget)
+    speedup = t_sym / t_gi
+    print(f"derivation + numeric(): {t_derive:.1f} s; qddot agree to {err:.1e} (relative)")
+    print(f"gibbsimpact {t_gi:.1f} us/call, sympy {t_sym:.1f} us/call: speed-up sympy/gibbsimpact "
+          f"{speedup:.2f}x (target >= 20x) {verdict(speedup >= 20)}")
+    return {"gi": t_gi, "sympy": t_sym, "speedup": speedup, "derive_s": t_derive}
+
+
+def sympy_scaling(cfg, rigid):
+    """Section 3b: the symbolic route on the rigid chains of section 1, while derivation stays cheap."""
+    section("3b. lambdified sympy equations on the rigid chains of section 1 (small n only)")
+    out = {"n": [], "sympy": [], "derive_s": [], "gi": []}
+    last = None
+    print(f"{'n':>3} {'N':>4} {'derive[s]':>9} {'sympy[us]':>10} {'gi[us]':>9} {'sympy/gi':>9}")
+    for n in cfg.sizes:
+        if n > cfg.sympy_n_max:
+            break
+        # estimate from the previous size (cost grows ~n^2 or faster); stop before the budget
+        if last is not None and last[1] * (n / last[0]) ** 2.5 > SYMPY_BUDGET_S:
+            print(f"(stopping: deriving n = {n} would take more than ~{SYMPY_BUDGET_S:.0f} s)")
+            break
+        model = chain_model(n)
+        q, qd = random_state(model, seed=n)
+        t0 = time.perf_counter()
+        num = gi.derive_equations(model).numeric()
+        t_derive = time.perf_counter() - t0
+        last = (n, t_derive)
+        t_sym = per_call_us(partial(num.forward_dynamics, q, qd), cfg.repeats, cfg.budget)
+        t_gi = None
+        if rigid is not None and n in rigid["n"]:
+            t_gi = rigid["gi"][rigid["n"].index(n)]
+        else:
+            t_gi = per_call_us(partial(forward_dynamics, model, q, qd), cfg.repeats, cfg.budget)
+        for k, v in zip(out, (n, t_sym, t_derive, t_gi)):
+            out[k].append(v)
+        print(f"{n:>3} {model.n_dof:>4} {t_derive:>9.1f} {fmt(t_sym, width=10)} {fmt(t_gi)} "
+              f"{fmt(t_sym / t_gi, '{:.2f}')}", flush=True)
+    return out
+
+
+# Run inside a child process: time gi.simulate on case 1, warm, and print one JSON line.
+_SIMULATE_CHILD = r"""
+import json, sys, time
+import gibbsimpact as gi
+case = gi.load_case(sys.argv[1])
+repeats = int(sys.argv[2])
+res = case.simulate()  # warm: compile / load caches
+walls, cpus = [], []
+for _ in range(repeats):
+    t0, c0 = time.perf_counter(), time.process_time()
+    res = case.simulate()
+    walls.append(time.perf_counter() - t0)
+    cpus.append(time.process_time() - c0)
+print(json.dumps(dict(file=gi.__file__, wall=walls, cpu=cpus, impacts=len(res.impacts), nfev=res.nfev,
+                      status=res.status, t_end=float(res.t[-1]))))
+"""
+
+
+def _run_simulate_child(env, repeats, label):
+    p = subprocess.run([sys.executable, "-c", _SIMULATE_CHILD, str(CASE1), str(repeats)], env=env, cwd=ROOT,
+                       capture_output=True, text=True, timeout=1800, check=False)
+    if p.returncode != 0:
+        raise RuntimeError(f"{label} run failed (exit {p.returncode}):\n{p.stderr[-2000:]}")
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def _git(*args, check=True):
+    return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True, check=check)
+
+
+def simulate_vs_baseline(cfg):
+    """Section 4: gi.simulate of case 1, warm, against the pre-numba kernel of commit 54f2dfd."""
+    section(f"4. gi.simulate of case 1 (warm), current code against the numpy kernel of {BASELINE_COMMIT}")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src")] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    cur = _run_simulate_child(env, cfg.sim_repeats, "current")
+    tmp = Path(tempfile.mkdtemp(prefix="gi_baseline_"))
+    wt = tmp / "worktree"
+    added = False
+    try:
+        have = _git("cat-file", "-e", f"{BASELINE_COMMIT}^{{commit}}", check=False).returncode == 0
+        if have:
+            r = _git("worktree", "add", "--detach", str(wt), BASELINE_COMMIT, check=False)
+            added = r.returncode == 0
+            if not added:
+                print(f"git worktree add failed: {r.stderr.strip()}")
+        if added:
+            base_env = dict(os.environ, PYTHONPATH=str(wt / "src"))
+            how = f"commit {BASELINE_COMMIT} (worktree {wt})"
+        else:
+            print(f"commit {BASELINE_COMMIT} unavailable: the baseline is the current code with NUMBA_DISABLE_JIT=1")
+            base_env = dict(env, NUMBA_DISABLE_JIT="1")
+            how = "current code, NUMBA_DISABLE_JIT=1"
+        base = _run_simulate_child(base_env, cfg.sim_repeats, "baseline")
+        if added and not Path(base["file"]).resolve().is_relative_to(wt.resolve()):
+            print(f"warning: the baseline imported {base['file']}, not the worktree")
+    finally:
+        if added:
+            r = _git("worktree", "remove", "--force", str(wt), check=False)
+            if r.returncode != 0:
+                print(f"git worktree remove failed: {r.stderr.strip()}")
+        shutil.rmtree(tmp, ignore_errors=True)
+    print(f"baseline: {how}")
+    print(f"{'run':<10} {'wall[s]':>8} {'cpu[s]':>8} {'nfev':>6} {'impacts':>7} {'status':>9}  imported from")
+    for label, r in (("current", cur), ("baseline", base)):
+        print(f"{label:<10} {min(r['wall']):>8.3f} {min(r['cpu']):>8.3f} {r['nfev']:>6} {r['impacts']:>7} "
+              f"{r['status']:>9}  {r['file']}")
+    speedup = min(base["wall"]) / min(cur["wall"])
+    warm = min(cur["wall"])
+    print(f"speed-up baseline/current {speedup:.2f}x (target >= 12x) {verdict(speedup >= 12)}; "
+          f"warm wall {warm:.3f} s (target <= 0.15 s) {verdict(warm <= 0.15)}")
+    if cur["impacts"] != 4 or base["impacts"] != 4:
+        print(f"note: case 1 should have 4 impacts (current {cur['impacts']}, baseline {base['impacts']})")
+    return {"current": cur, "baseline": base, "speedup": speedup}
+
+
+def cold_start(cfg):
+    """Section 5: `python -m gibbsimpact run` with an empty, then a filled NUMBA_CACHE_DIR."""
+    section("5. cold start: python -m gibbsimpact run case 1 --no-plots, fresh NUMBA_CACHE_DIR, then again")
+    tmp = Path(tempfile.mkdtemp(prefix="gi_cold_"))
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp / "numba_cache"))
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src")] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    runs = []
+    try:
+        for k, label in enumerate(("first (cold cache)", "second (warm cache)")):
+            cmd = [sys.executable, "-m", "gibbsimpact", "run", str(CASE1), "--no-plots", "--out", str(tmp / f"out{k}")]
+            r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            t0 = time.perf_counter()
+            p = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True, timeout=1800, check=False)
+            wall = time.perf_counter() - t0
+            r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+            if p.returncode != 0:
+                print(f"{label}: exit {p.returncode}\n{p.stderr[-2000:]}")
+            runs.append((label, cpu, wall, p.returncode))
+        cache_files = sum(1 for f in (tmp / "numba_cache").rglob("*") if f.is_file()) if (tmp / "numba_cache").exists() else 0
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    print(f"{'run':<20} {'cpu[s]':>7} {'wall[s]':>8} {'exit':>5}")
+    for label, cpu, wall, rc in runs:
+        print(f"{label:<20} {cpu:>7.2f} {wall:>8.2f} {rc:>5}")
+    (_, cpu1, wall1, _), (_, cpu2, wall2, _) = runs
+    print(f"numba cache files written: {cache_files}")
+    print(f"first run {cpu1:.2f} s CPU (target <= 20 s) {verdict(cpu1 <= 20)}; compile + cache estimate "
+          f"(first - second CPU) {cpu1 - cpu2:.2f} s; second run {wall2:.2f} s wall (target <= 1.5 s) "
+          f"{verdict(wall2 <= 1.5)}")
+    return {"cpu_first": cpu1, "wall_first": wall1, "cpu_second": cpu2, "wall_second": wall2}
+
+
+def plot(cfg, results):
+    """Section 6: benchmarks/scaling.png, per-call cost against n (log-log)."""
+    section("6. plot")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 6))
+    modes, rigid, sym = results.get("modes"), results.get("rigid"), results.get("sympy")
+    drawn = 0
+    styles = {"rigid": "o-", "1 mode": "s-", "2 modes": "^-"}
+    for lb in MODE_SETS:
+        src = modes if modes and lb in modes else ({"n": rigid["n"], lb: rigid["gi"]} if rigid and lb == "rigid" else None)
+        if src:
+            e = modes["exponent"][lb] if modes else slope(src["n"], src[lb])
+            ax.plot(src["n"], src[lb], styles[lb], label=f"gibbsimpact, {lb} (slope {e:.2f})")
+            drawn += 1
+    if rigid and any(t is not None for t in rigid["pin"]):
+        ns = [n for n, t in zip(rigid["n"], rigid["pin"]) if t is not None]
+        ts = [t for t in rigid["pin"] if t is not None]
+        ax.plot(ns, ts, "kd--", label=f"Pinocchio ABA, rigid (slope {slope(ns, ts):.2f})")
+        drawn += 1
+    if sym and sym["n"]:
+        ax.plot(sym["n"], sym["sympy"], "x:", color="tab:red",
+                label=f"lambdified sympy, rigid, n <= {max(sym['n'])} only (derivation cost)")
+        drawn += 1
+    if not drawn:
+        print("nothing to plot (sections 1-3 failed)")
+        plt.close(fig)
+        return None
+    ax.set_xscale("log", base=2)
+    ax.set_yscale("log")
+    ax.set_xlabel("links n")
+    ax.set_ylabel("forward dynamics per call [µs] (min of repeats)")
+    ax.set_title(f"free-flying chain of rods, {cfg.kernel_label}", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
+    fig.tight_layout()
+    fig.savefig(PNG, dpi=120)
+    plt.close(fig)
+    print(f"wrote {PNG}")
+    return PNG
+
+
+# -- main ---------------------------------------------------------------------------------------------
+
+def describe_environment():
+    head = _git("rev-parse", "--short", "HEAD", check=False).stdout.strip() or "?"
+    has_kernel = (ROOT / "src" / "gibbsimpact" / "kernel.py").exists()
+    model = chain_model(2)
+    forward_dynamics(model, *random_state(model))  # imports whatever kernel dynamics uses
+    if "gibbsimpact.kernel" in sys.modules:
+        label = "compiled kernel (gibbsimpact.kernel in use)"
+        if os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0"):
+            label += ", NUMBA_DISABLE_JIT set"
+    elif has_kernel:
+        label = "numpy kernel (kernel.py present but not used yet)"
+    else:
+        label = "numpy kernel (no kernel.py)"
+    try:
+        import numba
+
+        nb = f"numba {numba.__version__}"
+    except ImportError:
+        nb = "numba not installed"
+    print(f"gibbsimpact {gi.__version__} from {Path(gi.__file__).parent}, HEAD {head}, {label}; {nb}; "
+          f"numpy {np.__version__}; python {sys.version.split()[0]}; {os.cpu_count()} cores")
+    return label
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="smoke run: n = 2, 4, 8, few short repeats")
+    ap.add_argument("--skip-cold", action="store_true", help="skip section 5 (cold start)")
+    ap.add_argument("--skip-simulate", action="store_true", help="skip section 4 (simulate against the baseline)")
+    ap.add_argument("--repeats", type=int, default=None, help="timing loops per measurement; the minimum is reported")
+    args = ap.parse_args(argv)
+    cfg = argparse.Namespace(
+        sizes=(2, 4, 8) if args.quick else (2, 4, 8, 16, 32),
+        repeats=args.repeats or (3 if args.quick else 7),
+        budget=0.02 if args.quick else 0.2,  # seconds per timing loop
+        sim_repeats=1 if args.quick else 3,
+        sympy_n_max=4 if args.quick else 16,
+    )
+    cfg.kernel_label = describe_environment()
+    print(f"sizes n = {cfg.sizes}; {cfg.repeats} repeats of ~{cfg.budget} s loops per timing (minimum reported)")
+    results = {}
+    results["rigid"] = run_section(rigid_vs_pinocchio, cfg)
+    results["modes"] = run_section(modes_scaling, cfg, results["rigid"])
+    results["case1"] = run_section(case1_vs_sympy, cfg)
+    results["sympy"] = run_section(sympy_scaling, cfg, results["rigid"])
+    if args.skip_simulate:
+        print("\n(section 4 skipped: --skip-simulate)")
+    else:
+        results["simulate"] = run_section(simulate_vs_baseline, cfg)
+    if args.skip_cold:
+        print("\n(section 5 skipped: --skip-cold)")
+    else:
+        results["cold"] = run_section(cold_start, cfg)
+    run_section(plot, cfg, results)
+    return results
+
+
+if __name__ == "__main__":
+    main()
