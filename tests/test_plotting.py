@@ -149,3 +149,167 @@ def test_fixed_base_fe_driven_run_figures(tmp_path):
         "power-balance" in ax.get_title() for ax in figs["energy"].axes)
     import matplotlib.pyplot as plt
     plt.close("all")
+
+
+# --------------------------------------------------------------------------
+# Figures that do not accumulate, ax=, repr, early-stop status, walls, labels, colours, camera
+
+def _texts(fig):
+    """Every text a figure shows: suptitle, figure texts, axes titles and texts."""
+    out = [t.get_text() for t in fig.texts]
+    if fig._suptitle is not None:
+        out.append(fig._suptitle.get_text())
+    for ax in fig.axes:
+        out += [ax.get_title()] + [t.get_text() for t in ax.texts]
+    return "\n".join(out)
+
+
+def test_figures_do_not_accumulate_in_pyplot(planar):
+    import warnings
+
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # matplotlib's "More than 20 figures" warning
+        for _ in range(21):
+            fig = planar.plot("energy")
+    assert plt.get_fignums() == []
+    from matplotlib.figure import Figure
+
+    assert isinstance(fig, Figure) and len(fig.axes) == 2
+    figs = plotting.plot_result(planar, kinds=["angles", "modes", "joint_positions"])
+    assert plt.get_fignums() == [] and set(figs) == {"angles", "modes", "joint_positions"}
+
+
+def test_plot_into_given_axes(planar, spatial):
+    from matplotlib.figure import Figure
+
+    fig = Figure()
+    ax = fig.add_subplot()
+    assert planar.plot("angles", ax=ax) is fig
+    assert len(fig.axes) == 1 and len(ax.get_lines()) == 2 + len(planar.impacts)  # theta_1, theta_2, markers
+    fig2 = Figure()
+    axes = fig2.subplots(2, 1)
+    assert planar.plot(which="energy", ax=axes) is fig2
+    assert axes[1].get_ylabel().startswith("$E - E(t_0)")
+    assert planar.plot("modes", ax=Figure().add_subplot()) is not None
+    fig3 = Figure()
+    ax3 = fig3.add_subplot(projection="3d")
+    assert spatial.plot("trajectory", ax=ax3) is fig3 and len(ax3.get_lines()) > 2
+    with pytest.raises(ValueError, match="projection='3d'"):
+        spatial.plot("trajectory", ax=Figure().add_subplot())
+    with pytest.raises(ValueError, match="at most 2 panel"):
+        planar.plot("angles", ax=Figure().subplots(3, 1))
+    with pytest.raises(ValueError, match="ax= draws one figure"):
+        planar.plot(ax=ax)
+    with pytest.raises(ValueError, match="unknown figure 'spectrum'"):
+        planar.plot("spectrum")
+    assert set(planar.plot(["angles", "energy"])) == {"angles", "energy"}  # a list: {name: Figure}
+
+
+def test_repr_is_short(planar, spatial):
+    for res in (planar, spatial):
+        text = repr(res)
+        assert len(text) < 400 and "\n" not in text
+        assert text.startswith("Result(finished; t = 0 ... ") and f"{len(res.impacts)} impacts" in text
+        assert "energy_error" in text and "nfev" in text
+    import dataclasses
+
+    stopped = dataclasses.replace(planar, status="zeno", message="accumulation of impacts: " + "x" * 500)
+    assert len(repr(stopped)) < 400 and "zeno (accumulation of impacts" in repr(stopped)
+    assert [f.name for f in dataclasses.fields(planar)][:9] == [
+        "model", "walls", "t", "q", "qdot", "phase", "impacts", "status", "message"]
+
+
+def test_early_stop_status_is_on_every_figure(planar):
+    import dataclasses
+
+    from matplotlib.figure import Figure
+
+    msg = ("accumulation of impacts: joint O2 stayed within 3e-09 m of wall 1 through 10 consecutive impacts "
+           "(its rebounds no longer leave the contact band); estimated accumulation time 0.5 s")
+    stopped = dataclasses.replace(planar, status="zeno", message=msg)
+    figs = plotting.plot_result(stopped, n_points=11)
+    for name, fig in figs.items():
+        text = _texts(fig)
+        assert "STOPPED EARLY (zeno) at t = 0.5 s: accumulation of impacts" in text, name
+        assert "(its rebounds" not in text  # parenthetical remarks dropped to keep it short
+    ax = Figure().add_subplot()
+    stopped.plot("energy", ax=ax)
+    assert any("STOPPED EARLY (zeno)" in t.get_text() for t in ax.texts)
+    assert "STOPPED EARLY" not in _texts(planar.plot("energy"))
+
+
+def _still(model, q, walls, status="finished"):
+    from gibbsimpact.results import Result
+
+    Q = np.array([q, q])
+    return Result(model=model, walls=tuple(walls), t=np.array([0.0, 0.1]), q=Q, qdot=np.zeros_like(Q),
+                  phase=np.zeros(2, dtype=int), impacts=[], status=status, message="")
+
+
+def test_two_planes_are_drawn_as_a_v():
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")])
+    model = gi.Model(gi.Chain([link, link]))
+    walls = [gi.Plane((0, 0, 0), (1, 1, 0)), gi.Plane((0, 0, 0), (-1, 1, 0))]
+    res = _still(model, model.state(X1=-0.7, X2=0.9, theta_1=-0.3, theta_2=0.9), walls)  # vertex in view
+    fig = plotting.plot_configurations(res, n_points=11)
+    ax = fig.axes[0]
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    segs = {ln.get_gid(): np.column_stack(ln.get_data()) for ln in ax.get_lines() if (ln.get_gid() or "").startswith("wall")}
+    assert set(segs) == {"wall 1", "wall 2"}
+    for k, (gid, s) in enumerate(sorted(segs.items())):
+        s = s[np.all(np.isfinite(s), axis=1)]
+        # Inside the view box and on the free side of the other plane ...
+        assert np.all((s[:, 0] >= x0 - 1e-9) & (s[:, 0] <= x1 + 1e-9) & (s[:, 1] >= y0 - 1e-9) & (s[:, 1] <= y1 + 1e-9))
+        other = walls[1 - k]
+        assert other.gap(np.column_stack([s, np.zeros(len(s))])).min() >= -1e-9
+        # ... from the vertex (0, 0) up to the edge of the view: one arm of the V each.
+        ends = s[[0, -1]]
+        assert np.min(np.linalg.norm(ends, axis=1)) < 1e-9
+        far = ends[np.argmax(np.linalg.norm(ends, axis=1))]
+        assert min(abs(far[0] - x0), abs(far[0] - x1), abs(far[1] - y0), abs(far[1] - y1)) < 1e-9
+    # The left arm goes up-left, the right arm up-right: a V, not an X.
+    xs = sorted(np.nanmean(s[:, 0]) for s in segs.values())
+    assert xs[0] < 0 < xs[1] and all(np.nanmin(s[:, 1]) > -1e-9 for s in segs.values())
+
+
+def test_impact_numbers_never_overlap():
+    # 28 impacts with clusters (as in a long run at e = 0.9): labels in one row, none overlapping.
+    import itertools
+
+    rng = np.random.default_rng(3)
+    times = np.sort(np.concatenate([rng.uniform(0.5, 2.5, 14), 2.76 + 0.004 * np.arange(8),
+                                    1.7 + 0.01 * np.arange(6)]))
+    width_pt = 500.0
+    labels = plotting._impact_labels(times, 0.0, 2.8, width_pt)
+    char = 0.6 * 7.0 / width_pt * 2.8  # seconds per character, as _impact_labels assumes
+    spans = [(t, t + len(text) * char) for t, text in labels]
+    assert all(b[0] >= a[1] for a, b in itertools.pairwise(spans))
+    assert labels[0][1] in ("1", "1\u20132") and len(labels) < len(times)
+    # Every number shown is an impact number, ranges in order, none twice.
+    shown = [int(n) for _, text in labels for n in text.split("\u2013")]
+    assert shown == sorted(shown) and len(set(shown)) == len(shown) and shown[-1] <= 28
+
+
+def test_link_and_path_colours_differ_and_avoid_red():
+    import matplotlib.colors as mc
+
+    links = {mc.to_hex(c) for c in plotting.LINK_COLOURS}
+    joints = {mc.to_hex(c) for c in plotting.JOINT_COLOURS}
+    assert not links & joints
+    for c in links | joints:
+        r, g, b = mc.to_rgb(c)
+        assert not (r > 0.7 and g < 0.3 and b < 0.3), c
+
+
+def test_camera_looks_along_the_least_motion():
+    rng = np.random.default_rng(0)
+    flat = np.column_stack([rng.normal(size=200), rng.normal(size=200), 0.01 * rng.normal(size=200)])
+    elev, azim = plotting.camera(flat)  # motion in X1-X2: look along X3 (the plot's x axis), from low
+    assert elev == pytest.approx(10.0) and min(abs(azim), abs(abs(azim) - 180.0)) < 5.0
+    floor = np.column_stack([rng.normal(size=200), 0.01 * rng.normal(size=200), rng.normal(size=200)])
+    assert plotting.camera(floor)[0] == pytest.approx(75.0)  # motion in X1-X3: from above (capped)
+    assert plotting.camera(rng.normal(size=(300, 3))) == (18.0, -60.0)  # no clear direction: default

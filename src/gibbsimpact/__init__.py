@@ -14,11 +14,12 @@ from .sweep import sweep
 from .symbolic import derive_equations
 from .case import Case, CaseError, load_case
 from .io import load_result
+from .validity import ValidityWarning
 from .walls import Circle, Plane, Sphere
 
 __version__ = "0.1.0"
 
 __all__ = [
     "Case", "CaseError", "Chain", "Circle", "Energy", "FixedBase", "ImpactRecord", "Link", "Mode", "Model", "Plane",
-    "Result", "Revolute", "SingularMassMatrixError", "Sphere", "derive_equations", "load_case", "load_result", "natural_frequency", "simulate", "sweep", "__version__",
+    "Result", "Revolute", "SingularMassMatrixError", "Sphere", "ValidityWarning", "derive_equations", "load_case", "load_result", "natural_frequency", "simulate", "sweep", "__version__",
 ]

@@ -1,30 +1,44 @@
 """Figures of a simulation: time histories, energies, configurations at the impacts, animation.
 
 matplotlib is imported here only, and only when a figure is drawn;
-``import gibbsimpact`` never imports it. Without a display (no DISPLAY or
+``import gibbsimpact`` never imports it. Figures are built as
+``matplotlib.figure.Figure`` objects, not through pyplot: every function returns
+one figure and nothing stays open in pyplot's figure registry, so calling them
+in a loop or a notebook never accumulates figures (save one with
+``fig.savefig``, or hand axes of your own figure to ``ax=``). In IPython or
+Jupyter, pyplot is imported once (never used to make figures) so that a
+returned Figure is displayed inline. Without a display (no DISPLAY or
 WAYLAND_DISPLAY on Linux, no MPLBACKEND set) the non-interactive Agg backend
 is selected before pyplot is first imported.
 
 Every time plot marks the impact instants with dotted vertical lines numbered
-1, 2, ... above the axes; the figure's footnote lists them (time, joints).
-Configurations are drawn in 2D (X1-X2 plane) when the motion is planar and in
-3D otherwise; in 3D, X2 (the usual "up" against gravity) is the vertical axis.
+above the axes (impacts too close to be numbered one by one share a label
+"a-b", and numbers that would overlap are left out); the figure's footnote
+lists the first ones (time, joints). A run that stopped early says so, with
+its status and message, under every figure's title (in a red box inside the
+axes when drawing into ``ax=``). Configurations are drawn in 2D (X1-X2 plane)
+when the motion is planar and in 3D otherwise; in 3D, X2 (the usual "up"
+against gravity) is the vertical axis and the camera looks along the
+direction in which the joints moved least. Link drawings and joint paths
+have separate colour sets; red is kept for impacts.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import sys
+import textwrap
 
 import numpy as np
 
 from .kinematics import transforms
 from .model import shape_functions
-from .walls import Circle, Sphere, describe
+from .walls import Circle, Plane, Sphere, describe
 
 __all__ = [
-    "FIGURES", "animate", "is_planar", "link_points", "plot_angles", "plot_configurations", "plot_energy",
-    "plot_joint_positions", "plot_joint_velocities", "plot_modes", "plot_result", "plot_trajectory",
+    "FIGURES", "animate", "camera", "is_planar", "link_points", "plot_angles", "plot_configurations", "plot_energy",
+    "plot_joint_positions", "plot_joint_velocities", "plot_modes", "plot_one", "plot_result", "plot_trajectory",
     "save_figures",
 ]
 
@@ -32,6 +46,20 @@ __all__ = [
 FIGURES = ("angles", "modes", "joint_positions", "joint_velocities", "energy", "configurations", "trajectory")
 
 _PLANAR_TOL = 1e-9  # m or rad: out-of-plane motion below this counts as planar
+
+#: Colours of the link drawings (cycled) ...
+LINK_COLOURS = ("#1f77b4", "#ff7f0e", "#8c564b", "#e377c2", "#bcbd22")
+#: ... and of the joints' paths and time curves (O_1, O_2, ...): no colour of either set is in the
+#: other, and neither holds red, which marks impacts.
+JOINT_COLOURS = ("#6a3d9a", "#1b9e77", "#17becf", "#2ca02c", "#253494", "#a6761d", "#7f7f7f")
+
+
+def _link_colour(i: int) -> str:
+    return LINK_COLOURS[i % len(LINK_COLOURS)]
+
+
+def _joint_colour(j: int) -> str:
+    return JOINT_COLOURS[j % len(JOINT_COLOURS)]
 
 
 def _pyplot():
@@ -48,6 +76,28 @@ def _pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def _figure(figsize, layout=None):
+    """A new Figure outside pyplot's registry (nothing to close, nothing accumulates)."""
+    from matplotlib.figure import Figure
+
+    if "IPython" in sys.modules:
+        # Importing pyplot under IPython installs the inline display of Figure objects;
+        # no figure is made through it.
+        _pyplot()
+    return Figure(figsize=figsize, layout=layout)
+
+
+def _given_axes(ax, n_max: int, what: str) -> list:
+    """``ax`` (one Axes or a sequence of them) as a list of at most ``n_max`` Axes."""
+    axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
+    if not axes or not all(hasattr(a, "plot") and hasattr(a, "figure") for a in axes):
+        raise ValueError(f"{what}: ax={ax!r} must be a matplotlib Axes or a sequence of them")
+    if len(axes) > n_max:
+        raise ValueError(f"{what}: ax holds {len(axes)} Axes but this figure has at most {n_max} panel(s); "
+                         f"pass at most {n_max}")
+    return axes
 
 
 # --------------------------------------------------------------------------
@@ -91,6 +141,100 @@ def is_planar(result) -> bool:
     return bool(planar) and all(_wall_is_2d(w) for w in result.walls)
 
 
+def _clip_polygon(poly: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
+    """The part of a convex polygon (m, d) where normal . p >= offset (Sutherland-Hodgman, one plane)."""
+    if len(poly) == 0:
+        return poly
+    s = poly @ normal - offset
+    out = []
+    for k in range(len(poly)):
+        a, b, sa, sb = poly[k - 1], poly[k], s[k - 1], s[k]
+        if sb >= 0:
+            if sa < 0:
+                out.append(a + (b - a) * (sa / (sa - sb)))
+            out.append(b)
+        elif sa >= 0:
+            out.append(a + (b - a) * (sa / (sa - sb)))
+    return np.array(out).reshape(-1, poly.shape[1])
+
+
+def _wall_curves_2d(walls, extent, n_samples: int = 721) -> list:
+    """[(wall index, (m, 2) polyline)]: each wall's section with the X1-X2 plane, clipped to the
+    view box and to the free side of every other wall (NaN rows break a polyline).
+
+    A plane is a straight segment: the box and the other planes clip it exactly (so two
+    planes meet in a V, not an X); circles and spheres are sampled and masked.
+    """
+    x0, x1, y0, y1 = extent
+    tol = 1e-9 * max(x1 - x0, y1 - y0)
+    box = [(np.array([1.0, 0.0]), x0), (np.array([-1.0, 0.0]), -x1),
+           (np.array([0.0, 1.0]), y0), (np.array([0.0, -1.0]), -y1)]
+    out = []
+    for k, w in enumerate(walls):
+        if isinstance(w, Plane):
+            n3, p3 = np.asarray(w.normal_vector), np.asarray(w.point)
+            n = n3[:2] / np.linalg.norm(n3[:2])
+            # Points with n12 . p12 = n . point (the section at X3 = 0), along the tangent.
+            c = (n3 @ p3) / np.linalg.norm(n3[:2]) * n
+            t = np.array([-n[1], n[0]])
+            big = 4.0 * max(x1 - x0, y1 - y0) + 4.0 * np.linalg.norm(c - [0.5 * (x0 + x1), 0.5 * (y0 + y1)])
+            s_lo, s_hi = -big, big
+            cuts = box + [(np.asarray(o.normal_vector)[:2], np.asarray(o.normal_vector) @ np.asarray(o.point))
+                          for i, o in enumerate(walls) if i != k and isinstance(o, Plane)]
+            for a, b in cuts:
+                # a . (c + s t) >= b
+                at, rhs = a @ t, b - a @ c
+                if abs(at) < 1e-14:
+                    if rhs > tol:
+                        s_lo, s_hi = 1.0, 0.0
+                    continue
+                if at > 0:
+                    s_lo = max(s_lo, rhs / at)
+                else:
+                    s_hi = min(s_hi, rhs / at)
+            if s_hi <= s_lo:
+                continue
+            s = np.linspace(s_lo, s_hi, n_samples)
+            seg = c + s[:, None] * t
+        else:
+            R = w.radius if isinstance(w, Circle) else np.sqrt(max(w.radius ** 2 - w.center[2] ** 2, 0.0))
+            s = np.linspace(0.0, 2.0 * np.pi, n_samples)
+            seg = np.asarray(w.center[:2]) + R * np.stack([np.cos(s), np.sin(s)], axis=-1)
+        P = np.column_stack([seg, np.zeros(len(seg))])
+        # Planes clipped a plane's segment exactly; the rest are sampled.
+        ok = np.ones(len(seg), dtype=bool)
+        for i, o in enumerate(walls):
+            if i != k and not (isinstance(w, Plane) and isinstance(o, Plane)):
+                ok &= o.gap(P) >= -tol
+        seg = seg.copy()
+        seg[~ok] = np.nan
+        if np.any(ok):
+            out.append((k, seg))
+    return out
+
+
+def _plane_polygon_3d(walls, k: int, lo, hi) -> np.ndarray:
+    """Plane wall k inside the box [lo, hi] (3,) and on the free side of every other plane: (m, 3)."""
+    w = walls[k]
+    n, p = np.asarray(w.normal_vector), np.asarray(w.point)
+    a = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
+    a /= np.linalg.norm(a)
+    b = np.cross(n, a)
+    mid = 0.5 * (lo + hi)
+    c = mid - ((mid - p) @ n) * n
+    size = 2.0 * np.linalg.norm(hi - lo)
+    poly = np.array([c + size * (sa * a + sb * b) for sa, sb in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
+    for d in range(3):
+        e = np.eye(3)[d]
+        poly = _clip_polygon(poly, e, lo[d])
+        poly = _clip_polygon(poly, -e, -hi[d])
+    for i, o in enumerate(walls):
+        if i != k and isinstance(o, Plane):
+            no = np.asarray(o.normal_vector)
+            poly = _clip_polygon(poly, no, no @ np.asarray(o.point))
+    return poly
+
+
 # --------------------------------------------------------------------------
 # Labels
 
@@ -116,56 +260,141 @@ def _impact_note(result, limit: int = 8) -> str:
     if not imps:
         return "no impacts"
     items = [f"{k}: {_joint_list(r.joints)} at {r.time:.6f} s" for k, r in enumerate(imps[:limit], start=1)]
-    more = f"; ... ({len(imps)} in all)" if len(imps) > limit else ""
+    more = f"; ... ({len(imps)} in all, every one in impacts.csv)" if len(imps) > limit else ""
     return "impacts (dotted lines): " + "; ".join(items) + more
 
 
-def _mark_impacts(axes, result, number_axis=None):
-    """Dotted vertical lines at the impact times on every axis; numbers above ``number_axis``."""
+def _status_line(result, width: int = 150) -> str:
+    """'' for a finished run; else the status, the time reached and the message, shortened to
+    ``width`` characters (parenthetical remarks dropped first)."""
+    if result.status == "finished":
+        return ""
+    head = f"STOPPED EARLY ({result.status}) at t = {float(result.t[-1]):.6g} s: "
+    msg = re.sub(r"\s*\([^()]*\)", "", str(result.message))
+    return head + textwrap.shorten(msg, max(20, width - len(head)), placeholder=" ...")
+
+
+def _title(result, what, case_name=None, width_in: float = 9.5):
+    """Figure title; a run that stopped early gets its status below, wrapped to the figure width."""
+    title = f"{case_name}: {what}" if case_name else what
+    per_line = int(12.5 * width_in)  # characters of a 10 pt line
+    status = _status_line(result, width=2 * per_line)
+    lines = textwrap.wrap(status, per_line)
+    if len(lines) > 2:
+        lines = [lines[0], textwrap.shorten(" ".join(lines[1:]), per_line, placeholder=" ...")]
+    return "\n".join(textwrap.wrap(title, int(1.1 * per_line)) + lines)
+
+
+def _status_box(ax, result):
+    """The early-stop status in a red box in the top left corner of ``ax`` (drawing into given axes)."""
+    status = _status_line(result, width=90)
+    if status:
+        text = "\n".join(textwrap.wrap(status, 60))
+        put = ax.text2D if ax.name == "3d" else ax.text
+        put(0.01, 0.99, text, transform=ax.transAxes, fontsize=7, color="darkred", va="top", ha="left", zorder=20,
+            bbox={"boxstyle": "round", "fc": "#fde0dc", "ec": "darkred", "alpha": 0.9})
+
+
+def _impact_labels(times, t0: float, t1: float, width_pt: float, fontsize: float = 7.0) -> list:
+    """Impact numbers in one row above an axis of ``width_pt`` points spanning t0 ... t1.
+
+    Returns [(t, text)], each text left-aligned at t minus half its first number. Impacts
+    within about two characters of a group's first one share a label "a-b"; a number that
+    would overlap the previous label is left out (its dotted line stays).
+    """
+    span = max(t1 - t0, 1e-300)
+    char = 0.6 * fontsize / max(width_pt, 1.0)  # axis fraction per digit (DejaVu Sans: 0.64 em)
+    space = 1.0 * char
+    cluster = 2.0 * char
+    labels = []
+    cur = None  # [first, last, x_first, x_last]
+
+    def left(g):
+        return g[2] - 0.5 * len(str(g[0])) * char
+
+    def text(g):
+        return str(g[0]) if g[0] == g[1] else f"{g[0]}\u2013{g[1]}"
+
+    def right(g):
+        return left(g) + len(text(g)) * char
+
+    for k, t in enumerate(np.asarray(times, dtype=float), start=1):
+        x = (t - t0) / span
+        if cur is None:
+            cur = [k, k, x, x]
+        elif x - cur[2] <= cluster and cur[1] == k - 1:
+            cur[1], cur[3] = k, x
+        elif x - 0.5 * len(str(k)) * char >= right(cur) + space:
+            labels.append(cur)
+            cur = [k, k, x, x]
+    if cur is not None:
+        labels.append(cur)
+    # The last label, if it would run past the right end of the axis, ends there instead, and the
+    # labels it would then overlap are left out.
+    out = [(left(g), text(g)) for g in labels]
+    if out:
+        x_last = min(out[-1][0], 1.0 + 0.5 * char - len(out[-1][1]) * char)
+        out[-1] = (x_last, out[-1][1])
+        while len(out) > 1 and out[-2][0] + len(out[-2][1]) * char + space > x_last:
+            del out[-2]
+    return [(t0 + x * span, label) for x, label in out]
+
+
+def _mark_impacts(axes, result, number_axes=()):
+    """Dotted vertical lines at the impact times on every axis; numbers above each of ``number_axes``."""
     times = result.impact_times
     if times.size == 0:
         return
     many = times.size > 40
     for ax in axes:
-        for t in times:
-            ax.axvline(t, color="0.35", ls=":", lw=0.6 if many else 0.9, zorder=0)
-    if number_axis is None or many:
-        return
-    tr = number_axis.get_xaxis_transform()
-    x0, x1 = number_axis.get_xlim()
-    last = -np.inf
-    level = 0
-    for k, t in enumerate(times, start=1):
-        # Stagger numbers that would overlap (closer than 2.5 % of the axis).
-        level = level + 1 if (t - last) < 0.025 * (x1 - x0) else 0
-        last = t
-        number_axis.text(t, 1.02 + 0.07 * (level % 3), str(k), transform=tr, ha="center", va="bottom",
-                         fontsize=7, color="0.25")
+        if times.size <= 200:
+            for t in times:
+                ax.axvline(t, color="0.35", ls=":", lw=0.6 if many else 0.9, zorder=0)
+        else:  # one artist for all of them
+            ax.vlines(times, 0, 1, transform=ax.get_xaxis_transform(), colors="0.35", linestyles=":", lw=0.5,
+                      zorder=0)
+    for ax in number_axes:
+        x0, x1 = ax.get_xlim()
+        fig = ax.figure
+        width_pt = ax.get_position().width * fig.get_figwidth() * 72.0
+        tr = ax.get_xaxis_transform()
+        for t, text in _impact_labels(times, x0, x1, width_pt):
+            ax.text(t, 1.015, text, transform=tr, ha="left", va="bottom", fontsize=7, color="0.25", clip_on=False)
 
 
-def _finish_time_figure(fig, axes, result, title):
-    axes[-1].set_xlabel("t [s]")
+def _finish_time_figure(fig, axes, result, title, own: bool, number_axes=None, right: float = 1.0):
+    """Limits, grid, impact markers; on a figure of our own the title, the footnote and the layout."""
+    axes = list(axes)
+    bottom = [ax for ax in axes if ax.get_subplotspec() is None or ax.get_subplotspec().is_last_row()]
+    for ax in bottom or axes[-1:]:
+        ax.set_xlabel("t [s]")
     t0, t1 = float(result.t[0]), float(result.t[-1])
     for ax in axes:
         ax.set_xlim(t0, t1)
         ax.grid(True, lw=0.3, alpha=0.6)
-    _mark_impacts(axes, result, number_axis=axes[0])
-    fig.suptitle(title, fontsize=11)
-    fig.text(0.01, 0.005, _impact_note(result), fontsize=7, color="0.3", ha="left", va="bottom", wrap=True)
-    fig.tight_layout(rect=(0, 0.035, 1, 1))
+    if own:
+        # Subplot positions before tight_layout only estimate the widths the numbers get.
+        fig.subplots_adjust(left=0.08, right=min(0.84, right))
+    _mark_impacts(axes, result, number_axes=axes[:1] if number_axes is None else number_axes)
+    if own:
+        fig.suptitle(title, fontsize=11 if "\n" not in title else 10)
+        fig.text(0.01, 0.005, _impact_note(result), fontsize=7, color="0.3", ha="left", va="bottom", wrap=True)
+        fig.tight_layout(rect=(0, 0.035, right, 1))
+    else:
+        _status_box(axes[0], result)
 
 
 #: Line styles cycled with the colours, so that curves that coincide (symmetric motions) stay visible.
 _STYLES = ("-", "--", "-.", (0, (5, 1, 1, 1, 1, 1)))
 
 
-def _style(k: int) -> dict:
-    return {"color": f"C{k}", "ls": _STYLES[k % len(_STYLES)], "lw": 1.3}
+def _style(k: int, colour=None) -> dict:
+    return {"color": colour or f"C{k % 10}", "ls": _STYLES[k % len(_STYLES)], "lw": 1.3}
 
 
 def _legend(ax, ncol=None, outside=True):
     """Legend to the right of the axes (never on top of the data), or inside at the best place."""
-    handles, labels = ax.get_legend_handles_labels()
+    handles, _ = ax.get_legend_handles_labels()
     if not handles:
         return
     if outside:
@@ -174,100 +403,161 @@ def _legend(ax, ncol=None, outside=True):
         ax.legend(fontsize=8, ncol=ncol or min(len(handles), 4), loc="best", framealpha=0.85)
 
 
-def _title(result, what, case_name=None):
-    return f"{case_name}: {what}" if case_name else what
-
-
 # --------------------------------------------------------------------------
 # Time histories
 
-def plot_angles(result, case_name=None):
-    """Joint angles theta [rad] and their rates [rad/s] against time."""
-    plt = _pyplot()
+def plot_angles(result, case_name=None, ax=None):
+    """Joint angles theta [rad] and their rates [rad/s] against time; returns the Figure.
+
+    ax : None (a new figure with both panels), one Axes (the angles only) or two (angles, rates).
+    """
     model = result.model
     idx = list(model.theta_index)
     if model.free_base and not is_planar(result):
         idx = [3, 4] + idx
-    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(9.5, 6))
+    own = ax is None
+    if own:
+        fig = _figure((9.5, 6))
+        axes = list(fig.subplots(2, 1, sharex=True))
+    else:
+        axes = _given_axes(ax, 2, "plot_angles")
+        fig = axes[0].figure
     for c, k in enumerate(idx):
         name = model.coordinate_names[k]
         axes[0].plot(result.t, result.q[:, k], label=_tex(name), **_style(c))
-        axes[1].plot(result.t, result.qdot[:, k], label=_tex(name, dot=True), **_style(c))
+        if len(axes) > 1:
+            axes[1].plot(result.t, result.qdot[:, k], label=_tex(name, dot=True), **_style(c))
     axes[0].set_ylabel("joint angle [rad]")
-    axes[1].set_ylabel("angular velocity [rad/s]")
-    _legend(axes[0])
-    _legend(axes[1])
-    _finish_time_figure(fig, axes, result, _title(result, "joint angles and angular velocities", case_name))
+    if len(axes) > 1:
+        axes[1].set_ylabel("angular velocity [rad/s]")
+    for a in axes:
+        _legend(a, outside=own)
+    _finish_time_figure(fig, axes, result, _title(result, "joint angles and angular velocities", case_name), own)
     return fig
 
 
-def plot_modes(result, case_name=None):
-    """Modal coordinates delta [m] and their rates [m/s]; None for a chain of rigid links.
-
-    A finite-element link is shown by its tip deflection (the node-n_e deflection
-    coordinate of each bending direction), not by all its nodal coordinates.
-    """
-    model = result.model
+def _mode_rows(model):
+    """Per link: [(coordinate index, description)] of the curves modes.png draws (FE: tip deflections)."""
     rows = []
     for i, lk in enumerate(model.chain.links):
         idx = model.delta_index[i]
         if lk.elements:
             per = 2 * lk.elements
-            rows += [(int(idx[(j + 1) * per - 2]), f"link {i + 1}, tip deflection in {d} (FE)")
-                     for j, d in enumerate(lk.element_directions)]
+            rows.append([(int(idx[(j + 1) * per - 2]), f"tip deflection in {d} (FE)")
+                         for j, d in enumerate(lk.element_directions)])
         else:
-            rows += [(int(k), f"link {i + 1}, {md.direction}, {md.kind} #{md.number}") for k, md in zip(idx, lk.modes)]
+            rows.append([(int(k), f"{md.direction}, {md.kind} #{md.number}") for k, md in zip(idx, lk.modes)])
+    return rows
+
+
+def plot_modes(result, case_name=None, ax=None):
+    """Modal coordinates delta [m] and their rates [m/s], one row of two axes per flexible link;
+    None for a chain of rigid links.
+
+    A finite-element link is shown by its tip deflection (the node-n_e deflection
+    coordinate of each bending direction), not by all its nodal coordinates.
+    ax : None (a new figure: per link, coordinates left and rates right), one Axes (every
+    modal coordinate of every link in it) or two (coordinates, rates).
+    """
+    model = result.model
+    rows = [(i, r) for i, r in enumerate(_mode_rows(model)) if r]
     if not rows:
         return None
-    plt = _pyplot()
-    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(9.5, 6))
-    for c, (k, text) in enumerate(rows):
-        name = model.coordinate_names[k]
-        desc = "\n" + text
-        axes[0].plot(result.t, result.q[:, k], label=_tex(name) + desc, **_style(c))
-        axes[1].plot(result.t, result.qdot[:, k], label=_tex(name, dot=True), **_style(c))
-    axes[0].set_ylabel("modal coordinate [m]")
-    axes[1].set_ylabel("modal velocity [m/s]")
-    for ax in axes:
-        ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
-    _legend(axes[0])
-    _legend(axes[1])
-    _finish_time_figure(fig, axes, result, _title(result, "modal coordinates and velocities", case_name))
+    own = ax is None
+    if own:
+        fig = _figure((9.5, 1.0 + 2.1 * len(rows)))
+        grid = fig.subplots(len(rows), 2, sharex=True, squeeze=False)
+        pairs = [(grid[r, 0], grid[r, 1]) for r in range(len(rows))]
+        axes = list(grid.ravel())
+    else:
+        axes = _given_axes(ax, 2, "plot_modes")
+        fig = axes[0].figure
+        pairs = [(axes[0], axes[1] if len(axes) > 1 else None)] * len(rows)
+    # One colour per modal coordinate over the whole chain, so that one legend serves every row.
+    c = 0
+    for (i, curves), (a_q, a_v) in zip(rows, pairs):
+        for k, text in curves:
+            name = model.coordinate_names[k]
+            label = _tex(name) + f"  link {i + 1}, " + text
+            a_q.plot(result.t, result.q[:, k], label=label, **_style(c))
+            if a_v is not None:
+                a_v.plot(result.t, result.qdot[:, k], label=_tex(name, dot=True), **_style(c))
+            c += 1
+        if own:
+            a_q.set_ylabel(f"link {i + 1}\n" + r"$\delta$ [m]")
+            a_v.set_ylabel(r"$\dot\delta$ [m/s]")
+    right = 1.0
+    if own:
+        handles = [h for a, _ in pairs for h in a.get_legend_handles_labels()[0]]
+        # Owned by the first axes, drawn right of the top row's rate axes, kept out of tight_layout.
+        leg = axes[0].legend(handles, [h.get_label() for h in handles], fontsize=7.5, loc="upper left",
+                             bbox_to_anchor=(1.03, 1.0), bbox_transform=pairs[0][1].transAxes,
+                             borderaxespad=0.0, frameon=False)
+        leg.set_in_layout(False)
+        right = 1.0 - leg.get_window_extent().width / (fig.dpi * fig.get_figwidth()) - 0.02
+    else:
+        axes[0].set_ylabel("modal coordinate [m]")
+        if len(axes) > 1:
+            axes[1].set_ylabel("modal velocity [m/s]")
+        _legend(axes[0], outside=False)
+    for a in axes:
+        a.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+    title = _title(result, "modal coordinates (left) and velocities (right), one row per link", case_name)
+    _finish_time_figure(fig, axes, result, title, own, number_axes=list(axes[:2]) if own else axes[:1], right=right)
+    if own:
+        leg.set_in_layout(True)  # tight_layout is done; a tight savefig must keep the legend
     return fig
 
 
-def _joint_components(result, values, what, unit, case_name):
-    plt = _pyplot()
+def _joint_components(result, values, what, unit, case_name, ax):
     dims = 2 if is_planar(result) else 3
-    fig, axes = plt.subplots(dims, 1, sharex=True, figsize=(9.5, 2.3 * dims + 1.2))
-    for a in range(dims):
+    own = ax is None
+    if own:
+        fig = _figure((9.5, 2.3 * dims + 1.2))
+        axes = list(fig.subplots(dims, 1, sharex=True))
+    else:
+        axes = _given_axes(ax, dims, f"plot_{what.replace(' ', '_')}")
+        fig = axes[0].figure
+    for a, axis in enumerate(axes):
         for j in range(values.shape[1]):
-            axes[a].plot(result.t, values[:, j, a], label=f"$O_{{{j + 1}}}$", **_style(j))
-        axes[a].set_ylabel(f"along $X_{a + 1}$ [{unit}]")
-    _legend(axes[0])
-    _finish_time_figure(fig, list(axes), result, _title(result, what, case_name))
+            axis.plot(result.t, values[:, j, a], label=f"$O_{{{j + 1}}}$", **_style(j, _joint_colour(j)))
+        axis.set_ylabel(f"along $X_{a + 1}$ [{unit}]")
+    _legend(axes[0], outside=own)
+    _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
     return fig
 
 
-def plot_joint_positions(result, case_name=None):
-    """Positions of the joints O_1 ... O_(n+1) along X1, X2 (and X3) [m]."""
-    return _joint_components(result, result.joint_positions(), "joint positions", "m", case_name)
+def plot_joint_positions(result, case_name=None, ax=None):
+    """Positions of the joints O_1 ... O_(n+1) along X1, X2 (and X3) [m]; returns the Figure.
+
+    ax : None (a new figure) or up to 2 (planar) / 3 Axes for the components X1, X2, X3 in turn.
+    """
+    return _joint_components(result, result.joint_positions(), "joint positions", "m", case_name, ax)
 
 
-def plot_joint_velocities(result, case_name=None):
-    """Absolute velocities of the joints along X1, X2 (and X3) [m/s]."""
-    return _joint_components(result, result.joint_velocities(), "joint absolute velocities", "m/s", case_name)
+def plot_joint_velocities(result, case_name=None, ax=None):
+    """Absolute velocities of the joints along X1, X2 (and X3) [m/s]; returns the Figure.
+
+    ax : as for plot_joint_positions.
+    """
+    return _joint_components(result, result.joint_velocities(), "joint absolute velocities", "m/s", case_name, ax)
 
 
-def plot_energy(result, case_name=None):
+def plot_energy(result, case_name=None, ax=None):
     """Kinetic, gravitational, strain and total energy [J]; below, total minus its initial value.
 
     With inputs or damping (result.work not None) the work W of each is drawn too,
     and the lower panel shows the energy balance E - E(t0) - W.
+    ax : None (a new figure), one Axes (the energies) or two (energies, balance).
     """
-    plt = _pyplot()
     E = result.energy()
-    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(9.5, 6), gridspec_kw={"height_ratios": [2.2, 1]})
+    own = ax is None
+    if own:
+        fig = _figure((9.5, 6))
+        axes = list(fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2.2, 1]}))
+    else:
+        axes = _given_axes(ax, 2, "plot_energy")
+        fig = axes[0].figure
     axes[0].plot(result.t, E.kinetic, label="kinetic", **_style(0))
     axes[0].plot(result.t, E.gravity, label="gravitational", **_style(1))
     axes[0].plot(result.t, E.strain, label="strain", **_style(2))
@@ -277,17 +567,19 @@ def plot_energy(result, case_name=None):
         axes[0].plot(result.t, result.work[:, 0], label="work of inputs", **_style(3))
         axes[0].plot(result.t, result.work[:, 1], label="work of damping", **_style(4))
         balance = balance - result.work.sum(axis=1)
-        axes[1].set_ylabel(r"$E - E(t_0) - W$ [J]")
+        ylabel = r"$E - E(t_0) - W$ [J]"
         what = "max relative power-balance error in flight"
     else:
-        axes[1].set_ylabel(r"$E - E(t_0)$ [J]")
+        ylabel = r"$E - E(t_0)$ [J]"
         what = "max relative drift in flight"
     axes[0].set_ylabel("energy [J]")
-    _legend(axes[0])
-    axes[1].plot(result.t, balance, lw=1.0, color="k")
-    axes[1].ticklabel_format(axis="y", style="sci", scilimits=(-2, 3), useOffset=False)
+    _legend(axes[0], outside=own)
+    if len(axes) > 1:
+        axes[1].set_ylabel(ylabel)
+        axes[1].plot(result.t, balance, lw=1.0, color="k")
+        axes[1].ticklabel_format(axis="y", style="sci", scilimits=(-2, 3), useOffset=False)
     title = _title(result, f"energy (E(t0) = {E.total[0]:.7g} J, {what} {result.energy_error:.1e})", case_name)
-    _finish_time_figure(fig, axes, result, title)
+    _finish_time_figure(fig, axes, result, title, own)
     return fig
 
 
@@ -309,7 +601,11 @@ def _scene_extent_2d(result, points):
 
 
 def _draw_walls_2d(ax, walls, extent):
-    """Shade the region outside the walls and draw each wall's curve in the X1-X2 plane."""
+    """Shade the region outside the walls and draw the boundary of the free region in the X1-X2 plane.
+
+    Each wall is drawn only where it bounds the free region (inside the view and on the
+    free side of the other walls): two planes make a V, not an X.
+    """
     if not walls:
         return
     x0, x1, y0, y1 = extent
@@ -317,14 +613,15 @@ def _draw_walls_2d(ax, walls, extent):
     P = np.stack([X, Y, np.zeros_like(X)], axis=-1)
     G = np.min([w.gap(P) for w in walls], axis=0)
     ax.contourf(X, Y, G, levels=[-np.inf, 0.0], colors=["0.85"], zorder=0)
-    for w in walls:
-        ax.contour(X, Y, w.gap(P), levels=[0.0], colors=["0.15"], linewidths=1.6, zorder=1)
+    for k, seg in _wall_curves_2d(walls, extent):
+        ln, = ax.plot(seg[:, 0], seg[:, 1], color="0.15", lw=1.6, zorder=1)
+        ln.set_gid(f"wall {k + 1}")
 
 
 def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, arrow=0.25):
     pts = link_points(model, q, n_points)
     for i in range(pts.shape[0]):
-        ax.plot(pts[i, :, 0], pts[i, :, 1], lw=2.4, color=f"C{i}", solid_capstyle="round", zorder=3,
+        ax.plot(pts[i, :, 0], pts[i, :, 1], lw=2.4, color=_link_colour(i), solid_capstyle="round", zorder=3,
                 label=f"link {i + 1}")
     O = transforms(model, np.asarray(q, dtype=float))[:, :3, 3]
     ax.plot(O[:, 0], O[:, 1], "o", ms=4, color="k", zorder=4)
@@ -337,15 +634,24 @@ def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, ar
         for j, n in normals:
             p = O[j - 1]
             ax.annotate("", xy=p[:2] + arrow * n[:2], xytext=p[:2],
-                        arrowprops=dict(arrowstyle="->", color="red", lw=1.2), zorder=5)
+                        arrowprops={"arrowstyle": "->", "color": "red", "lw": 1.2}, zorder=5)
+
+
+_MAX_PANELS = 12  # the initial state and at most 11 impacts
 
 
 def _panels(result):
-    """(time, q, title, hit joints, [(joint, normal)]) for the initial state and each impact (at most 11)."""
+    """(time, q, title, hit joints, [(joint, normal)]) for the initial state, the impacts (the first ones
+    and the last, _MAX_PANELS in all) and, without impacts or when the run stopped after its last
+    impact, the final state."""
     panels = [(float(result.t[0]), result.q[0], f"t = {result.t[0]:.6g} s (initial)", (), None)]
+    t_end = float(result.t[-1])
+    last = result.impacts[-1].time if result.impacts else -np.inf
+    final = not result.impacts or (result.status != "finished" and t_end > last + 1e-9 * max(1.0, abs(t_end)))
+    room = _MAX_PANELS - 1 - int(final)
     imps = list(enumerate(result.impacts, start=1))
-    if len(imps) > 11:
-        imps = imps[:10] + imps[-1:]
+    if len(imps) > room:
+        imps = imps[:room - 1] + imps[-1:]
     for k, rec in imps:
         i = int(np.searchsorted(result.t, rec.time, side="left"))
         i = min(i, len(result.t) - 1)
@@ -353,8 +659,9 @@ def _panels(result):
         normals = [(int(j), np.asarray(rec.normals)[c]) for c, j in enumerate(rec.joints)]
         panels.append((rec.time, q, f"impact {k}: t = {rec.time:.6f} s, {_joint_list(rec.joints)}",
                        tuple(int(j) for j in rec.joints), normals))
-    if not result.impacts:
-        panels.append((float(result.t[-1]), result.q[-1], f"t = {result.t[-1]:.6g} s (final)", (), None))
+    if final:
+        end = "final" if result.status == "finished" else f"stopped: {result.status}"
+        panels.append((t_end, result.q[-1], f"t = {t_end:.6g} s ({end})", (), None))
     return panels
 
 
@@ -381,9 +688,32 @@ def _scene_extent_3d(result, points):
     return mid - half, mid + half
 
 
+def camera(points) -> tuple[float, float]:
+    """(elev, azim) [deg] of the 3D view along the direction of least spread of ``points`` (..., 3) [m].
+
+    The eigenvector of the smallest eigenvalue of the points' covariance, taken from
+    above (elevation >= 0) and kept between 10 and 75 degrees of elevation so that the
+    vertical X2 stays readable; (18, -60) when no direction spreads clearly less
+    (smallest eigenvalue above 0.6 of the middle one).
+    """
+    P = np.asarray(points, dtype=float).reshape(-1, 3)
+    P = P[np.all(np.isfinite(P), axis=1)]
+    if len(P) < 3:
+        return 18.0, -60.0
+    lam, vec = np.linalg.eigh(np.cov(P.T))
+    if not lam[1] > 0 or lam[0] > 0.6 * lam[1]:
+        return 18.0, -60.0
+    x, y, z = _to3(vec[:, 0])
+    if z < 0:
+        x, y, z = -x, -y, -z
+    elev = np.degrees(np.arcsin(np.clip(z, -1.0, 1.0)))
+    azim = np.degrees(np.arctan2(y, x)) if np.hypot(x, y) > 1e-9 else -60.0
+    return float(np.clip(elev, 10.0, 75.0)), float(azim)
+
+
 def _draw_walls_3d(ax, walls, lo, hi):
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 37), np.linspace(0, np.pi, 19))
-    for w in walls:
+    for k, w in enumerate(walls):
         if isinstance(w, Sphere):
             c, R = np.asarray(w.center), w.radius
             P = np.stack([c[0] + R * np.cos(u) * np.sin(v), c[1] + R * np.sin(u) * np.sin(v),
@@ -401,23 +731,19 @@ def _draw_walls_3d(ax, walls, lo, hi):
                               np.full_like(s, z)], axis=-1)
                 ax.plot(*_to3(P), color="0.45", lw=0.8)
         else:
-            n = np.asarray(w.normal_vector)
-            a = np.cross(n, [1.0, 0, 0] if abs(n[0]) < 0.9 else [0, 1.0, 0])
-            a /= np.linalg.norm(a)
-            b = np.cross(n, a)
-            size = 0.5 * max(hi - lo)
-            s = np.linspace(-size, size, 2)
-            S, T = np.meshgrid(s, s)
-            center = np.asarray(w.point) + ((0.5 * (lo + hi) - np.asarray(w.point)) @ (a)) * a + \
-                ((0.5 * (lo + hi) - np.asarray(w.point)) @ b) * b
-            P = center + S[..., None] * a + T[..., None] * b
-            ax.plot_surface(*_to3(P), color="0.7", alpha=0.35, lw=0)
+            from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+            poly = _plane_polygon_3d(walls, k, lo, hi)
+            if len(poly) >= 3:
+                X3, X1, X2 = _to3(poly)
+                ax.add_collection3d(Poly3DCollection([np.column_stack([X3, X1, X2])], facecolor="0.7",
+                                                     alpha=0.35, edgecolor="0.3", lw=0.8))
 
 
 def _draw_chain_3d(ax, model, q, n_points, hit=(), normals=None, labels=True, floor=None, arrow=0.25):
     pts = link_points(model, q, n_points)
     for i in range(pts.shape[0]):
-        ax.plot(*_to3(pts[i]), lw=2.4, color=f"C{i}", label=f"link {i + 1}")
+        ax.plot(*_to3(pts[i]), lw=2.4, color=_link_colour(i), label=f"link {i + 1}")
         if floor is not None:
             # Shadow on the floor X2 = floor: shows where the chain is in depth.
             sh = pts[i].copy()
@@ -436,11 +762,11 @@ def _draw_chain_3d(ax, model, q, n_points, hit=(), normals=None, labels=True, fl
             ax.quiver(*_to3(p), *_to3(arrow * n), color="red", lw=1.2, arrow_length_ratio=0.3)
 
 
-def _setup_3d(ax, lo, hi):
+def _setup_3d(ax, lo, hi, view=(18.0, -60.0), zoom=1.0):
     ax.set_xlim(lo[2], hi[2])
     ax.set_ylim(lo[0], hi[0])
     ax.set_zlim(lo[1], hi[1])
-    ax.set_box_aspect((1, 1, 1))
+    ax.set_box_aspect((1, 1, 1), zoom=zoom)
     ax.set_xlabel("$X_3$ [m]", fontsize=8, labelpad=-2)
     ax.set_ylabel("$X_1$ [m]", fontsize=8, labelpad=-2)
     ax.set_zlabel("$X_2$ [m]", fontsize=8, labelpad=-2)
@@ -449,103 +775,165 @@ def _setup_3d(ax, lo, hi):
 
     for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
         axis.set_major_locator(MaxNLocator(5))
-    ax.view_init(elev=18, azim=-60)
+    ax.view_init(elev=view[0], azim=view[1])
 
 
-def plot_configurations(result, case_name=None, n_points: int = 41):
-    """The chain at t0 and at every impact (at most 11 impact panels), walls drawn, equal axes.
+def _run_camera(result, extra=None):
+    """The camera of a run's 3D figures: along the direction of least joint motion."""
+    P = result.joint_positions().reshape(-1, 3)
+    return camera(P if extra is None else np.concatenate([P, extra.reshape(-1, 3)]))
+
+
+def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
+    """The chain at t0 and at every impact (at most 11 impact panels: the first 10 and the last;
+    a run that stopped early also at its last state), walls drawn, equal axes; returns the Figure.
 
     Deformed links are drawn with their mode shapes; impacting joints are red stars with
-    their wall normal as a red arrow.
+    their wall normal as a red arrow. ax : None (a new figure), or one or more Axes (3D
+    axes, ``projection="3d"``, for a spatial run) that receive the panels in turn.
     """
-    plt = _pyplot()
     model = result.model
     panels = _panels(result)
+    planar = is_planar(result)
+    own = ax is None
+    if not own:
+        given = _given_axes(ax, len(panels), "plot_configurations")
+        if not planar and any(a.name != "3d" for a in given):
+            raise ValueError("plot_configurations: this run moves in 3D; pass axes made with projection='3d'")
+        panels = panels[:len(given)]
     n = len(panels)
     ncols = n if n <= 3 else (2 if n == 4 else (3 if n <= 9 else 4))
     nrows = int(np.ceil(n / ncols))
-    planar = is_planar(result)
     all_pts = np.concatenate([link_points(model, p[1], n_points).reshape(-1, 3) for p in panels])
-    if planar:
-        fig, axes = plt.subplots(nrows, ncols, figsize=(3.7 * ncols, 3.7 * nrows + 0.7), squeeze=False,
-                                 layout="constrained")
-        extent = _scene_extent_2d(result, all_pts)
-        for ax, (t, q, title, hit, normals) in zip(axes.ravel(), panels):
-            _draw_walls_2d(ax, result.walls, extent)
-            _draw_chain_2d(ax, model, q, n_points, hit, normals, arrow=0.12 * (extent[1] - extent[0]))
-            ax.set_xlim(extent[0], extent[1])
-            ax.set_ylim(extent[2], extent[3])
-            ax.set_aspect("equal")
-            ax.set_title(title, fontsize=9)
-            ax.set_xlabel("$X_1$ [m]", fontsize=8)
-            ax.set_ylabel("$X_2$ [m]", fontsize=8)
-            ax.tick_params(labelsize=7)
-        for ax in axes.ravel()[n:]:
-            ax.set_visible(False)
-        axes[0, 0].legend(fontsize=7, loc="lower left")
-    else:
-        fig = plt.figure(figsize=(4.0 * ncols, 4.0 * nrows + 0.7), layout="constrained")
-        lo, hi = _scene_extent_3d(result, all_pts)
-        for k, (t, q, title, hit, normals) in enumerate(panels):
-            ax = fig.add_subplot(nrows, ncols, k + 1, projection="3d")
-            _draw_walls_3d(ax, result.walls, lo, hi)
-            _draw_chain_3d(ax, model, q, n_points, hit, normals, floor=lo[1], arrow=0.12 * (hi[0] - lo[0]))
-            _setup_3d(ax, lo, hi)
-            ax.set_title(title, fontsize=9)
     walls = "; ".join(describe(w) for w in result.walls) or "no walls"
-    fig.suptitle(_title(result, f"configurations at the impacts ({walls})", case_name), fontsize=11)
-    fig.supxlabel("red star: impacting joint; red arrow: wall normal into the free region"
-                  + ("" if planar else "; grey: shadow on the floor; axes drawn with X2 vertical"), fontsize=7, color="0.3", x=0.01, ha="left")
+    drawn = [p[2].split(":")[0].split()[1] for p in panels if p[2].startswith("impact")]
+    n_imp = len(result.impacts)
+    shown = "" if len(drawn) == n_imp else f"; impacts 1-{drawn[-2]} and {drawn[-1]} of {n_imp} drawn"
+    title = _title(result, f"configurations at the impacts ({walls}{shown})", case_name,
+                   width_in=(3.7 if planar else (5.0 if ncols > 1 else 6.0)) * ncols)
+    note = ("red star: impacting joint; red arrow: wall normal into the free region"
+            + ("" if planar else "; grey: shadow on the floor; X2 vertical, camera along the least joint motion"))
+    if planar:
+        if own:
+            fig = _figure((3.7 * ncols, 3.7 * nrows + 0.7 + 0.25 * title.count("\n")), layout="constrained")
+            axes = list(fig.subplots(nrows, ncols, squeeze=False).ravel())
+        else:
+            axes, fig = given, given[0].figure
+        extent = _scene_extent_2d(result, all_pts)
+        for a, (t, q, text, hit, normals) in zip(axes, panels):
+            _draw_walls_2d(a, result.walls, extent)
+            _draw_chain_2d(a, model, q, n_points, hit, normals, arrow=0.12 * (extent[1] - extent[0]))
+            a.set_xlim(extent[0], extent[1])
+            a.set_ylim(extent[2], extent[3])
+            a.set_aspect("equal")
+            a.set_title(text, fontsize=9)
+            a.set_xlabel("$X_1$ [m]", fontsize=8)
+            a.set_ylabel("$X_2$ [m]", fontsize=8)
+            a.tick_params(labelsize=7)
+        for a in axes[n:]:
+            a.set_visible(False)
+        axes[0].legend(fontsize=7, loc="lower left")
+        if own:
+            fig.suptitle(title, fontsize=11 if "\n" not in title else 10)
+            fig.supxlabel(note, fontsize=7, color="0.3", x=0.01, ha="left")
+    else:
+        lo, hi = _scene_extent_3d(result, all_pts)
+        view = _run_camera(result, all_pts)
+        if own:
+            size = 5.0 if ncols > 1 else 6.0
+            fig = _figure((size * ncols, size * nrows + 0.8))
+            top = 1.0 - (0.5 + 0.2 * title.count("\n")) / (size * nrows + 0.8)
+            fig.subplots_adjust(left=0.0, right=1.0, bottom=0.3 / (size * nrows + 0.8), top=top,
+                                wspace=0.0, hspace=0.0)
+            axes = [fig.add_subplot(nrows, ncols, k + 1, projection="3d") for k in range(n)]
+        else:
+            axes, fig = given, given[0].figure
+        for a, (t, q, text, hit, normals) in zip(axes, panels):
+            _draw_walls_3d(a, result.walls, lo, hi)
+            _draw_chain_3d(a, model, q, n_points, hit, normals, floor=lo[1], arrow=0.12 * (hi[0] - lo[0]))
+            _setup_3d(a, lo, hi, view, zoom=0.92 if own else 1.0)
+            if own:  # inside the panel's box: the panels touch
+                a.text2D(0.5, 0.99, text, transform=a.transAxes, ha="center", va="top", fontsize=9)
+            else:
+                a.set_title(text, fontsize=9)
+        if own:
+            fig.suptitle(title, fontsize=11 if "\n" not in title else 10)
+            fig.text(0.01, 0.005, note, fontsize=7, color="0.3", ha="left", va="bottom")
+    if not own:
+        _status_box(axes[0], result)
     return fig
 
 
-def plot_trajectory(result, case_name=None, n_points: int = 41):
-    """Paths of the joints over the whole run, with the chain at t0 (faint) and at the end."""
-    plt = _pyplot()
+def plot_trajectory(result, case_name=None, n_points: int = 41, ax=None):
+    """Paths of the joints over the whole run, with the chain at t0 (grey) and at the end; returns the Figure.
+
+    ax : None (a new figure) or one Axes (3D, ``projection="3d"``, for a spatial run).
+    """
     model = result.model
     P = result.joint_positions()
     ends = [result.q[0], result.q[-1]]
     all_pts = np.concatenate([P.reshape(-1, 3)] + [link_points(model, q, n_points).reshape(-1, 3) for q in ends])
-    if is_planar(result):
-        fig, ax = plt.subplots(figsize=(6.4, 6.4))
+    planar = is_planar(result)
+    own = ax is None
+    if not own:
+        ax = _given_axes(ax, 1, "plot_trajectory")[0]
+        if not planar and ax.name != "3d":
+            raise ValueError("plot_trajectory: this run moves in 3D; pass axes made with projection='3d'")
+    end = "final state" if result.status == "finished" else f"state when it stopped ({result.status})"
+    what = (f"joint paths, t = {result.t[0]:.6g} ... {result.t[-1]:.6g} s "
+            f"(coloured chain: {end}; grey: at t0; red stars: impacts)")
+    title = _title(result, what, case_name, width_in=7.4)
+    impact_points = []
+    for rec in result.impacts:
+        O = transforms(model, result.q[min(np.searchsorted(result.t, rec.time), len(result.t) - 1)])[:, :3, 3]
+        impact_points += [O[j - 1] for j in rec.joints]
+    impact_points = np.array(impact_points).reshape(-1, 3)
+    if planar:
+        if own:
+            fig = _figure((7.4, 6.4 + 0.2 * title.count("\n")))
+            ax = fig.subplots()
+        fig = ax.figure
         extent = _scene_extent_2d(result, all_pts)
         _draw_walls_2d(ax, result.walls, extent)
         for j in range(P.shape[1]):
-            ax.plot(P[:, j, 0], P[:, j, 1], lw=0.9, color=f"C{j + 2}", label=f"path of $O_{{{j + 1}}}$")
+            ax.plot(P[:, j, 0], P[:, j, 1], lw=0.9, color=_joint_colour(j), label=f"path of $O_{{{j + 1}}}$",
+                    zorder=2)
         pts0 = link_points(model, ends[0], n_points)
         for i in range(pts0.shape[0]):
             ax.plot(pts0[i, :, 0], pts0[i, :, 1], lw=2.0, color="0.6", zorder=3,
                     label="chain at $t_0$" if i == 0 else None)
         _draw_chain_2d(ax, model, ends[1], n_points, labels=True)
-        for rec in result.impacts:
-            O = transforms(model, result.q[min(np.searchsorted(result.t, rec.time), len(result.t) - 1)])[:, :3, 3]
-            for j in rec.joints:
-                ax.plot(O[j - 1, 0], O[j - 1, 1], "*", ms=10, color="red", mec="darkred", zorder=5)
+        ax.plot(impact_points[:, 0], impact_points[:, 1], "*", ms=10, color="red", mec="darkred", zorder=5,
+                ls="none", label="impacts")
         ax.set_xlim(extent[0], extent[1])
         ax.set_ylim(extent[2], extent[3])
         ax.set_aspect("equal")
         ax.set_xlabel("$X_1$ [m]")
         ax.set_ylabel("$X_2$ [m]")
-        _legend(ax, ncol=2)
+        _legend(ax, ncol=2, outside=own)
     else:
-        fig = plt.figure(figsize=(6.8, 6.8))
-        ax = fig.add_subplot(projection="3d")
+        if own:
+            fig = _figure((7.6, 7.2 + 0.2 * title.count("\n")))
+            ax = fig.add_subplot(projection="3d")
+        fig = ax.figure
         lo, hi = _scene_extent_3d(result, all_pts)
         _draw_walls_3d(ax, result.walls, lo, hi)
         for j in range(P.shape[1]):
-            ax.plot(*_to3(P[:, j]), lw=0.9, color=f"C{j + 2}", label=f"path of $O_{{{j + 1}}}$")
+            ax.plot(*_to3(P[:, j]), lw=0.9, color=_joint_colour(j), label=f"path of $O_{{{j + 1}}}$")
         for i, seg in enumerate(link_points(model, ends[0], n_points)):
             ax.plot(*_to3(seg), lw=2.0, color="0.6", label="chain at $t_0$" if i == 0 else None)
         _draw_chain_3d(ax, model, ends[1], n_points, floor=lo[1])
-        for rec in result.impacts:
-            O = transforms(model, result.q[min(np.searchsorted(result.t, rec.time), len(result.t) - 1)])[:, :3, 3]
-            for j in rec.joints:
-                ax.plot(*_to3(O[j - 1][None, :]), "*", ms=10, color="red", mec="darkred", ls="none")
-        _setup_3d(ax, lo, hi)
+        ax.plot(*_to3(impact_points), "*", ms=10, color="red", mec="darkred", ls="none", label="impacts")
+        _setup_3d(ax, lo, hi, _run_camera(result, all_pts), zoom=1.1 if own else 1.0)
         ax.legend(fontsize=7, loc="upper left")
-    fig.suptitle(_title(result, f"joint paths, t = {result.t[0]:.6g} ... {result.t[-1]:.6g} s "
-                                "(coloured chain: final state; red stars: impacts)", case_name), fontsize=10)
-    fig.tight_layout()
+    if own:
+        fig.suptitle(title, fontsize=10)
+        if planar:
+            fig.tight_layout()
+        else:
+            fig.subplots_adjust(left=0.0, right=1.0, bottom=0.02, top=0.93 - 0.02 * title.count("\n"))
+    else:
+        _status_box(ax, result)
     return fig
 
 
@@ -564,31 +952,42 @@ def plot_result(result, kinds=None, case_name=None, n_points: int = 41) -> dict:
 
     Returns
     -------
-    dict {key: matplotlib Figure}; "modes" is absent for a chain of rigid links.
+    dict {key: matplotlib Figure}; "modes" is absent for a chain of rigid links. The
+    figures are not registered with pyplot: nothing needs closing.
     """
     kinds = FIGURES if kinds is None else tuple(kinds)
     unknown = [k for k in kinds if k not in FIGURES]
     if unknown:
         raise ValueError(f"unknown figure(s) {', '.join(unknown)}; choose from {', '.join(FIGURES)}")
-    makers = {
-        "angles": lambda: plot_angles(result, case_name),
-        "modes": lambda: plot_modes(result, case_name),
-        "joint_positions": lambda: plot_joint_positions(result, case_name),
-        "joint_velocities": lambda: plot_joint_velocities(result, case_name),
-        "energy": lambda: plot_energy(result, case_name),
-        "configurations": lambda: plot_configurations(result, case_name, n_points),
-        "trajectory": lambda: plot_trajectory(result, case_name, n_points),
-    }
     figs = {}
     for k in kinds:
-        fig = makers[k]()
+        fig = plot_one(result, k, case_name=case_name, n_points=n_points)
         if fig is not None:
             figs[k] = fig
     return figs
 
 
+def plot_one(result, which: str, ax=None, case_name=None, n_points: int = 41):
+    """One figure of FIGURES by name, or drawn into ``ax`` (see each plot_* function); returns the Figure
+    (None for "modes" of a chain of rigid links)."""
+    makers = {
+        "angles": plot_angles, "modes": plot_modes, "joint_positions": plot_joint_positions,
+        "joint_velocities": plot_joint_velocities, "energy": plot_energy,
+    }
+    if which in makers:
+        return makers[which](result, case_name, ax=ax)
+    if which == "configurations":
+        return plot_configurations(result, case_name, n_points, ax=ax)
+    if which == "trajectory":
+        return plot_trajectory(result, case_name, n_points, ax=ax)
+    raise ValueError(f"unknown figure {which!r}; choose from {', '.join(FIGURES)}")
+
+
 def save_figures(figures: dict, directory, dpi: int = 120, close: bool = True) -> dict:
-    """Save each figure as <directory>/<key>.png; returns {key: Path}."""
+    """Save each figure as <directory>/<key>.png; returns {key: Path}.
+
+    close : also close figures that pyplot holds (those of plot_result are not held by it).
+    """
     from pathlib import Path
 
     d = Path(directory)
@@ -597,8 +996,8 @@ def save_figures(figures: dict, directory, dpi: int = 120, close: bool = True) -
     for k, fig in figures.items():
         paths[k] = d / f"{k}.png"
         fig.savefig(paths[k], dpi=dpi, bbox_inches="tight", pad_inches=0.12)
-        if close:
-            _pyplot().close(fig)
+        if close and "matplotlib.pyplot" in sys.modules:
+            sys.modules["matplotlib.pyplot"].close(fig)
     return paths
 
 
@@ -617,8 +1016,8 @@ def animate(result, path, fps: int = 20, speed: float = 0.25, n_points: int = 41
     """
     from pathlib import Path
 
-    plt = _pyplot()
     from matplotlib.animation import FuncAnimation, PillowWriter
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     model = result.model
     t0, t1 = float(result.t[0]), float(result.t[-1])
@@ -630,11 +1029,14 @@ def animate(result, path, fps: int = 20, speed: float = 0.25, n_points: int = 41
     planar = is_planar(result)
     all_pts = np.concatenate([link_points(model, result.q[i], n_points).reshape(-1, 3) for i in rows[:: max(1, n_frames // 40)]])
     title = (case_name + ": " if case_name else "")
+    status = _status_line(result, width=70)
     if planar:
-        fig, ax = plt.subplots(figsize=(5.2, 5.4))
+        fig = _figure((5.2, 5.4))
+        FigureCanvasAgg(fig)
+        ax = fig.subplots()
         extent = _scene_extent_2d(result, all_pts)
         _draw_walls_2d(ax, result.walls, extent)
-        lines = [ax.plot([], [], lw=2.4, color=f"C{i}", solid_capstyle="round", label=f"link {i + 1}")[0]
+        lines = [ax.plot([], [], lw=2.4, color=_link_colour(i), solid_capstyle="round", label=f"link {i + 1}")[0]
                  for i in range(model.n_links)]
         joints, = ax.plot([], [], "o", ms=4, color="k")
         stars, = ax.plot([], [], "*", ms=14, color="red", mec="darkred", ls="none")
@@ -645,18 +1047,23 @@ def animate(result, path, fps: int = 20, speed: float = 0.25, n_points: int = 41
         ax.set_ylabel("$X_2$ [m]")
         ax.legend(fontsize=7, loc="lower left")
     else:
-        fig = plt.figure(figsize=(5.4, 5.6))
+        fig = _figure((5.8, 6.0))
+        FigureCanvasAgg(fig)
         ax = fig.add_subplot(projection="3d")
         lo, hi = _scene_extent_3d(result, all_pts)
         _draw_walls_3d(ax, result.walls, lo, hi)
-        _setup_3d(ax, lo, hi)
-        lines = [ax.plot([], [], [], lw=2.4, color=f"C{i}", label=f"link {i + 1}")[0] for i in range(model.n_links)]
+        _setup_3d(ax, lo, hi, _run_camera(result, all_pts), zoom=0.95)
+        lines = [ax.plot([], [], [], lw=2.4, color=_link_colour(i), label=f"link {i + 1}")[0]
+                 for i in range(model.n_links)]
         shadows = [ax.plot([], [], [], lw=1.6, color="0.5", alpha=0.6)[0] for _ in range(model.n_links)]
         floor = lo[1]
         joints, = ax.plot([], [], [], "o", ms=4, color="k", ls="none")
         stars, = ax.plot([], [], [], "*", ms=14, color="red", mec="darkred", ls="none")
     label = ax.set_title("", fontsize=9)
-    fig.tight_layout()
+    if planar:
+        fig.tight_layout()
+    else:
+        fig.subplots_adjust(left=0.0, right=1.0, bottom=0.02, top=0.9)
 
     def draw(f):
         q = result.q[rows[f]]
@@ -679,12 +1086,15 @@ def animate(result, path, fps: int = 20, speed: float = 0.25, n_points: int = 41
             joints.set_data_3d(*_to3(O))
             stars.set_data_3d(*_to3(H))
         n_imp = int(np.count_nonzero(imp_t <= times[f]))
-        label.set_text(f"{title}t = {times[f]:.3f} s   impacts so far: {n_imp}")
+        text = f"{title}t = {times[f]:.3f} s   impacts so far: {n_imp}"
+        if status and f == n_frames - 1:
+            text += "\n" + "\n".join(textwrap.wrap(status, 70))
+        label.set_text(text)
+        label.set_color("darkred" if status and f == n_frames - 1 else "black")
         return [*lines, joints, stars, label]
 
     anim = FuncAnimation(fig, draw, frames=n_frames, blit=False)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     anim.save(path, writer=PillowWriter(fps=fps), dpi=dpi)
-    plt.close(fig)
     return path

@@ -96,6 +96,20 @@ class Result:
     work: np.ndarray | None = None
     _energy_cache: Energy | None = field(default=None, repr=False)
 
+    def __repr__(self) -> str:
+        """One line: status, time span, samples, N, impacts (the first few times), energy error, cost."""
+        t0, t1 = (float(self.t[0]), float(self.t[-1])) if len(self.t) else (float("nan"), float("nan"))
+        n_imp = len(self.impacts)
+        times = ", ".join(f"{r.time:.6g}" for r in self.impacts[:3]) + (", ..." if n_imp > 3 else "")
+        impacts = f"{n_imp} impacts" + (f" at t = {times} s" if n_imp else "")
+        status = self.status
+        if self.status != STATUS_FINISHED:
+            msg = str(self.message)
+            status += f" ({msg[:77] + '...' if len(msg) > 80 else msg})"
+        return (f"Result({status}; t = {t0:.6g} ... {t1:.6g} s, {len(self.t)} samples, N = {self.q.shape[-1]}; "
+                f"{impacts}; energy_error = {self.energy_error:.2e}; nfev = {self.nfev}, "
+                f"wall_time = {self.wall_time:.3g} s)")
+
     @property
     def success(self) -> bool:
         return self.status == STATUS_FINISHED
@@ -145,15 +159,38 @@ class Result:
 
         return summary(self, case)
 
-    def plot(self, kinds=None, directory=None, dpi: int = 120, case_name=None, n_points: int = 41) -> dict:
-        """Draw the figures (matplotlib); returns {name: Figure}.
+    def plot(self, which=None, ax=None, directory=None, dpi: int = 120, case_name=None, n_points: int = 41,
+             kinds=None):
+        """Draw figures (matplotlib); one Figure for a name, {name: Figure} otherwise.
 
-        kinds : subset of gibbsimpact.plotting.FIGURES, default all.
-        directory : if given, also save each figure as <directory>/<name>.png (figures stay open).
+        which : a name from gibbsimpact.plotting.FIGURES ("angles", "modes", "joint_positions",
+            "joint_velocities", "energy", "configurations", "trajectory") -> that Figure
+            (None for "modes" of a rigid chain); a list of names, or None for all, -> {name: Figure}.
+        ax : with a single ``which``, a matplotlib Axes (or a sequence of them) to draw into
+            instead of a new figure; the Figure holding it is returned. What one or several
+            Axes receive is documented by each gibbsimpact.plotting.plot_* function.
+        directory : if given, also save each figure as <directory>/<name>.png.
+        kinds : the former name of a list ``which`` (kept for existing scripts).
+
+        The figures are ``matplotlib.figure.Figure`` objects that pyplot does not hold, so
+        repeated calls (a notebook cell run again and again) leave nothing open; in Jupyter
+        a returned Figure is shown inline.
         """
-        from .plotting import plot_result, save_figures
+        from .plotting import plot_one, plot_result, save_figures
 
-        figs = plot_result(self, kinds=kinds, case_name=case_name, n_points=n_points)
+        if kinds is not None:
+            if which is not None:
+                raise ValueError("Result.plot: give the figures as which= or kinds=, not both")
+            which = list(kinds)
+        if isinstance(which, str):
+            fig = plot_one(self, which, ax=ax, case_name=case_name, n_points=n_points)
+            if directory is not None and fig is not None:
+                save_figures({which: fig}, directory, dpi=dpi, close=False)
+            return fig
+        if ax is not None:
+            raise ValueError("Result.plot: ax= draws one figure; name it with which='angles' (or another of "
+                             "gibbsimpact.plotting.FIGURES)")
+        figs = plot_result(self, kinds=which, case_name=case_name, n_points=n_points)
         if directory is not None:
             save_figures(figs, directory, dpi=dpi, close=False)
         return figs

@@ -1,0 +1,180 @@
+"""Validity limits of the model: states and stops the equations accept but do not describe well.
+
+The checks name the quantity, its value and the limit; they never change or clip
+anything. ``check_*`` return the messages (a list of str, empty when all is well),
+``warn_*`` issue each as a :class:`ValidityWarning` and return them too. The
+limits and their reasons are in docs/theory.md, "Validity limits":
+
+* ``DEFLECTION_LIMIT``: the peak deflection of a link over its length. The links are
+  linear Euler-Bernoulli beams (small slopes, no foreshortening, no geometric
+  stiffening). At |v| = 0.1 l the first clamped-clamped mode has its slope up to
+  pi 0.1 = 0.31 rad and a neglected foreshortening of (pi^2/4) 0.1^2 = 2.5 % of l;
+  both errors grow with the square of the deflection beyond.
+* ``STRAIN_ENERGY_FACTOR``: initial strain energy over the energy scale
+  ``kinetic + max(|gravity|, m |g| L)`` (m the total mass, L the summed link
+  lengths; m |g| L makes the scale independent of the gravity datum X2 = 0). A
+  state whose strain energy is 100 times that scale is dominated by one violent
+  vibration: the deflection is far outside small-deflection theory or the input
+  has a wrong unit.
+* ``GIMBAL_MARGIN``: the free base's rotations Rx(theta_-1) Ry(theta_0) Rz(theta_1)
+  are singular at theta_0 = +-pi/2 (theta_-1 and theta_1 then turn about the same
+  axis and the mass matrix loses rank). A run that fails within 0.05 rad (2.9 deg)
+  of it stopped because of the coordinates, not the mechanics.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .model import shape_functions
+from .walls import describe
+
+__all__ = [
+    "DEFLECTION_LIMIT", "GIMBAL_MARGIN", "STRAIN_ENERGY_FACTOR", "ValidityWarning", "check_result", "check_state",
+    "check_stop", "warn_result", "warn_state",
+]
+
+#: Largest peak deflection of a link, as a fraction of its length (small-deflection theory).
+DEFLECTION_LIMIT = 0.1
+#: Largest ratio of the initial strain energy to the kinetic + gravitational energy scale.
+STRAIN_ENERGY_FACTOR = 100.0
+#: Distance [rad] of theta_0 from +-pi/2 within which a failed run is attributed to gimbal lock.
+GIMBAL_MARGIN = 0.05
+
+_SAMPLES = 201  # abscissae per link at which deflections are evaluated (FE nodes fall on them for n_e | 200)
+_WALL_TOL = 1e-6  # m: a link point further than this beyond a wall is reported
+
+
+class ValidityWarning(UserWarning):
+    """A state or a stop outside the validity limits of the model (gibbsimpact.validity)."""
+
+
+def _deflections(model, q, n: int = _SAMPLES) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per link: (x (n,) [m], |(v, w)| (n,) [m]), the deflection off the link's x axis at q (N,)."""
+    out = []
+    for i, lk in enumerate(model.chain.links):
+        x = np.linspace(0.0, lk.length, n)
+        idx = model.delta_index[i]
+        if len(idx) == 0:
+            out.append((x, np.zeros(n)))
+            continue
+        directions, psi = shape_functions(lk, x)
+        d = np.asarray(q, dtype=float)[idx]
+        v = sum((p * dk for p, dk, s in zip(psi, d, directions) if s == "y"), np.zeros(n))
+        w = sum((p * dk for p, dk, s in zip(psi, d, directions) if s == "z"), np.zeros(n))
+        out.append((x, np.hypot(v, w)))
+    return out
+
+
+def _gimbal_distance(theta_0: float) -> float:
+    """|theta_0 - (pi/2 + k pi)| for the nearest integer k [rad]."""
+    r = float(np.mod(theta_0 - 0.5 * np.pi, np.pi))
+    return min(r, np.pi - r)
+
+
+def check_state(model, q0, qdot0, walls=()) -> list[str]:
+    """Messages for an initial state (q0, qdot0) (N,) outside the model's validity limits.
+
+    * a link whose peak deflection exceeds DEFLECTION_LIMIT times its length;
+    * a strain energy above STRAIN_ENERGY_FACTOR times kinetic + max(|gravity|, m |g| L)
+      (skipped when that scale is zero: a chain at rest without gravity is pure vibration);
+    * theta_0 (free base) within GIMBAL_MARGIN of +-pi/2;
+    * a point of a deformed link beyond a wall (only joints touch walls in this model).
+
+    Nothing is changed. Returns [] for a state within the limits.
+    """
+    q0 = np.asarray(q0, dtype=float)
+    qdot0 = np.asarray(qdot0, dtype=float)
+    msgs = []
+    for i, (lk, (x, r)) in enumerate(zip(model.chain.links, _deflections(model, q0)), start=1):
+        peak = float(r.max())
+        limit = DEFLECTION_LIMIT * lk.length
+        if peak > limit:
+            at = float(x[int(np.argmax(r))])
+            msgs.append(
+                f"link {i}: initial peak deflection {peak:.4g} m (at x = {at:.3g} m) is {peak / lk.length:.3g} "
+                f"link lengths, beyond the small-deflection limit {DEFLECTION_LIMIT:g} l = {limit:.4g} m of the "
+                "linear Euler-Bernoulli links; the model does not describe such a shape (check the unit of its "
+                "delta coordinates)")
+    E = model.energy(q0, qdot0)
+    g = float(np.linalg.norm(np.asarray(model.gravity, dtype=float)))
+    weight_scale = model.total_mass * g * sum(lk.length for lk in model.chain.links)
+    scale = abs(float(E.kinetic)) + max(abs(float(E.gravity)), weight_scale)
+    strain = float(E.strain)
+    if scale > 0 and strain > STRAIN_ENERGY_FACTOR * scale:
+        msgs.append(
+            f"initial strain energy {strain:.5g} J is {strain / scale:.3g} times the energy scale {scale:.4g} J "
+            f"of the state (kinetic {float(E.kinetic):.4g} J + max(|gravity| {abs(float(E.gravity)):.4g} J, "
+            f"m g L {weight_scale:.4g} J)), beyond the limit of {STRAIN_ENERGY_FACTOR:g} times: the initial "
+            "deflections dominate everything else")
+    if model.free_base:
+        d = _gimbal_distance(q0[4])
+        if d < GIMBAL_MARGIN:
+            msgs.append(
+                f"initial theta_0 = {q0[4]:.6g} rad is {d:.3g} rad from +-pi/2, within the gimbal-lock margin "
+                f"{GIMBAL_MARGIN:g} rad of the free base's rotations Rx(theta_-1) Ry(theta_0) Rz(theta_1), where "
+                "the mass matrix becomes singular; choose initial angles with theta_0 away from +-pi/2")
+    if walls:
+        from .plotting import link_points  # geometry only: matplotlib is not imported
+
+        pts = link_points(model, q0, _SAMPLES)
+        for k, w in enumerate(walls, start=1):
+            gaps = w.gap(pts.reshape(-1, 3)).reshape(pts.shape[:2])
+            for i in range(pts.shape[0]):
+                depth = -float(gaps[i].min())
+                if depth > _WALL_TOL:
+                    msgs.append(
+                        f"link {i + 1}: a point of the deformed link lies {depth:.4g} m beyond wall {k} "
+                        f"({describe(w)}) at t0 (limit {_WALL_TOL:g} m); only the joints touch walls in this "
+                        "model, so the link passes through it")
+    return msgs
+
+
+def check_stop(model, result) -> list[str]:
+    """A message when a free-base run failed with theta_0 within GIMBAL_MARGIN of +-pi/2, else [].
+
+    The stop is then due to the singular rotation sequence Rx Ry Rz of the free base
+    (gimbal lock), not to the mechanics.
+    """
+    if not model.free_base or result.status != "failed" or len(result.t) == 0:
+        return []
+    theta_0 = float(result.q[-1, 4])
+    d = _gimbal_distance(theta_0)
+    if d >= GIMBAL_MARGIN:
+        return []
+    message = (
+        f"the run failed at t = {float(result.t[-1]):.9g} s with theta_0 = {theta_0:.9g} rad, {d:.3g} rad from "
+        f"+-pi/2 (gimbal-lock margin {GIMBAL_MARGIN:g} rad): the free base's rotations Rx(theta_-1) Ry(theta_0) "
+        "Rz(theta_1) are singular there (theta_-1 and theta_1 turn about one axis), so the coordinates, not the "
+        "motion, stopped it; start from angles that keep theta_0 away from +-pi/2")
+    return [message]
+
+
+def check_result(result) -> list[str]:
+    """The messages of a finished or stopped run (at present: check_stop)."""
+    return check_stop(result.model, result)
+
+
+def _warn(msgs, stacklevel):
+    for m in msgs:
+        # +2: this function and warn_state / warn_result.
+        warnings.warn(m, ValidityWarning, stacklevel=stacklevel + 2)
+    return msgs
+
+
+def warn_state(model, q0, qdot0, walls=(), stacklevel: int = 2) -> list[str]:
+    """check_state, each message issued as a ValidityWarning; returns the messages.
+
+    stacklevel : as if the function calling warn_state called warnings.warn with it
+    (2, the default, names the line that called that function, e.g. the user's
+    ``gi.simulate(...)``).
+    """
+    return _warn(check_state(model, q0, qdot0, walls), stacklevel)
+
+
+def warn_result(result, stacklevel: int = 2) -> list[str]:
+    """check_result, each message issued as a ValidityWarning; returns the messages (stacklevel as
+    for warn_state)."""
+    return _warn(check_result(result), stacklevel)

@@ -1,0 +1,148 @@
+"""Validity warnings: each limit fires with a message naming the quantity, its value and the limit;
+the published cases are within every limit; nothing is changed."""
+
+from __future__ import annotations
+
+import inspect
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gibbsimpact as gi
+from gibbsimpact import validity
+from gibbsimpact.results import Result
+from gibbsimpact.validity import ValidityWarning, check_state, check_stop, warn_state
+
+CASES = Path(__file__).resolve().parents[1] / "cases"
+
+
+@pytest.fixture(scope="module")
+def circle():
+    return gi.load_case(CASES / "circle_two_link.toml")
+
+
+def with_coordinate(case, **values):
+    q = case.q0.copy()
+    for name, v in values.items():
+        q[case.model.coordinate_names.index(name)] = v
+    return q
+
+
+@pytest.mark.parametrize("name", ["circle_two_link", "sphere_single_link", "fixed_base_fe_arm"])
+def test_published_cases_are_within_the_limits(name):
+    case = gi.load_case(CASES / f"{name}.toml")
+    assert check_state(case.model, case.q0, case.qdot0, case.walls) == []
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ValidityWarning)
+        assert warn_state(case.model, case.q0, case.qdot0, case.walls) == []
+
+
+def test_the_issue_example_five_metre_deflection(circle):
+    # delta_1_1_m = 5.0 on a 1 m link: 49,616 J of strain energy, the link loops outside the circle.
+    q = with_coordinate(circle, delta_1_1=5.0)
+    q_before = q.copy()
+    msgs = check_state(circle.model, q, circle.qdot0, circle.walls)
+    np.testing.assert_array_equal(q, q_before)  # nothing clipped or changed
+    deflection = [m for m in msgs if "peak deflection" in m]
+    assert len(deflection) == 1 and deflection[0].startswith("link 1:")
+    assert "5 m" in deflection[0] and "0.1 l = 0.1 m" in deflection[0]
+    strain = [m for m in msgs if "strain energy" in m]
+    assert len(strain) == 1 and "49616 J" in strain[0] and "limit of 100 times" in strain[0]
+    assert "39.24 J" in strain[0]  # the scale it is compared with: m g L = 2 kg 9.81 m/s^2 2 m
+    outside = [m for m in msgs if "beyond wall 1" in m]
+    assert len(outside) == 1 and "limit 1e-06 m" in outside[0]
+
+
+def test_deflection_limit_is_a_tenth_of_the_length(circle):
+    model = circle.model
+    just_in = with_coordinate(circle, delta_2_1=0.099)
+    assert check_state(model, just_in, circle.qdot0) == []
+    out = check_state(model, with_coordinate(circle, delta_2_1=-0.101), circle.qdot0)
+    assert len(out) == 1 and out[0].startswith("link 2: initial peak deflection 0.101 m")
+    assert validity.DEFLECTION_LIMIT == 0.1
+
+
+def test_deflection_of_finite_element_links():
+    case = gi.load_case(CASES / "fixed_base_fe_arm.toml")
+    # delta_1_7: the node-4 (tip) deflection of link 1 (l = 1 m); delta_2_5: link 2's tip (l = 0.6 m).
+    q = with_coordinate(case, delta_1_7=0.3, delta_2_5=0.05)
+    msgs = check_state(case.model, q, case.qdot0)
+    assert [m.split(":")[0] for m in msgs if "peak deflection" in m] == ["link 1"]
+    assert "0.3 m (at x = 1 m)" in msgs[0]
+
+
+def test_strain_energy_limit_names_both_energies():
+    # No gravity and little motion: a modest deflection already dwarfs the kinetic energy.
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")])
+    model = gi.Model([link], gravity=(0.0, 0.0, 0.0))
+    q = model.state(delta_1_1=0.05)
+    qdot = model.state(X1=0.01)
+    E = model.energy(q, qdot)
+    assert E.strain > 100 * E.kinetic
+    msgs = check_state(model, q, qdot)
+    assert len(msgs) == 1 and "strain energy" in msgs[0]
+    assert f"{E.strain:.5g} J" in msgs[0] and f"kinetic {E.kinetic:.4g} J" in msgs[0]
+    # At rest without gravity the strain energy is the whole (vibration) energy: no scale, no warning.
+    assert check_state(model, q, np.zeros(model.n_dof)) == []
+
+
+def test_initial_gimbal_lock_margin():
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")], rotary_inertia=(1e-4, 1e-4, 1e-4))
+    model = gi.Model([link])
+    msgs = check_state(model, model.state(theta_0=-np.pi / 2 + 0.01), np.zeros(model.n_dof))
+    assert len(msgs) == 1 and "theta_0 = -1.5608 rad" in msgs[0] and "0.01 rad from +-pi/2" in msgs[0]
+    assert "margin 0.05 rad" in msgs[0]
+    assert check_state(model, model.state(theta_0=np.pi / 2 - 0.06), np.zeros(model.n_dof)) == []
+
+
+def _stopped(model, theta_0, status):
+    q = np.zeros((2, model.n_dof))
+    if model.free_base:
+        q[:, 4] = [0.0, theta_0]
+    return Result(model=model, walls=(), t=np.array([0.0, 0.37]), q=q, qdot=np.zeros_like(q),
+                  phase=np.zeros(2, dtype=int), impacts=[], status=status,
+                  message="the ODE solver failed after t = 0 s: Required step size is less than spacing")
+
+
+def test_stop_near_gimbal_lock():
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")], rotary_inertia=(1e-4, 1e-4, 1e-4))
+    model = gi.Model([link])
+    res = _stopped(model, np.pi / 2 - 1e-5, "failed")
+    msgs = check_stop(model, res)
+    assert len(msgs) == 1
+    assert "theta_0 = 1.57078633 rad" in msgs[0] and "1e-05 rad from +-pi/2" in msgs[0]
+    assert "margin 0.05 rad" in msgs[0] and "t = 0.37 s" in msgs[0]
+    assert validity.check_result(res) == msgs
+    with pytest.warns(ValidityWarning, match="gimbal-lock margin"):
+        validity.warn_result(res)
+    # Equivalent angles pi/2 + k pi count too; other stops, other angles and fixed bases do not.
+    assert check_stop(model, _stopped(model, -3 * np.pi / 2 + 0.02, "failed"))
+    assert check_stop(model, _stopped(model, np.pi / 2 - 1e-5, "zeno")) == []
+    assert check_stop(model, _stopped(model, np.pi / 2 - 0.2, "failed")) == []
+    arm = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0, elements=1)], base=gi.FixedBase((0.0, 0.0), 0.0)))
+    assert check_stop(arm, _stopped(arm, 0.0, "failed")) == []
+
+
+def test_warnings_point_at_the_caller(circle):
+    q = with_coordinate(circle, delta_1_1=2.0)
+
+    def simulate_like():  # a library function that checks its input
+        return warn_state(circle.model, q, circle.qdot0)
+
+    with pytest.warns(ValidityWarning) as record:
+        msgs = simulate_like()
+    assert [str(w.message) for w in record] == msgs and len(msgs) == 2
+    assert all(Path(w.filename).name == "test_validity.py" for w in record)
+    assert issubclass(ValidityWarning, UserWarning)
+
+
+def test_simulate_warns_once_wired(circle):
+    import gibbsimpact.simulate as sim
+
+    if "warn_state" not in inspect.getsource(sim):
+        pytest.skip("simulate does not call gibbsimpact.validity.warn_state yet")
+    q = with_coordinate(circle, delta_1_1=0.5)
+    with pytest.warns(ValidityWarning, match="peak deflection"):
+        gi.simulate(circle.model, q, circle.qdot0, (0.0, 1e-3), walls=circle.walls, rtol=1e-6, atol=1e-8)
