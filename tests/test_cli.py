@@ -216,25 +216,19 @@ def test_show_describes_the_model(capsys):
     assert code == 0 and "16 first-order ODEs" in out and "mode 1 in z" in out and "1.80754863 J" in out
 
 
-def test_progress_line_only_on_a_terminal():
+def test_progress_bar_only_on_a_terminal(tmp_path, monkeypatch):
+    # The CLI asks simulate for its tqdm bar (progress=True) when stderr is a terminal and not --quiet.
     class Tty(_io.StringIO):
         def isatty(self):
             return True
 
-    tty = Tty()
-    p = cli._Progress((0.0, 1.0), enabled=True, delay=0.0, stream=tty)
-    p(0.5, 2)
-    p.close()
-    assert "t = 0.5000 / 1 s" in tty.getvalue() and "impacts: 2" in tty.getvalue() and tty.getvalue().endswith("\n")
-    pipe = _io.StringIO()
-    p = cli._Progress((0.0, 1.0), enabled=True, delay=0.0, stream=pipe)
-    p(0.5, 2)
-    p.close()
-    assert pipe.getvalue() == ""
-    quiet = Tty()
-    p = cli._Progress((0.0, 1.0), enabled=False, delay=0.0, stream=quiet)
-    p(0.5, 2)
-    assert quiet.getvalue() == ""
+    argv = ["run", str(CASES / "circle_two_link.toml"), "--t-end", "0.05", "--no-plots", "--out", str(tmp_path)]
+    for stream, extra, shown in ((Tty(), [], True), (Tty(), ["--quiet"], False), (_io.StringIO(), [], False)):
+        monkeypatch.setattr(sys, "stderr", stream)
+        assert cli.main(argv + extra) == 0
+        text = stream.getvalue()
+        assert (("simulate: 100%" in text and "t = 0.05 / 0.05 s" in text and "impacts: 0" in text) if shown
+                else text == ""), text
 
 
 def test_module_and_console_script(tmp_path):
@@ -432,3 +426,103 @@ def test_equations_prints_counts_and_writes_latex_and_python(tmp_path, capsys):
     np.testing.assert_allclose(M, case.model.mass_matrix(q), rtol=1e-12, atol=1e-14)
     code, out, err = run_main(["equations", CASES / "circle_two_link.toml", "--latex", tmp_path / "no" / "x.tex"], capsys)
     assert code == 2 and "--latex" in err and "does not exist" in err
+
+
+# -- --method, several case files, exit codes in --help, signal handlers -----------------------------
+
+def test_method_option(tmp_path, capsys):
+    from gibbsimpact.flight import SOLVERS
+
+    code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--method", "RK45", "--t-end", "0.02",
+                               "--no-plots", "-q", "--out", tmp_path / "o"], capsys)
+    assert code == 0
+    assert json.loads((tmp_path / "o" / "summary.json").read_text())["settings"]["method"] == "RK45"
+    code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--method", "Euler", "--out", tmp_path / "p"],
+                              capsys)
+    # The names gi.simulate accepts, in its order, and nothing simulated or created.
+    assert code == 2 and out == "" and not (tmp_path / "p").exists()
+    assert err == f"gibbsimpact: error: options: --method: unknown method 'Euler'; use one of {', '.join(SOLVERS)}\n"
+    with pytest.raises(ValueError, match=f"use one of {', '.join(SOLVERS)}$"):
+        gi.load_case(CASES / "circle_two_link.toml").simulate(method="Euler")
+
+
+def test_run_several_cases_each_into_its_folder_worst_exit_code(tmp_path, capsys):
+    zeno = tmp_path / "zeno.toml"
+    zeno.write_text(ZENO)
+    code, out, err = run_main(["run", CASES / "circle_two_link.toml", zeno, "--out", tmp_path / "o", "--t-end", "0.3",
+                               "--no-plots"], capsys)
+    assert code == 3  # the worst: one finished (0), one stopped early (3)
+    assert out.count("gibbsimpact: running") == 2
+    assert json.loads((tmp_path / "o" / "circle_two_link" / "summary.json").read_text())["status"] == "finished"
+    assert json.loads((tmp_path / "o" / "zeno" / "summary.json").read_text())["status"] == "zeno"
+    assert err.count("\n") == 1 and "(zeno)" in err and str(tmp_path / "o" / "zeno") in err
+    # A bad file among them: nothing runs (every input is checked first), one line per problem.
+    code, out, err = run_main(["run", CASES / "circle_two_link.toml", tmp_path / "none.toml", "--out",
+                               tmp_path / "q"], capsys)
+    assert code == 2 and out == "" and err.count("\n") == 1 and not (tmp_path / "q").exists()
+    # Two files with the same name would write into one folder.
+    (tmp_path / "b").mkdir()
+    (tmp_path / "b" / "zeno.toml").write_text(ZENO)
+    code, out, err = run_main(["run", zeno, tmp_path / "b" / "zeno.toml", "--out", tmp_path / "r"], capsys)
+    assert code == 2 and "would both write into" in err and not (tmp_path / "r").exists()
+
+
+def test_show_several_cases(tmp_path, capsys):
+    code, out, err = run_main(["show", CASES / "circle_two_link.toml", tmp_path / "none.toml",
+                               CASES / "sphere_single_link.toml"], capsys)
+    assert code == 2 and err.count("\n") == 1 and "none.toml" in err
+    assert [ln.split()[1] for ln in out.splitlines() if ln.startswith("case ")] == ["circle_two_link",
+                                                                                   "sphere_single_link"]
+    code, out, err = run_main(["show", CASES / "circle_two_link.toml", CASES / "sphere_single_link.toml"], capsys)
+    assert code == 0 and err == "" and "\n\ncase sphere_single_link" in out
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["run", "--help"]])
+def test_help_lists_the_exit_codes(capsys, argv):
+    with pytest.raises(SystemExit) as info:
+        cli.main(argv)
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    for line in ("  0    every run finished", "  1    unexpected error", "  2    bad input",
+                 "  3    a simulation stopped early", "  130  interrupted by Ctrl-C or SIGTERM"):
+        assert line in out, line
+    if argv[0] == "run":
+        assert "--method METHOD" in out and "RK45, DOP853" in out
+
+
+def test_signal_handlers_are_restored(tmp_path, capsys):
+    import signal
+
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    code, _, _ = run_main(["run", CASES / "circle_two_link.toml", "--t-end", "0.01", "--no-plots", "-q",
+                           "--out", tmp_path], capsys)
+    assert code == 0 and (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
+
+
+def test_sigterm_during_a_run_in_process_exit_130(tmp_path, capsys, monkeypatch):
+    # What the handler does, without a second process: SIGTERM inside simulate -> status interrupted, 130.
+    import importlib
+    import os
+    import signal
+
+    from gibbsimpact.case import Case
+
+    gsim = importlib.import_module("gibbsimpact.simulate")
+    clock = gsim._Clock
+    monkeypatch.setattr(gsim, "_Clock", lambda progress: clock(progress, every=0.0))  # report at every RHS
+    real = Case.simulate
+
+    def terminated(self, progress=None, **kw):
+        def progress_and_term(t, n):
+            if t > 0.01:
+                os.kill(os.getpid(), signal.SIGTERM)
+
+        return real(self, progress=progress_and_term, **kw)
+
+    monkeypatch.setattr(Case, "simulate", terminated)
+    code, _, err = run_main(["run", CASES / "circle_two_link.toml", "--t-end", "0.3", "--no-plots", "-q",
+                             "--out", tmp_path], capsys)
+    assert code == 130
+    assert err.startswith("gibbsimpact: error: simulation stopped early (interrupted): stopped by SIGTERM at t = ")
+    res = gi.load_result(tmp_path / "result.npz")
+    assert res.status == "interrupted" and 0.0 < res.t[-1] < 0.3

@@ -1,56 +1,52 @@
-"""Command line: ``gibbsimpact run CASE.toml`` and ``gibbsimpact show CASE.toml``.
+"""Command line: ``gibbsimpact run CASE.toml ...``, ``gibbsimpact show CASE.toml ...`` and
+``gibbsimpact equations CASE.toml``.
 
-Exit codes: 0 success; 2 bad input (invalid case file, bad option, unreadable
-file); 3 the simulation stopped early (status zeno, max_impacts, penetration
-or failed; the partial results are still written); 1 an unexpected error.
-Errors are reported on stderr as ``gibbsimpact: error: <reason>``; warnings
-raised during a run are summed up in one line after it.
+Exit codes (EXIT_CODES, also in ``--help``): 0 success; 2 bad input (invalid
+case file, bad option, unreadable file, an output folder that cannot be
+written), nothing simulated; 3 the simulation stopped early (status zeno,
+max_impacts, penetration or failed; the partial results are still written);
+130 interrupted by Ctrl-C or SIGTERM (status "interrupted"; the partial
+results are still written); 1 an unexpected error. With several case files the
+worst code of the runs counts. Errors are reported on stderr as
+``gibbsimpact: error: <reason>``; warnings raised during a run are summed up
+in one line after it.
 """
 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
-import time
+import textwrap
+import threading
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
-EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_STOPPED = 0, 1, 2, 3
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+#: How bad an exit code is: with several case files the worst one is the command's.
+_SEVERITY = {EXIT_OK: 0, EXIT_STOPPED: 1, EXIT_BAD_INPUT: 2, EXIT_INTERNAL: 3, EXIT_INTERRUPTED: 4}
+
+EXIT_CODES = """exit codes:
+  0    every run finished
+  1    unexpected error (please report it)
+  2    bad input: case file, option, or an output folder that cannot be
+       written (one line names every problem); nothing is simulated
+  3    a simulation stopped early (zeno, max_impacts, penetration, failed);
+       its results up to there are written
+  130  interrupted by Ctrl-C or SIGTERM: the run stops with status
+       "interrupted" and its results up to there are written
+with several case files the worst code counts (130, 1, 2, 3, 0: worst first)"""
+
+#: Files ``gibbsimpact run`` may write into its output folder, besides <figure>.png for
+#: every name in plotting.FIGURES. Before writing, a run removes those of them that are
+#: there (an earlier run's), and nothing else.
+OUTPUT_FILES = ("timeseries.csv", "impacts.csv", "contact_forces.csv", "summary.json", "result.npz",
+                "animation.gif")
 
 
-class _Progress:
-    """One self-overwriting status line on stderr, shown once a run has lasted ``delay`` seconds.
-
-    Silent when stderr is not a terminal (pipes, CI logs) or when disabled.
-    """
-
-    def __init__(self, t_span, enabled: bool, delay: float = 2.0, stream=None):
-        self.stream = stream or sys.stderr
-        self.enabled = enabled and hasattr(self.stream, "isatty") and self.stream.isatty()
-        self.t0, self.t1 = t_span
-        self.delay = delay
-        self.started = time.monotonic()
-        self.shown = False
-
-    def __call__(self, t: float, n_impacts: int):
-        if not self.enabled:
-            return
-        elapsed = time.monotonic() - self.started
-        if elapsed < self.delay:
-            return
-        frac = (t - self.t0) / (self.t1 - self.t0) if self.t1 > self.t0 else 1.0
-        width = 24
-        bar = "#" * int(round(width * min(max(frac, 0.0), 1.0)))
-        self.stream.write(
-            f"\r  [{bar:<{width}}] t = {t:.4f} / {self.t1:g} s  impacts: {n_impacts}  elapsed {elapsed:5.1f} s "
-        )
-        self.stream.flush()
-        self.shown = True
-
-    def close(self):
-        if self.shown:
-            self.stream.write("\n")
-            self.stream.flush()
+def _worst(a: int, b: int) -> int:
+    return a if _SEVERITY.get(a, 3) >= _SEVERITY.get(b, 3) else b
 
 
 def _error(msg: str, code: int) -> int:
@@ -72,29 +68,42 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="gibbsimpact",
         description="Free-flying flexible multi-link chains colliding with curved walls.",
-        epilog="Case-file format: docs/case-format.md. Exit codes: 0 ok, 2 bad input, 3 simulation stopped early.",
+        epilog=f"Case-file format: docs/case-format.md.\n\n{EXIT_CODES}",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--version", action="version", version=f"gibbsimpact {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
 
-    r = sub.add_parser("run", help="run a case and write CSV, JSON, NPZ and figures",
-                       description="Run CASE and write timeseries.csv, impacts.csv, summary.json, result.npz "
-                                   "and PNG figures into the output directory.")
-    r.add_argument("case", metavar="CASE.toml", help="case file")
-    r.add_argument("--out", metavar="DIR", help="output directory (default: [output] directory, else out/<case name>)")
+    r = sub.add_parser("run", help="run cases and write CSV, JSON, NPZ and figures",
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
+                       description=textwrap.fill(
+                           "Run each CASE and write timeseries.csv, impacts.csv, summary.json (last), result.npz "
+                           "and PNG figures into its output folder. The folder is created and checked before the "
+                           "run; files an earlier run left there under these names are removed when the results "
+                           "are written (other files are kept); every file is written atomically. Ctrl-C or "
+                           "SIGTERM stops a run with status 'interrupted' and writes its results so far (a "
+                           "Ctrl-C while they are written is held back until they are; another one aborts the "
+                           "writing).", 79),
+                       epilog=EXIT_CODES)
+    r.add_argument("case", metavar="CASE.toml", nargs="+", help="case file(s), run one after the other")
+    r.add_argument("--out", metavar="DIR",
+                   help="output folder (default: the case's [output] directory, else out/<case name>); with "
+                        "several case files each writes into DIR/<case file name without .toml>")
     r.add_argument("--t-end", type=_float, metavar="T", help="end time in s (overrides [time] t_end_s)")
     r.add_argument("--rtol", type=_float, help="relative tolerance (overrides [solver] rtol)")
     r.add_argument("--atol", type=_float, help="absolute tolerance (overrides [solver] atol)")
     r.add_argument("--output-dt", type=_float, metavar="DT",
                    help="uniform output interval in s (overrides [solver] output_dt_s)")
+    r.add_argument("--method", metavar="METHOD",
+                   help="scipy ODE solver (overrides [solver] method): " + ", ".join(_methods()))
     r.add_argument("--no-plots", action="store_true", help="do not draw figures")
     r.add_argument("--animate", action="store_true", help="also write animation.gif")
-    r.add_argument("--quiet", "-q", action="store_true", help="no progress line and no report on stdout")
+    r.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no report on stdout")
 
-    s = sub.add_parser("show", help="describe a case: coordinates, frequencies, walls, initial energy and gaps",
-                       description="Describe the model of CASE in words without running it.")
-    s.add_argument("case", metavar="CASE.toml", help="case file")
+    s = sub.add_parser("show", help="describe cases: coordinates, frequencies, walls, initial energy and gaps",
+                       description="Describe the model of each CASE in words without running it.")
+    s.add_argument("case", metavar="CASE.toml", nargs="+", help="case file(s)")
 
     e = sub.add_parser("equations", help="derive the symbolic equations of motion of a case's chain",
                        description="Derive M(q) qddot = forcing(q, qdot) of CASE symbolically (gi.derive_equations), "
@@ -105,7 +114,17 @@ def build_parser() -> argparse.ArgumentParser:
                    help="derivation route (default gibbs-appell; lagrange is the comparison route)")
     e.add_argument("--latex", metavar="FILE", help="write the equations as a LaTeX document")
     e.add_argument("--python", metavar="FILE", help="write a standalone module computing M and the forcing")
+    from .sweep import add_parser as add_sweep_parser
+
+    add_sweep_parser(sub)
     return p
+
+
+def _methods() -> tuple:
+    """The solver names gibbsimpact.simulate accepts."""
+    from .flight import SOLVERS
+
+    return tuple(SOLVERS)
 
 
 _GIVE_A_CASE = "give the path of a case file (e.g. cases/circle_two_link.toml)"
@@ -281,11 +300,22 @@ def _describe_damping(m, i: int) -> str:
 
 
 def cmd_show(args) -> int:
-    case, code = _load(args.case)
-    if case is None:
-        return code
-    print(describe_case(case))
-    return EXIT_OK
+    """Describe every case given; the exit code is the worst (2 if any file is bad)."""
+    code, shown = EXIT_OK, 0
+    for path in args.case:
+        case, bad = _load(path)
+        if case is None:
+            code = _worst(code, bad)
+            continue
+        if shown:
+            print()
+        print(describe_case(case), flush=True)
+        from .validity import check_state
+
+        for msg in check_state(case.model, case.q0, case.qdot0, case.walls):
+            print(f"gibbsimpact: {path}: validity warning: {msg}", file=sys.stderr)
+        shown += 1
+    return code
 
 
 def cmd_equations(args) -> int:
@@ -317,58 +347,214 @@ def cmd_equations(args) -> int:
 # --------------------------------------------------------------------------
 # run
 
+def output_names() -> tuple:
+    """Every file name ``gibbsimpact run`` may write into an output folder."""
+    from .plotting import FIGURES
+
+    return OUTPUT_FILES + tuple(f"{k}.png" for k in FIGURES)
+
+
+def clear_outputs(out: Path) -> list:
+    """Remove from ``out`` the files of an earlier run: every name of output_names() and their
+    leftover temporary files (io.atomic_path). Other files are kept. Returns the paths removed."""
+    from .io import TEMP_MARK
+
+    removed = []
+    for name in output_names():
+        p = out / name
+        for q in [p, *out.glob(f".{p.stem}.*{TEMP_MARK}{p.suffix}")]:
+            if q.is_file() or q.is_symlink():
+                q.unlink()
+                removed.append(q)
+    return removed
+
+
+def _save_figure(fig, path: Path, dpi: int) -> Path:
+    """Save one figure as ``path`` (.png) atomically, with plotting.save_figures' settings; closes it."""
+    from .io import atomic_path
+    from .plotting import save_figures
+
+    with atomic_path(path) as tmp:
+        save_figures({tmp.stem: fig}, tmp.parent, dpi=dpi)  # writes <stem>.png, i.e. tmp
+    return path
+
+
 def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None) -> dict:
-    """Write every output file of a run into ``out``; returns {name: Path}."""
-    from .io import save_result, to_csv, write_summary_json
+    """Write every output file of a run into ``out``; returns {name: Path}.
+
+    First removes the files an earlier run left there (clear_outputs), so the folder
+    holds this run's files only. Each file is written atomically (io.atomic_path);
+    summary.json comes last, so when it is there every other file of the run is too.
+    """
+    from .io import atomic_path, save_result, to_csv, write_summary_json
 
     log = log or (lambda s: None)
     out.mkdir(parents=True, exist_ok=True)
+    clear_outputs(out)
     paths = dict(to_csv(result, out))
     source = case.path.read_text() if case.path is not None and case.path.exists() else None
     paths["result"] = save_result(result, out / "result.npz", metadata={"case": case.name, "case_toml": source})
     if plots:
         log("drawing figures ...")
-        from .plotting import plot_result, save_figures
+        from .plotting import plot_result
 
         figs = plot_result(result, case_name=case.name, n_points=case.output["points_per_link"])
-        paths.update(save_figures(figs, out, dpi=case.output["dpi"]))
+        for name, fig in figs.items():
+            paths[name] = _save_figure(fig, out / f"{name}.png", case.output["dpi"])
     if animate:
         log("writing animation.gif ...")
         from .plotting import animate as make_animation
 
-        paths["animation"] = make_animation(
-            result, out / "animation.gif", fps=case.output["animation_fps"], speed=case.output["animation_speed"],
-            n_points=case.output["points_per_link"], case_name=case.name,
-        )
-    # Last, so that it records the matplotlib version when figures were drawn.
+        with atomic_path(out / "animation.gif") as tmp:
+            make_animation(result, tmp, fps=case.output["animation_fps"], speed=case.output["animation_speed"],
+                           n_points=case.output["points_per_link"], case_name=case.name)
+        paths["animation"] = out / "animation.gif"
+    # Last, so that it records the matplotlib version when figures were drawn, and so
+    # that its presence means every other file is complete.
     paths["summary"] = write_summary_json(result, out / "summary.json", case)
     return paths
 
 
+def _main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
+
+
+@contextmanager
+def _sigterm_interrupts():
+    """Inside the block SIGTERM raises KeyboardInterrupt("SIGTERM"), as Ctrl-C raises KeyboardInterrupt:
+    gibbsimpact.simulate then stops the run with status "interrupted". The previous handler comes back after."""
+    if not _main_thread():  # signal handlers can only be set there
+        yield
+        return
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt("SIGTERM")
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+@contextmanager
+def _held_signals(out: Path):
+    """While results are written: the first Ctrl-C or SIGTERM is held back (a note on stderr), the next
+    raises KeyboardInterrupt and aborts the writing. Yields the list of held signal names."""
+    held = []
+    if not _main_thread():
+        yield held
+        return
+
+    def handler(signum, frame):
+        name = signal.Signals(signum).name
+        if held:
+            raise KeyboardInterrupt(name)
+        held.append(name)
+        try:
+            print(f"gibbsimpact: {name}: writing the results into {out} first; send it again to abort the writing",
+                  file=sys.stderr, flush=True)
+        except (RuntimeError, OSError, ValueError):  # stderr busy or closed: the note is not essential
+            pass
+
+    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield held
+    finally:
+        for sig, h in previous.items():
+            signal.signal(sig, h)
+
+
+def _check_output(out: Path, label: str) -> int | None:
+    """None when ``out`` exists (created here if needed) and takes files, else 2 after one error line."""
+    from .io import check_directory
+
+    try:
+        check_directory(out)
+    except OSError as exc:
+        return _error(f"{label}: cannot write into {out} ({exc.strerror or exc}); give a writable folder with --out",
+                      EXIT_BAD_INPUT)
+    return None
+
+
 def cmd_run(args) -> int:
-    case, code = _load(args.case)
-    if case is None:
-        return code
+    """Check every case, its options and its output folder, then run the cases one after the other.
+
+    Nothing runs unless every input is good (exit code 2). The exit code is then the
+    worst of the runs; an interrupted run (130) ends the command.
+    """
     from .case import CaseError
 
+    several = len(args.case) > 1
     # Options override case-file keys and are held to the same ranges (case.RANGES).
-    options = {"t_end": "--t-end", "rtol": "--rtol", "atol": "--atol", "output_dt": "--output-dt"}
+    options = {"t_end": "--t-end", "rtol": "--rtol", "atol": "--atol", "output_dt": "--output-dt",
+               "method": "--method"}
     overrides = {kw: getattr(args, kw) for kw in options if getattr(args, kw) is not None}
-    problems = case.override_problems(names=options, **overrides)
-    if problems:
-        return _error(str(CaseError("options", problems)), EXIT_BAD_INPUT)
-    t0, t1 = case.t_span[0], overrides.get("t_end", case.t_span[1])
-    out = Path(args.out) if args.out else case.output_directory
-    say = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
+    code, runs = EXIT_OK, []
+    for path in args.case:
+        case, bad = _load(path)
+        if case is None:
+            code = _worst(code, bad)
+            continue
+        problems = case.override_problems(names=options, **overrides)
+        if problems:
+            code = _worst(code, _error(str(CaseError(f"{path}: options" if several else "options", problems)),
+                                       EXIT_BAD_INPUT))
+            continue
+        if args.out is None:
+            out = case.output_directory
+            label = f"output folder of {path} ({'[output] directory' if case.output.get('directory') else 'default'})"
+        else:
+            out = Path(args.out) / Path(path).stem if several else Path(args.out)
+            label = f"--out {args.out}"
+        runs.append((path, case, out, label))
+    targets = {}
+    for path, _, out, _ in runs:
+        if out.resolve() in targets:
+            code = _worst(code, _error(f"{targets[out.resolve()]} and {path} would both write into {out}; "
+                                       "rename one of the case files or run them separately", EXIT_BAD_INPUT))
+        targets.setdefault(out.resolve(), path)
+    if code != EXIT_OK:
+        return code
+    # Every output folder is created and takes a file before anything is simulated.
+    for path, case, out, label in runs:
+        bad = _check_output(out, label)
+        if bad is not None:
+            code = _worst(code, bad)
+    if code != EXIT_OK:
+        return code
+    with _sigterm_interrupts():
+        for path, case, out, _ in runs:
+            code = _worst(code, _run_one(path, case, args, overrides, out))
+            if code == EXIT_INTERRUPTED:
+                break
+    return code
 
-    progress = _Progress((t0, t1), enabled=not args.quiet)
+
+def _run_one(path, case, args, overrides, out) -> int:
+    t0, t1 = case.t_span[0], overrides.get("t_end", case.t_span[1])
+    say = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
+    # A tqdm bar over simulated time on a terminal (simulate's progress=True).
+    progress = True if not args.quiet and _isatty(sys.stderr) else None
     say(f"gibbsimpact: running {case.name}: t = {t0:g} -> {t1:g} s, N = {case.model.n_dof}, "
         f"{len(case.walls)} wall(s)")
     # Warnings of the run (numpy overflow, ...) are held back and summed up in one
     # line after the status or error line instead of interleaving with it.
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("default")  # each kind once, not once per step
-        code = _simulate_and_write(case, args, overrides, out, progress, say)
+        try:
+            code = _simulate_and_write(path, case, args, overrides, out, progress, say)
+        except (KeyboardInterrupt, BrokenPipeError):
+            raise
+        except Exception as exc:  # noqa: BLE001 - one line instead of a traceback; the other cases still run
+            code = _error(f"{path}: unexpected {type(exc).__name__}: {exc} (please report this)", EXIT_INTERNAL)
+    # Validity warnings (model used outside its assumptions) each get their own line.
+    from .validity import ValidityWarning
+
+    for w in caught:
+        if issubclass(w.category, ValidityWarning):
+            print(f"gibbsimpact: {path}: validity warning: {w.message}", file=sys.stderr)
+    caught = [w for w in caught if not issubclass(w.category, ValidityWarning)]
     if caught:
         first = caught[0]
         print(f"gibbsimpact: warning: {len(caught)} kind(s) of warning during the run, the first: "
@@ -377,23 +563,33 @@ def cmd_run(args) -> int:
     return code
 
 
-def _simulate_and_write(case, args, overrides, out, progress, say) -> int:
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+def _simulate_and_write(path, case, args, overrides, out, progress, say) -> int:
     from .dynamics import SingularMassMatrixError
+    from .simulate import STATUS_INTERRUPTED
 
     try:
         result = case.simulate(progress=progress, **overrides)
     except (SingularMassMatrixError, ValueError) as exc:
-        progress.close()
-        return _error(f"{args.case}: {exc}", EXIT_BAD_INPUT)
-    except KeyboardInterrupt:
-        progress.close()
-        return _error("interrupted", 130)
-    progress.close()
+        return _error(f"{path}: {exc}", EXIT_BAD_INPUT)
+    except KeyboardInterrupt as exc:
+        return _error(f"interrupted ({exc or 'SIGINT'}) before the first step of {path}; nothing written",
+                      EXIT_INTERRUPTED)
 
     plots = case.output["plots"] and not args.no_plots
     animate = case.output["animate"] or args.animate
     try:
-        paths = write_outputs(result, case, out, plots, animate, log=say)
+        with _held_signals(out) as held:
+            paths = write_outputs(result, case, out, plots, animate, log=say)
+    except KeyboardInterrupt as exc:
+        return _error(f"interrupted ({exc}) while writing the results into {out}: the files there are complete, "
+                      "the others missing (summary.json is written last)", EXIT_INTERRUPTED)
     except OSError as exc:
         return _error(f"cannot write results to {out}: {exc.strerror or exc}", EXIT_BAD_INPUT)
 
@@ -406,6 +602,12 @@ def _simulate_and_write(case, args, overrides, out, progress, say) -> int:
         say(f"  ... {len(result.impacts)} impacts in all (impacts.csv)")
     say(f"energy: {E.total[0]:.9g} J -> {E.total[-1]:.9g} J; max relative drift in flight {result.energy_error:.2e}")
     say(f"{result.nfev} right-hand-side evaluations, {result.wall_time:.2f} s; {len(paths)} files in {out}")
+    if result.status == STATUS_INTERRUPTED:
+        return _error(f"simulation stopped early ({result.status}): {result.message}; "
+                      f"partial results written to {out}", EXIT_INTERRUPTED)
+    if held:
+        return _error(f"interrupted ({held[0]}) while the results were written; they are complete in {out}",
+                      EXIT_INTERRUPTED)
     if result.status != "finished":
         return _error(f"simulation stopped early ({result.status}): {result.message}; "
                       f"partial results written to {out}", EXIT_STOPPED)
@@ -416,11 +618,15 @@ def main(argv=None) -> int:
     """Entry point of the ``gibbsimpact`` console script and ``python -m gibbsimpact``."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    handler = {"run": cmd_run, "show": cmd_show, "equations": cmd_equations}[args.command]
+    from .sweep import main as cmd_sweep
+
+    handler = {"run": cmd_run, "show": cmd_show, "equations": cmd_equations, "sweep": cmd_sweep}[args.command]
     try:
         return handler(args)
     except BrokenPipeError:
         return EXIT_OK
+    except KeyboardInterrupt as exc:
+        return _error(f"interrupted ({exc or 'SIGINT'})", EXIT_INTERRUPTED)
     except Exception as exc:  # noqa: BLE001 - one line instead of a traceback
         return _error(f"unexpected {type(exc).__name__}: {exc} (please report this)", EXIT_INTERNAL)
 

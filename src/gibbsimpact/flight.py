@@ -79,6 +79,8 @@ class PhaseOutcome(NamedTuple):
     min_gap : smallest gap over all pairs at step ends and in-step samples [m]
     n_steps : accepted steps; n_examined : steps whose dense output was examined for a dip
     failed : None, or the solver's message when it failed
+    interrupted : None, or how a KeyboardInterrupt stopped the phase (its accepted
+        steps are in sample_t, sample_y; t, y is the last accepted state)
     """
 
     t: float
@@ -90,6 +92,7 @@ class PhaseOutcome(NamedTuple):
     n_steps: int
     n_examined: int
     failed: str | None
+    interrupted: str | None = None
 
 
 def hermite_positions(s: np.ndarray, h: float, ya: np.ndarray, fa: np.ndarray, yb: np.ndarray, fb: np.ndarray,
@@ -223,94 +226,105 @@ def integrate_phase(
     n_steps = n_examined = 0
     event, failed = None, None
 
-    while solver.status == "running":
-        message = solver.step()
-        if solver.status == "failed":
-            failed = message
-            break
-        n_steps += 1
-        t_b, y_b = solver.t, solver.y.copy()
-        f_b = derivative(t_b, y_b)
-        h = t_b - t_a
-        g_b = gap_matrix(y_b[:N])
-        E_b = events.values(g_b)
-        step_min = float(g_b.min()) if g_b.size else np.inf
-        dense = None
+    interrupted = None
+    try:
+        while solver.status == "running":
+            message = solver.step()
+            if solver.status == "failed":
+                failed = message
+                break
+            n_steps += 1
+            t_b, y_b = solver.t, solver.y.copy()
+            f_b = derivative(t_b, y_b)
+            h = t_b - t_a
+            g_b = gap_matrix(y_b[:N])
+            E_b = events.values(g_b)
+            step_min = float(g_b.min()) if g_b.size else np.inf
+            dense = None
 
-        grid = np.empty(0)
-        if output_dt is not None:
-            # Grid points in (t_a, t_b]; the phase end itself is stored once, below.
-            k = np.arange(np.floor((t_a - t_origin) / output_dt), np.floor((t_b - t_origin) / output_dt) + 2)
-            grid = t_origin + output_dt * k
-            grid = grid[(grid > t_a) & ((grid <= t_b) if solver.status == "running" else (grid < t_b))]
-            if grid.size:
-                dense = solver.dense_output()
+            grid = np.empty(0)
+            if output_dt is not None:
+                # Grid points in (t_a, t_b]; the phase end itself is stored once, below.
+                k = np.arange(np.floor((t_a - t_origin) / output_dt), np.floor((t_b - t_origin) / output_dt) + 2)
+                grid = t_origin + output_dt * k
+                grid = grid[(grid > t_a) & ((grid <= t_b) if solver.status == "running" else (grid < t_b))]
+                if grid.size:
+                    dense = solver.dense_output()
 
-        # 1. Sign changes at the step ends (solve_ivp's rule).
-        crossed = (down & (E_prev >= 0) & (E_b <= 0)) | (up & (E_prev <= 0) & (E_b >= 0))
-        # 2. In-step dips of the direction -1 events without a sign change.
-        candidates = (np.nonzero(down & ~crossed & (E_prev > 0) & (E_b > 0))[0] if check_in_step and np.any(down)
-                      else np.empty(0, int))
-        examine = np.zeros(E_b.shape, dtype=bool)
-        if candidates.size:
-            if dense is not None:
-                q_in = dense(t_a + _S_CHECK * h)[:N].T
-                err = 0.0
-            else:
-                q_in, q3 = hermite_positions(_S_CHECK, h, y_a, f_a, y_b, f_b, N)
-                err = lipschitz * float(np.max(np.abs(q_in - q3)))
-            g_in = [gap_matrix(qi) for qi in q_in]
-            step_min = min(step_min, min(float(g.min()) for g in g_in))
-            E_in = np.stack([events.values(g) for g in g_in], axis=1)  # (K, 3)
-            E5 = np.concatenate((E_prev[:, None], E_in, E_b[:, None]), axis=1)[candidates]
-            low = E5.min(axis=1) - dip_allowance(E5) - err - slack
-            examine[candidates[low < 0]] = True
-        roots = {}
-        if np.any(crossed) or np.any(examine):
-            if dense is None:
-                dense = solver.dense_output()
-            for k in np.nonzero(crossed)[0]:
-                if up[k]:
-                    roots[int(k)] = brentq(lambda t: E_single(k)(t, dense(t)), t_a, t_b,
-                                           xtol=4 * _EPS, rtol=4 * _EPS)
+            # 1. Sign changes at the step ends (solve_ivp's rule).
+            crossed = (down & (E_prev >= 0) & (E_b <= 0)) | (up & (E_prev <= 0) & (E_b >= 0))
+            # 2. In-step dips of the direction -1 events without a sign change.
+            candidates = (np.nonzero(down & ~crossed & (E_prev > 0) & (E_b > 0))[0] if check_in_step and np.any(down)
+                          else np.empty(0, int))
+            examine = np.zeros(E_b.shape, dtype=bool)
+            if candidates.size:
+                if dense is not None:
+                    q_in = dense(t_a + _S_CHECK * h)[:N].T
+                    err = 0.0
                 else:
-                    roots[int(k)] = _first_crossing(E_single(k), dense, t_a, t_b, E_prev[k], E_b[k])
-            if np.any(examine):
-                n_examined += 1
-                for k in np.nonzero(examine)[0]:
-                    tk = _first_crossing(E_single(k), dense, t_a, t_b, E_prev[k], E_b[k])
-                    if tk is not None:
-                        roots[int(k)] = tk
-        if roots:
-            event = min(roots, key=roots.get)
-            t_ev = roots[event]
-            y_ev = dense(t_ev)
-            if grid.size:
-                grid = grid[grid < t_ev]
-            if grid.size:
-                sample_t.append(grid)
-                sample_y.append(dense(grid).T)
-            # Gaps over the step up to the event (in-step samples beyond it are not part of the phase).
-            sample_t.append(np.array([t_ev]))
-            sample_y.append(y_ev[None, :])
-            return PhaseOutcome(t_ev, y_ev, event, np.concatenate(sample_t), np.concatenate(sample_y),
-                                min_gap, n_steps, n_examined, None)
-        min_gap = min(min_gap, step_min)  # the step of an event counts only up to the event, checked by its root
-        if output_dt is None:
-            sample_t.append(np.array([t_b]))
-            sample_y.append(y_b[None, :])
-        else:
-            if grid.size:
-                sample_t.append(grid)
-                sample_y.append(dense(grid).T)
-            if solver.status == "finished":
+                    q_in, q3 = hermite_positions(_S_CHECK, h, y_a, f_a, y_b, f_b, N)
+                    err = lipschitz * float(np.max(np.abs(q_in - q3)))
+                g_in = [gap_matrix(qi) for qi in q_in]
+                step_min = min(step_min, min(float(g.min()) for g in g_in))
+                E_in = np.stack([events.values(g) for g in g_in], axis=1)  # (K, 3)
+                E5 = np.concatenate((E_prev[:, None], E_in, E_b[:, None]), axis=1)[candidates]
+                low = E5.min(axis=1) - dip_allowance(E5) - err - slack
+                examine[candidates[low < 0]] = True
+            roots = {}
+            if np.any(crossed) or np.any(examine):
+                if dense is None:
+                    dense = solver.dense_output()
+                for k in np.nonzero(crossed)[0]:
+                    if up[k]:
+                        roots[int(k)] = brentq(lambda t: E_single(k)(t, dense(t)), t_a, t_b,
+                                               xtol=4 * _EPS, rtol=4 * _EPS)
+                    else:
+                        roots[int(k)] = _first_crossing(E_single(k), dense, t_a, t_b, E_prev[k], E_b[k])
+                if np.any(examine):
+                    n_examined += 1
+                    for k in np.nonzero(examine)[0]:
+                        tk = _first_crossing(E_single(k), dense, t_a, t_b, E_prev[k], E_b[k])
+                        if tk is not None:
+                            roots[int(k)] = tk
+            if roots:
+                event = min(roots, key=roots.get)
+                t_ev = roots[event]
+                y_ev = dense(t_ev)
+                if grid.size:
+                    grid = grid[grid < t_ev]
+                if grid.size:
+                    sample_t.append(grid)
+                    sample_y.append(dense(grid).T)
+                # Gaps over the step up to the event (in-step samples beyond it are not part of the phase).
+                sample_t.append(np.array([t_ev]))
+                sample_y.append(y_ev[None, :])
+                return PhaseOutcome(t_ev, y_ev, event, np.concatenate(sample_t), np.concatenate(sample_y),
+                                    min_gap, n_steps, n_examined, None)
+            min_gap = min(min_gap, step_min)  # the step of an event counts only up to the event, checked by its root
+            if output_dt is None:
                 sample_t.append(np.array([t_b]))
                 sample_y.append(y_b[None, :])
-        t_a, y_a, f_a, E_prev = t_b, y_b, f_b, E_b
+            else:
+                if grid.size:
+                    sample_t.append(grid)
+                    sample_y.append(dense(grid).T)
+                if solver.status == "finished":
+                    sample_t.append(np.array([t_b]))
+                    sample_y.append(y_b[None, :])
+            t_a, y_a, f_a, E_prev = t_b, y_b, f_b, E_b
+    except KeyboardInterrupt as exc:
+        # Ctrl-C (or the CLI's SIGTERM): keep the accepted steps. An interrupt between the
+        # two appends of one step leaves one list longer; the last accepted state ends it.
+        interrupted = str(exc) or "KeyboardInterrupt (Ctrl-C)"
+        k = min(len(sample_t), len(sample_y))
+        sample_t, sample_y = sample_t[:k], sample_y[:k]
+        if t_a > (sample_t[-1][-1] if sample_t else t0):
+            sample_t.append(np.array([t_a]))
+            sample_y.append(y_a[None, :])
 
     t_last = sample_t[-1][-1] if sample_t else t0
     y_last = sample_y[-1][-1] if sample_y else y0
-    if failed is not None and not sample_t:
+    if (failed is not None or interrupted is not None) and not sample_t:
         sample_t, sample_y = [np.empty(0)], [np.empty((0, y0.shape[0]))]
     return PhaseOutcome(float(t_last), np.asarray(y_last), None, np.concatenate(sample_t),
-                        np.concatenate(sample_y), min_gap, n_steps, n_examined, failed)
+                        np.concatenate(sample_y), min_gap, n_steps, n_examined, failed, interrupted)

@@ -15,6 +15,10 @@ Links, joints, walls and impacts are numbered from 1 in the files; in the
 Python API ``ImpactRecord.wall`` is the 0-based index into ``Result.walls``.
 Numbers are written with the shortest decimal text that reads back to the
 same double.
+
+Every file is written atomically (:func:`atomic_path`): into a temporary file
+beside it, then renamed over it with ``os.replace``. A reader, a crash or an
+interrupt never sees a half-written file: the old one or the whole new one.
 """
 
 from __future__ import annotations
@@ -22,8 +26,11 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import platform
+import secrets
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -35,13 +42,64 @@ from .results import ImpactRecord, Result
 from .walls import Circle, Plane, Sphere, describe
 
 __all__ = [
-    "FORMAT_VERSION", "load_result", "model_from_dict", "model_to_dict", "read_csv", "save_result",
-    "summary", "to_csv", "wall_from_dict", "wall_to_dict", "write_impacts_csv", "write_summary_json",
-    "write_timeseries_csv", "versions",
+    "FORMAT_VERSION", "atomic_path", "check_directory", "load_result", "model_from_dict", "model_to_dict",
+    "read_csv", "save_result", "summary", "to_csv", "versions", "wall_from_dict", "wall_to_dict",
+    "write_impacts_csv", "write_summary_json", "write_timeseries_csv",
 ]
 
 #: Version of the NPZ layout written by save_result.
 FORMAT_VERSION = 1
+
+
+# --------------------------------------------------------------------------
+# Atomic files and the output folder
+
+#: Marks the temporary files of atomic_path: ``.<stem>.<random>.gibbsimpact-tmp<suffix>``.
+TEMP_MARK = ".gibbsimpact-tmp"
+
+
+def temporary_name(path) -> Path:
+    """A fresh name beside ``path`` for its temporary file; it keeps the suffix (savefig and numpy look at it)."""
+    path = Path(path)
+    return path.with_name(f".{path.stem}.{secrets.token_hex(4)}{TEMP_MARK}{path.suffix}")
+
+
+@contextmanager
+def atomic_path(path):
+    """Write ``path`` atomically: yields a temporary path beside it to write to.
+
+    When the block ends normally the temporary file is flushed to disk and renamed
+    over ``path`` (``os.replace``, atomic on one file system); when it raises
+    (an error, a KeyboardInterrupt) the temporary file is removed and ``path``
+    is left as it was. Usage: ``with atomic_path(p) as tmp: tmp.write_text(text)``.
+    """
+    path = Path(path)
+    tmp = temporary_name(path)
+    try:
+        yield tmp
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def check_directory(directory) -> Path:
+    """Create ``directory`` (and its parents) if needed and check that files can be written into it.
+
+    Creates and removes a temporary file there. Raises OSError (e.g.
+    NotADirectoryError, PermissionError, FileExistsError for a path that is a
+    file) when it cannot; returns the directory as a Path.
+    """
+    d = Path(directory)
+    if d.exists() and not d.is_dir():
+        raise FileExistsError(17, "it is a file, not a folder", str(d))
+    d.mkdir(parents=True, exist_ok=True)
+    probe = temporary_name(d / "write-test.tmp")
+    with open(probe, "x"):
+        pass
+    probe.unlink()
+    return d
 
 
 # --------------------------------------------------------------------------
@@ -76,7 +134,7 @@ def write_timeseries_csv(result: Result, path) -> Path:
     header += ["kinetic_J", "gravity_J", "strain_J", "total_J"]
     if result.work is not None:
         header += ["work_inputs_J", "work_damping_J"]
-    with path.open("w", newline="") as fh:
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
         for k in range(len(result.t)):
@@ -101,7 +159,7 @@ IMPACT_COLUMNS = [
 def write_impacts_csv(result: Result, path) -> Path:
     """One row per contact: impact number, time, joint, wall, normal, impulse, normal velocities, energies."""
     path = Path(path)
-    with path.open("w", newline="") as fh:
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(IMPACT_COLUMNS)
         for i, rec in enumerate(result.impacts, start=1):
@@ -243,7 +301,9 @@ def summary(result: Result, case=None) -> dict:
 def write_summary_json(result: Result, path, case=None) -> Path:
     """Write :func:`summary` as indented JSON (strict: no NaN or Infinity literals)."""
     path = Path(path)
-    path.write_text(json.dumps(summary(result, case), indent=2, allow_nan=False) + "\n")
+    text = json.dumps(summary(result, case), indent=2, allow_nan=False) + "\n"
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
     return path
 
 
@@ -421,7 +481,8 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         "metadata": _tag(metadata or {}),
     }
     arrays["meta"] = np.array(json.dumps(meta))
-    np.savez_compressed(path, **arrays)
+    with atomic_path(path) as tmp:
+        np.savez_compressed(tmp, **arrays)
     return path
 
 

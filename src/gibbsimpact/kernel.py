@@ -244,9 +244,11 @@ def rodrigues_coefficients(s):
 
 def _skew3(B, kv, row, o):
     """B[o][:3, :3] = skew(B[kv, row, :3])."""
-    v0 = B[kv, row, 0]
-    v1 = B[kv, row, 1]
-    v2 = B[kv, row, 2]
+    _put_skew(B, o, B[kv, row, 0], B[kv, row, 1], B[kv, row, 2])
+
+
+def _put_skew(B, o, v0, v1, v2):
+    """B[o][:3, :3] = skew(v)."""
     B[o, 0, 0] = 0.0
     B[o, 0, 1] = -v2
     B[o, 0, 2] = v1
@@ -326,15 +328,7 @@ def _rot_step(B, w, si, axis, th, thd, vel):
     p0 = B[w, 0, 3]
     p1 = B[w, 1, 3]
     p2 = B[w, 2, 3]
-    B[si, 0, 0] = 0.0
-    B[si, 0, 1] = -w2
-    B[si, 0, 2] = w1
-    B[si, 1, 0] = w2
-    B[si, 1, 1] = 0.0
-    B[si, 1, 2] = -w0
-    B[si, 2, 0] = -w1
-    B[si, 2, 1] = w0
-    B[si, 2, 2] = 0.0
+    _put_skew(B, si, w0, w1, w2)
     B[si, 0, 3] = p1 * w2 - p2 * w1
     B[si, 1, 3] = p2 * w0 - p0 * w2
     B[si, 2, 3] = p0 * w1 - p1 * w0
@@ -960,7 +954,7 @@ def kernel(fdat, idat, qs, qds, Q, job):
 # other types). Every entry point is linked and optimised with all the code it
 # calls, so fewer entry points compile faster. Helpers are compiled for the types
 # their callers use; called from Python they run uncompiled.
-_HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_skew3",
+_HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_skew", "_skew3",
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "chain_frames",
             "_link_body", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"

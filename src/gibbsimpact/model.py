@@ -12,7 +12,7 @@ Coordinates (formulation.md section 1), in this order::
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from numbers import Real
 from typing import Callable, Sequence
 

@@ -47,12 +47,18 @@ Event-loop rules (each one has a test in tests/test_simulate.py):
   The message gives the estimated accumulation time: geometric extrapolation
   of the intervals when they shrink (ratio < 0.9), else the time the contact
   closed.
+* Interrupt: a KeyboardInterrupt raised inside the loop (Ctrl-C, a notebook's
+  interrupt, or the command line's SIGTERM handler) stops the run with status
+  "interrupted"; the Result holds every sample and impact recorded until
+  then, including the accepted steps of the flight phase under way.
 """
 
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 from numbers import Real
+from typing import NamedTuple
 
 import numpy as np
 
@@ -70,9 +76,14 @@ from .results import (
     ImpactRecord,
     Result,
 )
+from .validity import warn_result, warn_state
 from .walls import WALL_TYPES, describe
 
 _METHODS = tuple(SOLVERS)
+
+#: Status of a run stopped by a KeyboardInterrupt (Ctrl-C, SIGTERM in the command line);
+#: the Result holds everything computed until then.
+STATUS_INTERRUPTED = "interrupted"
 
 
 def _positive(name, v, allow_inf=False):
@@ -135,7 +146,7 @@ def _accumulation_time(times, intervals):
 
 
 class _Clock:
-    """Calls progress(t, n_impacts) at most every `every` seconds of wall time."""
+    """Calls progress(t, n_impacts) at most every `every` seconds of wall time (5 times a second)."""
 
     def __init__(self, progress, every=0.2):
         self.progress, self.every, self.last, self.n_impacts = progress, every, time.monotonic(), 0
@@ -146,6 +157,55 @@ class _Clock:
             if now - self.last >= self.every:
                 self.last = now
                 self.progress(float(t), self.n_impacts)
+
+
+class _ProgressBar:
+    """``progress=True``: a tqdm bar over simulated time t - t0 [s] on stderr, fed by _Clock.
+
+    tqdm is imported here, when a bar is asked for. The solver calls the
+    right-hand side at trial times that can step back, so the bar only moves forward.
+    """
+
+    def __init__(self, t0: float, t_end: float):
+        from tqdm.auto import tqdm
+
+        self.t0 = t0
+        self.bar = tqdm(total=t_end - t0, desc="simulate", unit="s", leave=True,
+                        bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g} / {total:.4g} s "
+                                   "[{elapsed}<{remaining}{postfix}]")
+        self.bar.set_postfix_str("impacts: 0", refresh=False)
+
+    def __call__(self, t: float, n_impacts: int):
+        self.bar.set_postfix_str(f"impacts: {n_impacts}", refresh=False)
+        step = min(t - self.t0, self.bar.total) - self.bar.n
+        if step > 0:
+            self.bar.update(step)
+        else:
+            self.bar.refresh()
+
+    def close(self):
+        self.bar.close()
+
+
+@contextmanager
+def _progress_reporter(progress, t0: float, t_end: float):
+    """The callable progress(t, n_impacts) for simulate's ``progress`` argument, or None; closes a bar at the end.
+
+    progress : None or False (nothing), True (a tqdm bar on stderr), or a callable.
+    """
+    if progress is None or progress is False:
+        yield None
+    elif progress is True:
+        bar = _ProgressBar(t0, t_end)
+        try:
+            yield bar
+        finally:
+            bar.close()
+    elif callable(progress):
+        yield progress
+    else:
+        raise ValueError(f"simulate progress={progress!r} must be None, True (a progress bar on stderr) "
+                         "or a callable progress(t, n_impacts)")
 
 
 class _Contacts:
@@ -270,50 +330,84 @@ class _Accumulation:
                 "results up to here are kept")
 
 
+class _Chunk(NamedTuple):
+    """Samples recorded at once: an impact (one sample, its record) or a flight phase (k samples)."""
+
+    t: np.ndarray  # (k,) [s]
+    q: np.ndarray  # (k, N)
+    qdot: np.ndarray  # (k, N)
+    phase: np.ndarray  # (k,) int
+    work: np.ndarray  # (k, 2) [J]
+    energy: Energy  # each field (k,) [J]
+    error: float  # energy balance error of these samples (relative)
+    impact: ImpactRecord | None
+
+
+def _one(E: Energy) -> Energy:
+    """Energy of one state as arrays of one sample."""
+    return Energy(*(np.array([float(v)]) for v in E))
+
+
 class _Recorder:
-    """Stored samples (t, q, qdot, phase, work), their energies, and the flight-phase energy balance.
+    """Stored samples (t, q, qdot, phase, work), their energies, the impacts, and the flight-phase energy balance.
 
     work : (K, 2) [J] the work of the inputs and of the damping since t0 (zeros
     for an undriven, undamped run). In a flight phase E(t) - E(start) equals
     W(t) - W(start) up to the integration error, which is what energy_error measures.
+
+    Everything is kept as a list of _Chunk, each added by one ``list.append``:
+    a KeyboardInterrupt anywhere leaves whole chunks only, so the Result built
+    from them after an interrupt is consistent (every sample with its energy,
+    every impact with the sample after it).
     """
 
     def __init__(self, model, t0, q0, qdot0):
         self.model = model
-        self.t, self.q, self.qd, self.phase = [np.array([t0])], [q0[None, :]], [qdot0[None, :]], [np.array([0])]
-        self.work = [np.zeros((1, 2))]
         # Energy of every stored sample: needed for the flight-phase drift, then handed
         # to the Result so res.energy() does not evaluate M at every sample again.
-        self.energies = [energy(model, q0, qdot0)]
-        self.energy_error = 0.0
+        self.chunks = [_Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, 2)),
+                              _one(energy(model, q0, qdot0)), 0.0, None)]
+        self.n_impacts = 0
 
     def impact(self, rec, q, phase):
-        self.t.append(np.array([rec.time]))
-        self.q.append(q[None, :].copy())
-        self.qd.append(rec.qdot_after[None, :].copy())
-        self.phase.append(np.array([phase]))
-        self.work.append(self.work[-1][-1:].copy())
-        self.energies.append(rec.energy_after)
+        last = self.chunks[-1]
+        self.chunks.append(_Chunk(np.array([rec.time]), q[None, :].copy(), rec.qdot_after[None, :].copy(),
+                                  np.array([phase]), last.work[-1:].copy(), _one(rec.energy_after), 0.0, rec))
+        self.n_impacts += 1
 
     def flight(self, T, Y, phase):
         """Samples T (K,), Y (K, 2N [+ 2]) of a flight phase that started at the last stored sample."""
         N = self.model.n_dof
-        E_start = self.energies[-1]
-        W_start = self.work[-1][-1].sum()
+        last = self.chunks[-1]
+        E_start = Energy(*(float(a[-1]) for a in last.energy))
+        W_start = last.work[-1].sum()
         W = Y[:, 2 * N:2 * N + 2] if Y.shape[1] > 2 * N else np.zeros((T.size, 2))
         scale = max(abs(E_start.total), abs(E_start.kinetic) + abs(E_start.gravity) + abs(E_start.strain),
                     float(np.max(np.abs(W.sum(axis=1) - W_start), initial=0.0)), 1e-300)
-        self.t.append(T)
-        self.q.append(Y[:, :N])
-        self.qd.append(Y[:, N:2 * N])
-        self.phase.append(np.full(T.size, phase))
-        self.work.append(W)
         # All samples in one kernel call; the balance E(t) - E(0) - W(t) per sample.
         E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
-        self.energies.extend(Energy(*row) for row in zip(*(a.tolist() for a in E)))
-        if T.size:
-            err = np.abs(E.total - E_start.total - (W.sum(axis=1) - W_start)).max() / scale
-            self.energy_error = max(self.energy_error, float(err))
+        err = float(np.abs(E.total - E_start.total - (W.sum(axis=1) - W_start)).max() / scale) if T.size else 0.0
+        self.chunks.append(_Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None))
+
+    def ends_with(self, T) -> bool:
+        """Whether the last chunk holds the samples T (the same array)."""
+        return self.chunks[-1].t is T
+
+    @property
+    def energy_error(self) -> float:
+        return max(c.error for c in self.chunks)
+
+    @property
+    def impacts(self) -> list:
+        return [c.impact for c in self.chunks if c.impact is not None]
+
+    def arrays(self):
+        """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2), Energy of (K,) arrays."""
+        cs = self.chunks
+        cat = np.concatenate
+        return (cat([c.t for c in cs]), cat([c.q for c in cs]), cat([c.qdot for c in cs]),
+                cat([c.phase for c in cs]), cat([c.work for c in cs]),
+                Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)))
 
 
 def simulate(
@@ -347,7 +441,8 @@ def simulate(
     t_span : (t0, t_end) [s]
     walls : sequence of Circle, Sphere, Plane
     restitution : float in [0, 1], used for walls whose own ``restitution`` is None
-    rtol, atol : solver tolerances (solve_ivp's meaning)
+    rtol : solver relative tolerance (solve_ivp's meaning)
+    atol : solver absolute tolerance (solve_ivp's meaning)
     method : scipy ODE solver ("DOP853" recommended: explicit, high order)
     output_dt : float [s] or None; None stores every accepted step, a float
         stores uniform samples from the dense output (plus every impact's both sides)
@@ -355,9 +450,13 @@ def simulate(
     contact_tol : float [m], gap within which joints belong to one impact
     grazing_velocity : float [m/s], an event with v_n >= -grazing_velocity is no impact
     penetration_tol : float [m], a gap below -penetration_tol between events stops the run
-    zeno_interval : float [s], zeno_count : int — the accumulation criteria
+    zeno_interval : float [s] — with zeno_count, the accumulation criteria
+    zeno_count : int — with zeno_interval, the accumulation criteria
     max_impacts : int, impact budget
-    progress : callable(t, n_impacts) or None
+    progress : None (default), True, or a callable progress(t, n_impacts). True shows a
+        progress bar (tqdm) over simulated time on stderr; a callable is called with the
+        simulated time [s] and the number of impacts so far. Either is updated at most
+        5 times a second of wall time, and once at the end.
     inputs : applied generalised forces Q_in (gibbsimpact.forces): None, a callable
         Q(t, q, qdot) -> (N,), a constant (N,) vector, or {coordinate name: number or
         f(t, q, qdot)} (a torque [N m] on an angle, a force [N] on a translation).
@@ -368,7 +467,12 @@ def simulate(
 
     Returns
     -------
-    Result, with status "finished" or why it stopped early.
+    Result, with status "finished" or why it stopped early. A KeyboardInterrupt
+    during the run (Ctrl-C in a terminal, "interrupt kernel" in a notebook) does
+    not propagate: the run stops with status "interrupted" and the Result holds
+    everything computed until then (every accepted step of the phase under way
+    included). An interrupt during the input checks, before the first step,
+    propagates as usual.
     """
     started = time.perf_counter()
     q0, qdot0, (t0, t_end), walls = _validate(
@@ -378,6 +482,9 @@ def simulate(
     )
     if output_dt is not None:
         output_dt = _positive("output_dt", output_dt)
+    if not (progress is None or isinstance(progress, bool) or callable(progress)):
+        raise ValueError(f"simulate progress={progress!r} must be None, True (a progress bar on stderr) "
+                         "or a callable progress(t, n_impacts)")
     for name, v in (("zeno_count", zeno_count), ("max_impacts", max_impacts)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ValueError(f"simulate {name}={v!r} must be an integer >= 1")
@@ -387,6 +494,7 @@ def simulate(
         forward_dynamics(model, q0, qdot0)
     except SingularMassMatrixError as exc:
         raise SingularMassMatrixError(f"initial state q0: {exc}") from None
+    warn_state(model, q0, qdot0, walls)  # outside the model's assumptions: warned, never changed
 
     N = model.n_dof
     Q_in = generalized_force(model, inputs, t0, q0, qdot0)
@@ -401,7 +509,6 @@ def simulate(
         zeno_interval=zeno_interval, zeno_count=int(zeno_count), max_impacts=int(max_impacts),
         t_span=[t0, t_end],
     )
-    clock = _Clock(progress)
     counters = {"nfev": 0, "n_steps": 0, "n_examined": 0}
 
     singular = {"message": None}  # diagnosis of the last trial state with a singular M
@@ -430,96 +537,117 @@ def simulate(
     lipschitz = 1.0 + 2.0 * sum(ld.length for ld in model.link_data)
     recorder = _Recorder(model, t0, q0, qdot0)
     accumulation = _Accumulation((len(walls), model.n_joints), int(zeno_count), zeno_interval, contact_tol)
-    impacts: list[ImpactRecord] = []
     status, message = STATUS_FINISHED, f"reached t_end = {t_end:g} s"
     t, y, phase = t0, np.concatenate((q0, qdot0, np.zeros(2 if driven else 0))), 0
     near = np.zeros((len(walls), model.n_joints), dtype=bool)
     pending_impact = True  # check the initial state for an impact in progress
     sink_pair = None  # (wall, joint) whose sink event ended the last phase
     stalled = 0  # consecutive phases that made no progress in time
+    flown = None  # outcome of the last flight phase until its samples are recorded
 
-    while True:
-        # Stage 1: impact, when the last phase ended at an event (or at the start).
-        if pending_impact and walls:
-            q, qd = y[:N], y[N:2 * N]
-            in_band_before = near
-            rec, near = _impact_stage(model, contacts, e_wall, t, q, qd, contact_tol, grazing_velocity, sink_pair)
-            if rec is not None:
-                impacts.append(rec)
-                clock.n_impacts = len(impacts)
-                y = np.concatenate((q, rec.qdot_after, y[2 * N:]))
-                phase += 1
-                recorder.impact(rec, q, phase)
-                stop = accumulation.add(rec, in_band_before)
-                if stop is not None:
-                    status, message = STATUS_ZENO, stop
-                    break
-                if len(impacts) >= max_impacts:
-                    status, message = STATUS_MAX_IMPACTS, f"stopped after max_impacts = {max_impacts} impacts at t = {t:.9g} s"
-                    break
-        pending_impact = False
-        if t >= t_end:
-            break
-
-        # Stage 2: flight until the first event or t_end.
-        g_start = contacts.gaps(y[:N])
-        sink_depth = max(1e-6 * contact_tol, 64 * np.finfo(float).eps * (1.0 + float(np.abs(y[:3]).max())))
-        events, kinds = _phase_events(near, g_start, contact_tol, sink_depth)
+    with _progress_reporter(progress, t0, t_end) as report:
+        clock = _Clock(report)
         try:
-            out = integrate_phase(
-                rhs, t, y, t_end, events, contacts.gaps, method=method, rtol=rtol, atol=atol, max_step=max_step,
-                output_dt=output_dt, t_origin=t0, lipschitz=lipschitz, slack=contact_tol, n_q=N,
-                check_in_step=_in_step_check,
-            )
-        except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
-            status, message = STATUS_FAILED, f"integration failed after t = {t:.9g} s: {exc}"
-            break
-        counters["n_steps"] += out.n_steps
-        counters["n_examined"] += out.n_examined
-        if out.sample_t.size:
-            recorder.flight(out.sample_t, out.sample_y, phase)
-        if out.failed is not None:
-            status, message = STATUS_FAILED, f"the ODE solver failed after t = {t:.9g} s: {out.failed}"
-            if singular["message"] is not None:
-                message += f"; the mass matrix was singular at a trial state {singular['message']}"
-            break
-        singular["message"] = None
-        # Between events no joint may be beyond a wall (step ends and in-step samples).
-        if out.min_gap < -penetration_tol:
-            status = STATUS_PENETRATION
-            message = (
-                f"a joint went {-out.min_gap:.3g} m beyond a wall between events in the phase starting at "
-                f"t = {t:.9g} s without an event firing; tighten rtol or set max_step"
-            )
-            break
-        t_prev, (t, y) = t, (out.t, out.y)
-        if not np.all(np.isfinite(y)):
-            status, message = STATUS_FAILED, f"state became non-finite at t = {t:.9g} s"
-            break
-        if out.event is None:
-            break
-        kind, w_i, j = kinds[out.event]
-        sink_pair = (w_i, j) if kind == "sink" else None
-        if kind == "leave":
-            near[w_i, j] = False  # re-arm the normal event of this pair; no impact
-            accumulation.left_band(w_i, j)
-        else:
-            pending_impact = True
-        stalled = stalled + 1 if t - t_prev <= 1e-14 * max(1.0, abs(t)) else 0
-        if stalled >= 100:
-            status = STATUS_FAILED
-            message = f"event loop stalled at t = {t:.9g} s: 100 consecutive events without progress in time"
-            break
+            while True:
+                # Stage 1: impact, when the last phase ended at an event (or at the start).
+                if pending_impact and walls:
+                    q, qd = y[:N], y[N:2 * N]
+                    in_band_before = near
+                    rec, near = _impact_stage(model, contacts, e_wall, t, q, qd, contact_tol, grazing_velocity,
+                                              sink_pair)
+                    if rec is not None:
+                        y = np.concatenate((q, rec.qdot_after, y[2 * N:]))
+                        phase += 1
+                        recorder.impact(rec, q, phase)
+                        clock.n_impacts = recorder.n_impacts
+                        stop = accumulation.add(rec, in_band_before)
+                        if stop is not None:
+                            status, message = STATUS_ZENO, stop
+                            break
+                        if recorder.n_impacts >= max_impacts:
+                            status = STATUS_MAX_IMPACTS
+                            message = f"stopped after max_impacts = {max_impacts} impacts at t = {t:.9g} s"
+                            break
+                pending_impact = False
+                if t >= t_end:
+                    break
 
-    t_all = np.concatenate(recorder.t)
-    res = Result(
-        model=model, walls=walls, t=t_all, q=np.concatenate(recorder.q), qdot=np.concatenate(recorder.qd),
-        phase=np.concatenate(recorder.phase), impacts=impacts, status=status, message=message, settings=settings,
-        nfev=counters["nfev"], n_steps=counters["n_steps"], n_examined=counters["n_examined"],
-        wall_time=time.perf_counter() - started, energy_error=float(recorder.energy_error),
-        _energy_cache=Energy(*(np.array(col) for col in zip(*recorder.energies))),
-        work=np.concatenate(recorder.work) if driven else None,
-    )
-    if progress is not None:
-        progress(float(t_all[-1]), len(impacts))
+                # Stage 2: flight until the first event or t_end.
+                g_start = contacts.gaps(y[:N])
+                sink_depth = max(1e-6 * contact_tol, 64 * np.finfo(float).eps * (1.0 + float(np.abs(y[:3]).max())))
+                events, kinds = _phase_events(near, g_start, contact_tol, sink_depth)
+                try:
+                    flown = out = integrate_phase(
+                        rhs, t, y, t_end, events, contacts.gaps, method=method, rtol=rtol, atol=atol,
+                        max_step=max_step, output_dt=output_dt, t_origin=t0, lipschitz=lipschitz, slack=contact_tol,
+                        n_q=N, check_in_step=_in_step_check,
+                    )
+                except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
+                    status, message = STATUS_FAILED, f"integration failed after t = {t:.9g} s: {exc}"
+                    break
+                counters["n_steps"] += out.n_steps
+                counters["n_examined"] += out.n_examined
+                if out.sample_t.size:
+                    recorder.flight(out.sample_t, out.sample_y, phase)
+                flown = None
+                if out.interrupted is not None:
+                    raise KeyboardInterrupt(out.interrupted)  # its samples are recorded: stop below
+                if out.failed is not None:
+                    status, message = STATUS_FAILED, f"the ODE solver failed after t = {t:.9g} s: {out.failed}"
+                    if singular["message"] is not None:
+                        message += f"; the mass matrix was singular at a trial state {singular['message']}"
+                    break
+                singular["message"] = None
+                # Between events no joint may be beyond a wall (step ends and in-step samples).
+                if out.min_gap < -penetration_tol:
+                    status = STATUS_PENETRATION
+                    message = (
+                        f"a joint went {-out.min_gap:.3g} m beyond a wall between events in the phase starting at "
+                        f"t = {t:.9g} s without an event firing; tighten rtol or set max_step"
+                    )
+                    break
+                t_prev, (t, y) = t, (out.t, out.y)
+                if not np.all(np.isfinite(y)):
+                    status, message = STATUS_FAILED, f"state became non-finite at t = {t:.9g} s"
+                    break
+                if out.event is None:
+                    break
+                kind, w_i, j = kinds[out.event]
+                sink_pair = (w_i, j) if kind == "sink" else None
+                if kind == "leave":
+                    near[w_i, j] = False  # re-arm the normal event of this pair; no impact
+                    accumulation.left_band(w_i, j)
+                else:
+                    pending_impact = True
+                stalled = stalled + 1 if t - t_prev <= 1e-14 * max(1.0, abs(t)) else 0
+                if stalled >= 100:
+                    status = STATUS_FAILED
+                    message = f"event loop stalled at t = {t:.9g} s: 100 consecutive events without progress in time"
+                    break
+        except KeyboardInterrupt as exc:
+            # Keep what was computed: the accepted steps of the phase under way, or a
+            # finished phase whose samples were not recorded yet.
+            # (integrate_phase returns the steps it accepted before an interrupt, recorded above.)
+            if flown is not None and flown.sample_t.size and not recorder.ends_with(flown.sample_t):
+                recorder.flight(flown.sample_t, flown.sample_y, phase)
+            t_last = float(recorder.chunks[-1].t[-1])
+            status = STATUS_INTERRUPTED
+            message = (f"stopped by {str(exc) or 'KeyboardInterrupt (Ctrl-C)'} at t = {t_last:.9g} s of "
+                       f"t_end = {t_end:g} s; the results up to there are kept")
+
+        t_all, q_all, qdot_all, phase_all, work_all, E_all = recorder.arrays()
+        impacts = recorder.impacts
+        res = Result(
+            model=model, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all, impacts=impacts,
+            status=status, message=message, settings=settings,
+            nfev=counters["nfev"], n_steps=counters["n_steps"], n_examined=counters["n_examined"],
+            wall_time=time.perf_counter() - started, energy_error=recorder.energy_error,
+            _energy_cache=E_all, work=work_all if driven else None,
+        )
+        if report is not None:
+            try:
+                report(float(t_all[-1]), len(impacts))
+            except KeyboardInterrupt:
+                pass  # the run is over and its Result complete: an interrupt now must not lose it
+    warn_result(res)
     return res

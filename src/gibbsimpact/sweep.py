@@ -99,7 +99,6 @@ import hashlib
 import itertools
 import json
 import math
-import os
 import re
 import sys
 import tempfile
@@ -110,6 +109,7 @@ from numbers import Integral, Real
 from pathlib import Path
 
 from .case import Case, CaseError, case_from_dict, load_case
+from .io import atomic_path
 
 __all__ = ["SweepResult", "sweep", "expand_runs", "run_id", "parse_vary", "add_parser", "main",
            "TABLE_NAME", "PARQUET_NAME", "RUNS_DIR", "RESULT_COLUMNS"]
@@ -410,6 +410,18 @@ def _failed(task: dict, exc: BaseException) -> dict:
             "message": f"the worker running it failed: {type(exc).__name__}: {exc}", "npz": None}
 
 
+def _drain(completed, futures: dict, tasks: list, on_done) -> None:
+    """Hand each finished future's outcome to on_done; a future that raised (a broken
+    pool, a killed dask worker) is a failed run, i.e. a row, not a lost sweep."""
+    for f in completed:
+        i = futures[f]
+        try:
+            outcome = f.result()
+        except Exception as exc:  # noqa: BLE001 - BrokenProcessPool, KilledWorker, ...: the run is a row
+            outcome = _failed(tasks[i], exc)
+        on_done(i, outcome)
+
+
 def _execute_pool(tasks: list, pending: list, on_done, workers: int) -> None:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -423,13 +435,7 @@ def _execute_pool(tasks: list, pending: list, on_done, workers: int) -> None:
                                mp_context=multiprocessing.get_context("spawn"))
     try:
         futures = {pool.submit(_run_task, tasks[i]): i for i in pending}
-        for f in as_completed(futures):
-            i = futures[f]
-            try:
-                outcome = f.result()
-            except Exception as exc:  # noqa: BLE001 - e.g. BrokenProcessPool: the run is a row
-                outcome = _failed(tasks[i], exc)
-            on_done(i, outcome)
+        _drain(as_completed(futures), futures, tasks, on_done)
     except BaseException:
         pool.shutdown(wait=False, cancel_futures=True)
         raise
@@ -453,13 +459,7 @@ def _execute_dask(tasks: list, pending: list, on_done, client) -> None:
     futures = {}
     try:
         futures = {client.submit(_run_task, tasks[i], pure=False): i for i in pending}
-        for f in distributed.as_completed(list(futures)):
-            i = futures[f]
-            try:
-                outcome = f.result()
-            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: the run is a row
-                outcome = _failed(tasks[i], exc)
-            on_done(i, outcome)
+        _drain(distributed.as_completed(list(futures)), futures, tasks, on_done)
     finally:
         client.cancel([f for f in futures if not f.done()])
 
@@ -468,20 +468,11 @@ def _execute_dask(tasks: list, pending: list, on_done, client) -> None:
 # Files and rows
 
 def _write_atomic(path: Path, write) -> Path:
-    """Call write(file object) on a temporary file next to path, then move it into place (os.replace)."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
+    """Call write(binary file object) on a temporary file beside ``path`` and move it into place
+    (io.atomic_path: synced, then os.replace; nothing left behind on an error)."""
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
             write(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
     return path
 
 
@@ -821,29 +812,6 @@ def add_parser(subparsers):
     return s
 
 
-def _error(msg: str, code: int) -> int:
-    print(f"gibbsimpact: error: {msg}", file=sys.stderr)
-    return code
-
-
-def _load(path: str):
-    """(case, None), or (None, exit code) after one error line naming the CASE.toml argument."""
-    hint = "give the path of a case file (e.g. cases/circle_two_link.toml)"
-    p = Path(path)
-    if not path:
-        return None, _error(f"CASE.toml: '' is not a file; {hint}", EXIT_BAD_INPUT)
-    if p.is_dir():
-        return None, _error(f"CASE.toml: {path!r} is a directory, not a case file; {hint}", EXIT_BAD_INPUT)
-    if not p.is_file():
-        return None, _error(f"CASE.toml: {path!r}: no such file; {hint}", EXIT_BAD_INPUT)
-    try:
-        return load_case(p), None
-    except CaseError as exc:
-        return None, _error(str(exc), EXIT_BAD_INPUT)
-    except OSError as exc:
-        return None, _error(f"CASE.toml: {path!r}: cannot read ({exc.strerror or exc})", EXIT_BAD_INPUT)
-
-
 def _describe_values(row: dict, keys) -> str:
     return " ".join(f"{k}={_cell(row[k])}" for k in keys if row.get(k) is not None)
 
@@ -855,6 +823,8 @@ def main(args) -> int:
     dask missing or unreachable); 3 some run stopped early, was invalid or failed
     (the table and every result are still written).
     """
+    from .cli import _error, _load  # the command line's own messages (cli imports this module lazily)
+
     case, code = _load(args.case)
     if case is None:
         return code
