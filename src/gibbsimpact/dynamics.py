@@ -116,9 +116,22 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
         When M is not positive definite or its Cholesky pivots spread beyond
         1e7 (condition beyond 1e14); the message names the likely cause.
     """
-    # The hot path of every simulation (one call per RHS): no helper calls beyond the kernel.
+    # The hot path of every simulation (one call per RHS): float64 arrays of the right shape go
+    # straight to the kernel, which refuses (TypeError, no recompile) a non-contiguous or
+    # read-only one; only then are they converted. The kernel does not check bounds: shapes are.
     fdat, idat, zeros = model.kernel_data
     N = zeros.size
+    shape = (N,)
+    if Q is None and q.__class__ is np.ndarray and qdot.__class__ is np.ndarray and q.shape == shape \
+            and qdot.shape == shape:
+        try:
+            out = _k.compiled()(fdat, idat, q, qdot, zeros, _k.JOB_SOLVE)
+        except TypeError:
+            pass
+        else:
+            if out[0] != 0.0:
+                _raise_singular(model, q, out[0], out[1], out[2])
+            return out[3 + N:3 + 2 * N]  # a view of a private array
     q, qdot = as_vector(q), as_vector(qdot)
     if q.size != N or qdot.size != N:
         raise ValueError(f"forward_dynamics q, qdot have shapes {q.shape}, {qdot.shape}; this model needs "
