@@ -822,11 +822,11 @@ _S_STATUS, _S_YDOT, _S_M, _S_H, _S_DV, _S_EN, _S_MO, _S_PTS, _S_JAC, _S_FR = ran
 
 def layout(n, N, K, job):
     """Start offsets (11,) of the sections of ``kernel``'s output (SECTIONS), then its length."""
-    hv = (job & (JOB_H | JOB_SOLVE)) != 0
+    hv = (job & JOB_H) != 0
     off = np.zeros(11, dtype=np.int64)
     off[_S_STATUS + 1] = 3
     off[_S_YDOT + 1] = 2 * N if job & JOB_SOLVE else 0
-    off[_S_M + 1] = N * N if job & (JOB_M | JOB_SOLVE) else 0
+    off[_S_M + 1] = N * N if job & JOB_M else 0
     off[_S_H + 1] = N if hv else 0
     off[_S_DV + 1] = N if hv else 0
     off[_S_EN + 1] = 3 * K if job & JOB_ENERGY else 0
@@ -849,7 +849,8 @@ def kernel(fdat, idat, qs, qds, Q, job):
     * status (3,): Cholesky status of M (0 solved; 1 not positive definite;
       2 pivots spread beyond 1e7) and its smallest and largest pivot;
     * JOB_SOLVE: ydot (2N,) = (qdot, qddot), M qddot = Q - h - dV/dq (NaN when
-      status != 0, so that an integrator rejects the step); also M, h, dV;
+      status != 0, so that an integrator rejects the step); add JOB_M, JOB_H for M, h, dV
+      (not copied out otherwise: the right-hand side of an ODE needs ydot only);
     * JOB_M: M (N N,) row-major; JOB_H: h (N,), dV/dq (N,)  (the first state);
     * JOB_ENERGY: (K 3,) kinetic, gravity, strain [J]; JOB_MOMENTUM: (K 9,) as in
       _link_observables (L, H0, first moment); JOB_POINTS: joint points O_1 .. O_(n+1) (K (n+1) 3,) [m];
