@@ -105,9 +105,19 @@ def hermite_positions(s: np.ndarray, h: float, ya: np.ndarray, fa: np.ndarray, y
     ends, and the cubic on (q, qdot) whose difference from q5 bounds q5's error.
     """
     N = ya.shape[0] // 2 if N is None else N
-    qa, va, aa = ya[:N], ya[N:2 * N], fa[N:2 * N]
-    qb, vb, ab = yb[:N], yb[N:2 * N], fb[N:2 * N]
-    s = np.asarray(s, dtype=float)[:, None]
+    W5, W3 = _hermite_weights(s)
+    # Rows: q_a, h v_a, h^2 a_a, h^2 a_b, h v_b, q_b (the quintic's data; the cubic uses rows 0, 1, 4, 5).
+    X = np.stack((ya[:N], h * ya[N:2 * N], h * h * fa[N:2 * N], h * h * fb[N:2 * N], h * yb[N:2 * N], yb[:N]))
+    return W5 @ X, W3 @ X[[0, 1, 4, 5]]
+
+
+def _hermite_weights(s) -> tuple[np.ndarray, np.ndarray]:
+    """Quintic (m, 6) and cubic (m, 4) Hermite basis values at the fractions s (m,) of a step (cached)."""
+    key = tuple(np.atleast_1d(np.asarray(s, dtype=float)).tolist())
+    w = _HERMITE_CACHE.get(key)
+    if w is not None:
+        return w
+    s = np.asarray(key)[:, None]
     s2, s3, s4, s5 = s * s, s**3, s**4, s**5
     # Quintic Hermite basis on [0, 1]: values, first and second derivatives at both ends.
     h0 = 1 - 10 * s3 + 15 * s4 - 6 * s5
@@ -116,14 +126,18 @@ def hermite_positions(s: np.ndarray, h: float, ya: np.ndarray, fa: np.ndarray, y
     h3 = 0.5 * s3 - s4 + 0.5 * s5
     h4 = -4 * s3 + 7 * s4 - 3 * s5
     h5 = 10 * s3 - 15 * s4 + 6 * s5
-    q5 = h0 * qa + h1 * h * va + h2 * h * h * aa + h3 * h * h * ab + h4 * h * vb + h5 * qb
     # Cubic Hermite basis.
     c0 = 1 - 3 * s2 + 2 * s3
     c1 = s - 2 * s2 + s3
     c2 = -s2 + s3
     c3 = 3 * s2 - 2 * s3
-    q3 = c0 * qa + c1 * h * va + c2 * h * vb + c3 * qb
-    return q5, q3
+    w = np.hstack((h0, h1, h2, h3, h4, h5)), np.hstack((c0, c1, c2, c3))
+    if len(_HERMITE_CACHE) < 64:
+        _HERMITE_CACHE[key] = w
+    return w
+
+
+_HERMITE_CACHE: dict = {}
 
 
 def dip_allowance(E: np.ndarray) -> np.ndarray:
@@ -184,6 +198,7 @@ def integrate_phase(
     slack: float,
     n_q: int | None = None,
     check_in_step: bool = True,
+    gap_batch: Callable | None = None,
 ) -> PhaseOutcome:
     """Integrate from (t0, y0) to the first event or t_end.
 
@@ -201,12 +216,17 @@ def integrate_phase(
     n_q : N, the number of coordinates: y = (q, qdot, extra states); default len(y0) // 2
     check_in_step : False skips check 2 (only solve_ivp's sign test at step ends): for
         benchmarks and for tests that show what the check finds
+    gap_batch : g(qs (K, N)) -> (K, W, J), the gaps of several states at once
+        (default: gap_matrix state by state)
 
     Returns
     -------
     PhaseOutcome
     """
     N = y0.shape[0] // 2 if n_q is None else n_q
+    if gap_batch is None:
+        def gap_batch(qs):
+            return np.stack([gap_matrix(qi) for qi in qs])
     solver = SOLVERS[method](rhs, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step)
     down = events.direction < 0
     up = events.direction > 0
@@ -264,9 +284,10 @@ def integrate_phase(
                 else:
                     q_in, q3 = hermite_positions(_S_CHECK, h, y_a, f_a, y_b, f_b, N)
                     err = lipschitz * float(np.max(np.abs(q_in - q3)))
-                g_in = [gap_matrix(qi) for qi in q_in]
-                step_min = min(step_min, min(float(g.min()) for g in g_in))
-                E_in = np.stack([events.values(g) for g in g_in], axis=1)  # (K, 3)
+                G_in = gap_batch(q_in)  # (3, W, J): one kinematics call for the three samples
+                if G_in.size:
+                    step_min = min(step_min, float(G_in.min()))
+                E_in = G_in[:, events.wall, events.joint].T + events.offset[:, None]  # (K, 3)
                 E5 = np.concatenate((E_prev[:, None], E_in, E_b[:, None]), axis=1)[candidates]
                 low = E5.min(axis=1) - dip_allowance(E5) - err - slack
                 examine[candidates[low < 0]] = True

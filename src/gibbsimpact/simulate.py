@@ -66,7 +66,7 @@ from .dynamics import Energy, SingularMassMatrixError, energies, energy, forward
 from .flight import SOLVERS, EventSpec, integrate_phase
 from .forces import damping_matrix, generalized_force
 from .impact import solve_impulses
-from .kinematics import joint_positions, joint_positions_and_jacobians
+from .kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
 from .results import (
     STATUS_FAILED,
     STATUS_FINISHED,
@@ -224,6 +224,11 @@ class _Contacts:
             self._g = np.array([w.gap(p) for w in self.walls]).reshape(len(self.walls), self.n_joints)
             self._key = key
         return self._g
+
+    def gaps_batch(self, qs: np.ndarray) -> np.ndarray:
+        """g (K, W, J) [m] of the states qs (K, N): one kernel call for all of them."""
+        P = joint_positions_batch(self.model, qs)  # (K, J, 3)
+        return np.stack([w.gap(P) for w in self.walls], axis=1).reshape(len(qs), len(self.walls), self.n_joints)
 
     def full(self, q: np.ndarray):
         p, Jac = joint_positions_and_jacobians(self.model, q)
@@ -580,7 +585,7 @@ def simulate(
                     flown = out = integrate_phase(
                         rhs, t, y, t_end, events, contacts.gaps, method=method, rtol=rtol, atol=atol,
                         max_step=max_step, output_dt=output_dt, t_origin=t0, lipschitz=lipschitz, slack=contact_tol,
-                        n_q=N, check_in_step=_in_step_check,
+                        n_q=N, check_in_step=_in_step_check, gap_batch=contacts.gaps_batch,
                     )
                 except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
                     status, message = STATUS_FAILED, f"integration failed after t = {t:.9g} s: {exc}"
