@@ -65,7 +65,8 @@ class Result:
     q, qdot : (K, N) coordinates and velocities at the samples
     phase : (K,) int, index of the flight phase (0 before the first impact)
     impacts : list of ImpactRecord
-    status : str, one of "finished", "zeno", "max_impacts", "penetration", "failed"
+    status : str, one of "finished", "zeno", "max_impacts", "penetration", "failed",
+        "interrupted" (a KeyboardInterrupt or the CLI's SIGTERM: the samples up to there)
     message : str, why the run ended
     settings : dict, the solver settings used (method, rtol, atol, restitution, ...)
     nfev : int, right-hand-side evaluations; n_steps : int, accepted steps
