@@ -6,7 +6,7 @@ See docs/ and the README for the symbols and conventions.
 """
 
 from .dynamics import Energy, SingularMassMatrixError
-from .model import Chain, FixedBase, Link, Model, Revolute
+from .model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
 from .modes import Mode, natural_frequency
 from .results import ImpactRecord, Result
 from .simulate import simulate
@@ -20,6 +20,6 @@ from .walls import Circle, Plane, Sphere
 __version__ = "0.1.0"
 
 __all__ = [
-    "Case", "CaseError", "Chain", "Circle", "Energy", "FixedBase", "ImpactRecord", "Link", "Mode", "Model", "Plane",
-    "Result", "Revolute", "SingularMassMatrixError", "Sphere", "ValidityWarning", "derive_equations", "load_case", "load_result", "natural_frequency", "simulate", "sweep", "__version__",
+    "Case", "CaseError", "Chain", "Circle", "Energy", "FixedBase", "FixedPrismatic", "ImpactRecord", "Link", "Mode", "Model", "Plane",
+    "Result", "Revolute", "SingularMassMatrixError", "SlidingPrismatic", "Sphere", "ValidityWarning", "derive_equations", "load_case", "load_result", "natural_frequency", "simulate", "sweep", "__version__",
 ]

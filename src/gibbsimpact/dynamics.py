@@ -69,18 +69,18 @@ def potential_forces(model, q: np.ndarray) -> np.ndarray:
 def diagnose_singular(model, q: np.ndarray) -> str:
     """A sentence naming the likely cause of a singular mass matrix at q."""
     causes = []
-    if model.free_base and abs(np.cos(q[4])) < 1e-6:
+    if model.chain.base == "free" and abs(np.cos(q[4])) < 1e-6:
         causes.append(
             f"gimbal lock: theta_0 = {q[4]:.6g} rad is at +-pi/2 where Rx(theta_-1) Ry(theta_0) Rz(theta_1) "
             "loses a rotation; start away from it"
         )
-    if model.free_base and model.n_links == 1 and model.link_data[0].J_body[0, 0] == 0.0:
+    if model.chain.base == "free" and model.n_links == 1 and model.link_data[0].J_body[0, 0] == 0.0:
         causes.append(
             "a single link has no inertia about its own axis (rotary_inertia j_x = 0): give the link a "
             "rotary_inertia=(j_x, j_y, j_z) with j_x > 0"
         )
     lds = model.link_data
-    if model.free_base and all(np.count_nonzero(ld.J_body) == 0 for ld in lds) and model.n_links > 1:
+    if model.chain.base == "free" and all(np.count_nonzero(ld.J_body) == 0 for ld in lds) and model.n_links > 1:
         pos = joint_positions(model, q)
         d = pos[1:] - pos[0]
         if np.linalg.matrix_rank(d, tol=1e-9 * max(1.0, np.abs(d).max())) <= 1 and not any(

@@ -77,42 +77,77 @@ import numpy as np
 #       + per link (n rows of _LI ints)
 _H = 8
 _CI = 6  # kind, axis, first frame, own link (-1), local index, 0
-_LI = 6  # m, first delta index in q, theta index in q, offset in fdat, end kind, 0
-KIND_TRANSLATION, KIND_ROTATION, KIND_MODE = 0, 1, 2
+_LI = 6  # m, first delta index in q, joint variable index in q, offset in fdat, end kind, joint kind
+KIND_TRANSLATION, KIND_ROTATION, KIND_MODE, KIND_PA, KIND_PB = 0, 1, 2, 3, 4
 END_RIGID, END_GENERAL = 0, 2  # a link end fixed to its frame, or moved by its modes
+JOINT_R, JOINT_PA, JOINT_PB = 0, 1, 2
+BASE_FIXED, BASE_FREE, BASE_PLANAR = 0, 1, 2
 # fdat: base T0 (16), g~ (4), then per link: P0+Sigma (16), m_r0 (4), length,
-#       cx (m), c1 (m), Mpsi (m*m), K (m*m), end_t (3m), end_phi (3m)
+#       cx (m), c1 (m), Mpsi (m*m), K (m*m), end_t (3m), end_phi (3m),
+#       gamma, c, n_e, mu, EI (_F_JOINT values: the joint and the constants of a Pb link),
+#       and for a Pb link its unit-interval tables (_pb_moments): xi (G), w (G),
+#       N (G m), N' (G m), N'' (G m), Kunit (m m), a (m), G = 4 n_e Gauss points.
 _F_BASE, _F_G, _F_LINKS = 0, 16, 20
+_F_JOINT = 5
+_GAUSS = 4  # Gauss-Legendre points per (stretching) element: exact for degree <= 7
+
+
+def _pb_tables(link):
+    """Unit-interval tables of a Pb link with n_e elements (formulation.md 10.3, 11)."""
+    from .elements import assemble as assemble_elements, element_stiffness, hermite_shape
+
+    ne = link.elements
+    if ne == 0:
+        return []
+    t, wt = np.polynomial.legendre.leggauss(_GAUSS)
+    xi = ((np.arange(ne)[:, None] + 0.5 * (t[None, :] + 1.0)) / ne).ravel()
+    w = np.tile(0.5 * wt / ne, ne)
+    N = [hermite_shape(ne, 1.0, xi, k).T.ravel() for k in range(3)]  # (G, m) row-major
+    Kunit = assemble_elements(element_stiffness(1.0, 1.0 / ne), ne)
+    a = np.tile([0.0, 1.0], ne)  # a_k: 0 for a deflection dof, 1 for a slope dof
+    return [xi, w, *N, Kunit.ravel(), a]
 
 
 def pack(model):
     """The model as (fdat float64 (F,), idat int64 (I,)) for the kernel."""
     n, N = model.n_links, model.n_dof
     free = model.free_base
+    base_kind = BASE_FIXED if not free else (BASE_PLANAR if model.chain.base == "planar" else BASE_FREE)
     idat = np.zeros(_H + _CI * N + _LI * n, dtype=np.int64)
-    idat[0], idat[1], idat[2] = n, N, int(free)
+    idat[0], idat[1], idat[2] = n, N, base_kind
     ci = idat[_H:_H + _CI * N].reshape(N, _CI)
     li = idat[_H + _CI * N:].reshape(n, _LI) if n else np.zeros((0, _LI), dtype=np.int64)
     ci[:, 3] = -1
-    if free:
+    if base_kind == BASE_FREE:
         for a in range(3):
             ci[a, :3] = (KIND_TRANSLATION, a, 0)
         ci[3, :3] = (KIND_ROTATION, 0, 0)
         ci[4, :3] = (KIND_ROTATION, 1, 0)
+    elif base_kind == BASE_PLANAR:
+        for a in range(2):
+            ci[a, :3] = (KIND_TRANSLATION, a, 0)
     f = [np.eye(4).ravel() if free else np.asarray(model.base_transform, dtype=float).ravel(),
          np.append(model.gravity, 0.0)]
     off = _F_LINKS
     axis_of = {"y": 1, "z": 2}
-    for i, ld in enumerate(model.link_data):
+    joint_of = {"R": JOINT_R, "Pa": JOINT_PA, "Pb": JOINT_PB}
+    for i, (ld, lk, jt) in enumerate(zip(model.link_data, model.chain.links, model.chain.joints)):
         th = model.theta_index[i]
-        ci[th, :3] = (KIND_ROTATION, 2, i)
         idx = model.delta_index[i]
         m = idx.size
+        jk = joint_of[jt.kind]
+        if jk == JOINT_R:
+            ci[th, :3] = (KIND_ROTATION, 2, i)
+        elif jk == JOINT_PA:
+            ci[th, :3] = (KIND_PA, 0, i)
+        else:
+            # d_i moves frames i.. by a translation and deforms link i (its own shape chi, slot m).
+            ci[th] = (KIND_PB, 1, i, i, m, 0)
         for l, c in enumerate(idx):
             ci[c] = (KIND_MODE, axis_of[ld.directions[l]], i + 1, i, l, 0)
         # A moving end always takes the Rodrigues path (exact at phi = 0: R = I, dR[u] = a skew(u)).
         end = END_RIGID if ld.end_is_rigid else END_GENERAL
-        li[i] = (m, idx[0] if m else 0, th, off, end, 0)
+        li[i] = (m, idx[0] if m else 0, th, off, end, jk)
         P0 = np.array(ld.P0, dtype=float)
         J = ld.J_body
         # Rotary inertia as a pseudo-inertia: Sigma = tr(J)/2 I - J (module docstring, item 5).
@@ -121,8 +156,13 @@ def pack(model):
         cx = ld.C[np.arange(m), 0, axes] if m else np.zeros(0)
         c1 = ld.C[np.arange(m), 3, axes] if m else np.zeros(0)
         Mpsi = ld.D[np.arange(m)[:, None], np.arange(m)[None, :], axes[:, None], axes[None, :]] if m else np.zeros((0, 0))
+        mu = lk.mass_per_length if not callable(lk.mass_per_length) else 0.0
+        ei = lk.EI_z if not callable(lk.EI_z) else 0.0
+        joint = [getattr(jt, "angle", 0.0), getattr(jt, "half_length", 0.0), lk.elements, mu, ei]
         block = [P0.ravel(), ld.m_r0, [ld.length], cx, c1, Mpsi.ravel(), np.asarray(ld.K).ravel(),
-                 np.asarray(ld.end_t).ravel(), np.asarray(ld.end_phi).ravel()]
+                 np.asarray(ld.end_t).ravel(), np.asarray(ld.end_phi).ravel(), joint]
+        if jk == JOINT_PB:
+            block += _pb_tables(lk)
         f += block
         off += sum(np.size(b) for b in block)
     fdat = np.ascontiguousarray(np.concatenate([np.ravel(np.asarray(b, dtype=float)) for b in f]))
@@ -446,7 +486,17 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss):
                 s -= B[kL, a, b] * B[kv, 0, b]
             B[kL, a, 3] = s
         _conjugate(B, w, kL, ss + d0 + k, ks + 3)
-    # T' = T G;  Td' = Td G + T Gd;  Tdd0' = Tdd0 G + 2 Td Gd + T Gdd0
+    _apply_local(B, w, kG, vel, kTn)
+
+
+def _apply_local(B, w, kG, vel, kTn):
+    """T <- T G for the local transform G = B[kG] with Gd = B[kG+1], Gdd0 = B[kG+2]
+    (T, Td, Tdd0 = B[w], B[w+1], B[w+2]; B[kTn .. kTn+2] scratch):
+    T' = T G;  Td' = Td G + T Gd;  Tdd0' = Tdd0 G + 2 Td Gd + T Gdd0."""
+    kGd = kG + 1
+    kGdd = kG + 2
+    kTdn = kTn + 1
+    kTddn = kTn + 2
     _mm(B, w, kG, kTn)
     if vel:
         _mm(B, w + 1, kG, kTdn)
@@ -457,6 +507,194 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss):
         _copy4(B, kTdn, w + 1)
         _copy4(B, kTddn, w + 2)
     _copy4(B, kTn, w)
+
+
+def _hermite_at(ne, length, x, out):
+    """The (up to) four global Hermite functions of an n_e-element link that are non-zero at
+    abscissa x [m] (formulation.md 9.1): out[r] = (local index k, psi_k, psi_k', psi_k'')
+    for r = 0..3 (k = -1 for the clamped node's two). The element is the one containing x
+    (the left one at a node: psi and psi' are continuous there, psi'' takes its left value)."""
+    h = length / ne
+    e = int(math.ceil(x / h))
+    if e < 1:
+        e = 1
+    if e > ne:
+        e = ne
+    t = (x - (e - 1) * h) / h
+    t2 = t * t
+    t3 = t2 * t
+    # H1, h H2, H3, h H4 and their x-derivatives (d/dx = (1/h) d/dt)
+    out[0, 1] = 1.0 - 3.0 * t2 + 2.0 * t3
+    out[1, 1] = h * (t - 2.0 * t2 + t3)
+    out[2, 1] = 3.0 * t2 - 2.0 * t3
+    out[3, 1] = h * (-t2 + t3)
+    out[0, 2] = (-6.0 * t + 6.0 * t2) / h
+    out[1, 2] = 1.0 - 4.0 * t + 3.0 * t2
+    out[2, 2] = (6.0 * t - 6.0 * t2) / h
+    out[3, 2] = -2.0 * t + 3.0 * t2
+    out[0, 3] = (-6.0 + 12.0 * t) / (h * h)
+    out[1, 3] = (-4.0 + 6.0 * t) / h
+    out[2, 3] = (6.0 - 12.0 * t) / (h * h)
+    out[3, 3] = (-2.0 + 6.0 * t) / h
+    out[0, 0] = 2.0 * (e - 2)
+    out[1, 0] = 2.0 * (e - 2) + 1.0
+    out[2, 0] = 2.0 * (e - 1)
+    out[3, 0] = 2.0 * (e - 1) + 1.0
+
+
+def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
+    """T <- T G for the carriage of joint ``link`` (formulation.md 10.2, 12 item 1);
+    the world twists of d_i and of every host coordinate into B[ss + c].
+
+    G = Trans(d, vbar) Rz(phibar + gamma), vbar = sum b_k delta_k, phibar = sum a_k delta_k,
+    b_k = [psi_k(d + c) + psi_k(d - c)] / 2,  a_k = [psi_k(d + c) - psi_k(d - c)] / (2 c)
+    (delta: the host's coordinates; zero on the base rail and on a rigid host).
+    With theta = phibar + gamma, t = (d, vbar, 0), Z = skew(e_z) and primes d/dd:
+      local twist of q_c:  L_c = dG/dq_c G^-1 = [[Z theta_c, t_c - theta_c Z t], [0, 0]]
+        d: theta_d = phibar', t_d = (1, vbar', 0);  delta_k: theta_k = a_k, t_k = (0, b_k, 0)
+      Gd   = [[R' thetadot, tdot], [0, 0]],  thetadot = phibar' ddot + sum a_k deltadot_k,
+             tdot = (ddot, vbar' ddot + sum b_k deltadot_k, 0)
+      Gdd0 = [[R'' thetadot^2 + R' theta0dd, (0, vbar'' ddot^2 + 2 ddot sum b_k' deltadot_k, 0)], [0, 0]],
+             theta0dd = phibar'' ddot^2 + 2 ddot sum a_k' deltadot_k
+    """
+    N = idat[1]
+    base = _H + _CI * N + _LI * link
+    jd = idat[base + 2]
+    off = idat[base + 3]
+    mown = idat[base]
+    gamma = fdat[off + 21 + 8 * mown + 2 * mown * mown]
+    c = fdat[off + 22 + 8 * mown + 2 * mown * mown]
+    d = q[jd]
+    dd = qd[jd]
+    kG = w + 3
+    kL = w + 6
+    kTn = w + 7
+    ks = w + 10
+    vb = 0.0
+    pb = 0.0
+    vb1 = 0.0
+    pb1 = 0.0
+    vb2 = 0.0
+    pb2 = 0.0
+    vdot = 0.0   # sum b_k deltadot_k
+    pdot = 0.0   # sum a_k deltadot_k
+    vcd = 0.0    # sum b_k' deltadot_k
+    pcd = 0.0    # sum a_k' deltadot_k
+    mh = 0
+    h0 = 0
+    if link > 0:
+        hb = _H + _CI * N + _LI * (link - 1)
+        mh = idat[hb]
+        h0 = idat[hb + 1]
+        hoff = idat[hb + 3]
+        ne = int(fdat[hoff + 23 + 8 * mh + 2 * mh * mh])
+        hl = fdat[hoff + 20]
+        for k in range(mh):
+            _zero4(B, ss + h0 + k)
+    ab = np.zeros((2, 4, 4))
+    if mh > 0:
+        # the four host functions non-zero at d + c (row 0) and at d - c (row 1)
+        _hermite_at(ne, hl, d + c, ab[0])
+        _hermite_at(ne, hl, d - c, ab[1])
+        for side in range(2):
+            sg = 1.0 if side == 0 else -1.0
+            for r in range(4):
+                k = int(ab[side, r, 0])
+                if k < 0:
+                    continue
+                x = q[h0 + k]
+                y = qd[h0 + k]
+                vb += 0.5 * ab[side, r, 1] * x
+                pb += sg * ab[side, r, 1] * x / (2.0 * c)
+                vb1 += 0.5 * ab[side, r, 2] * x
+                pb1 += sg * ab[side, r, 2] * x / (2.0 * c)
+                vb2 += 0.5 * ab[side, r, 3] * x
+                pb2 += sg * ab[side, r, 3] * x / (2.0 * c)
+                vdot += 0.5 * ab[side, r, 1] * y
+                pdot += sg * ab[side, r, 1] * y / (2.0 * c)
+                vcd += 0.5 * ab[side, r, 2] * y
+                pcd += sg * ab[side, r, 2] * y / (2.0 * c)
+    th = pb + gamma
+    ct = math.cos(th)
+    st = math.sin(th)
+    thd = pb1 * dd + pdot
+    th0dd = pb2 * dd * dd + 2.0 * dd * pcd
+    for k in range(kG, kG + 3):
+        _zero4(B, k)
+    # G, Gd, Gdd0 (R' = [[-s, -c], [c, -s]], R'' = -R in the x-y block)
+    B[kG, 0, 0] = ct
+    B[kG, 0, 1] = -st
+    B[kG, 1, 0] = st
+    B[kG, 1, 1] = ct
+    B[kG, 2, 2] = 1.0
+    B[kG, 3, 3] = 1.0
+    B[kG, 0, 3] = d
+    B[kG, 1, 3] = vb
+    if vel:
+        B[kG + 1, 0, 0] = -st * thd
+        B[kG + 1, 0, 1] = -ct * thd
+        B[kG + 1, 1, 0] = ct * thd
+        B[kG + 1, 1, 1] = -st * thd
+        B[kG + 1, 0, 3] = dd
+        B[kG + 1, 1, 3] = vb1 * dd + vdot
+        B[kG + 2, 0, 0] = -ct * thd * thd - st * th0dd
+        B[kG + 2, 0, 1] = st * thd * thd - ct * th0dd
+        B[kG + 2, 1, 0] = -st * thd * thd + ct * th0dd
+        B[kG + 2, 1, 1] = -ct * thd * thd - st * th0dd
+        B[kG + 2, 1, 3] = vb2 * dd * dd + 2.0 * dd * vcd
+    # Twists, from the frame before G: L = [[Z theta_q, t_q - theta_q Z t], [0, 0]], Z t = (-vbar, d, 0)
+    _zero4(B, kL)
+    B[kL, 0, 1] = -pb1
+    B[kL, 1, 0] = pb1
+    B[kL, 0, 3] = 1.0 + pb1 * vb
+    B[kL, 1, 3] = vb1 - pb1 * d
+    _conjugate(B, w, kL, ss + jd, ks)
+    if mh > 0:
+        for k in range(mh):
+            ak = 0.0
+            bk = 0.0
+            hit = False
+            for side in range(2):
+                sg = 1.0 if side == 0 else -1.0
+                for r in range(4):
+                    if int(ab[side, r, 0]) == k:
+                        ak += sg * ab[side, r, 1] / (2.0 * c)
+                        bk += 0.5 * ab[side, r, 1]
+                        hit = True
+            if not hit:
+                continue
+            _zero4(B, kL)
+            B[kL, 0, 1] = -ak
+            B[kL, 1, 0] = ak
+            B[kL, 0, 3] = ak * vb
+            B[kL, 1, 3] = bk - ak * d
+            _conjugate(B, w, kL, ss + h0 + k, ks)
+    _apply_local(B, w, kG, vel, kTn)
+
+
+def _pb_step(fdat, idat, link, q, qd, vel, B, w, ss):
+    """T <- T Rz(gamma) Trans(d - l, 0) for the guide of joint ``link`` (formulation.md 10.3);
+    the world twist of d into B[ss + d]: a translation along the guide axis,
+    S_d = [[0, x-axis of T Rz(gamma)], [0, 0]].
+    Td' = Td + ddot x-column in the origin, Tdd0' = Tdd0 + 2 ddot Td's x-column (G constant in the rotation)."""
+    N = idat[1]
+    base = _H + _CI * N + _LI * link
+    jd = idat[base + 2]
+    off = idat[base + 3]
+    mown = idat[base]
+    gamma = fdat[off + 21 + 8 * mown + 2 * mown * mown]
+    l = fdat[off + 20]
+    _rot_step(B, w, w + 3, 2, gamma, 0.0, vel)
+    _zero4(B, ss + jd)
+    for a in range(3):
+        B[ss + jd, a, 3] = B[w, a, 0]
+    a = q[jd] - l
+    dd = qd[jd]
+    for r in range(4):
+        B[w, r, 3] += a * B[w, r, 0]
+        if vel:
+            B[w + 2, r, 3] += a * B[w + 2, r, 0] + 2.0 * dd * B[w + 1, r, 0]
+            B[w + 1, r, 3] += a * B[w + 1, r, 0] + dd * B[w, r, 0]
 
 
 def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w):
@@ -472,24 +710,37 @@ def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w):
     for a in range(4):
         for b in range(4):
             B[w, a, b] = fdat[_F_BASE + 4 * a + b]
-    if idat[2] == 1:
-        # Trans(X): twists e_a in the origin column; then Rx(theta_-1), Ry(theta_0).
-        for a in range(3):
+    if idat[2] != BASE_FIXED:
+        # Trans(X): twists e_a in the origin column; then Rx(theta_-1), Ry(theta_0) (spatial base).
+        nx = 3 if idat[2] == BASE_FREE else 2
+        for a in range(nx):
             B[w, a, 3] = q[a]
             if vel:
                 B[w + 1, a, 3] = qd[a]
             _zero4(B, ss + a)
             B[ss + a, a, 3] = 1.0
-        for c in range(3, 5):
-            _rot_step(B, w, ss + c, idat[_H + _CI * c + 1], q[c], qd[c], vel)
+        if idat[2] == BASE_FREE:
+            for c in range(3, 5):
+                _rot_step(B, w, ss + c, idat[_H + _CI * c + 1], q[c], qd[c], vel)
     for i in range(n):
-        th = idat[_H + _CI * N + _LI * i + 2]
-        _rot_step(B, w, ss + th, idat[_H + _CI * th + 1], q[th], qd[th], vel)
+        base = _H + _CI * N + _LI * i
+        th = idat[base + 2]
+        jk = idat[base + 5]
+        # R and Pb joints sit at the host's tip: the host's end E_(i-1) first (formulation.md 10).
+        if i > 0 and jk != JOINT_PA:
+            _end_step(fdat, idat, i - 1, q, qd, vel, B, w, ss)
+        if jk == JOINT_R:
+            _rot_step(B, w, ss + th, idat[_H + _CI * th + 1], q[th], qd[th], vel)
+        elif jk == JOINT_PA:
+            _pa_step(fdat, idat, i, q, qd, vel, B, w, ss)
+        else:
+            _pb_step(fdat, idat, i, q, qd, vel, B, w, ss)
         _copy4(B, w, ts + i)
         if vel:
             _copy4(B, w + 1, tds + i)
             _copy4(B, w + 2, tdds + i)
-        _end_step(fdat, idat, i, q, qd, vel, B, w, ss)
+    if n > 0:
+        _end_step(fdat, idat, n - 1, q, qd, vel, B, w, ss)
     _copy4(B, w, ts + n)
     if vel:
         _copy4(B, w + 1, tds + n)
@@ -498,51 +749,170 @@ def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w):
 
 # -- per-link moments ---------------------------------------------------------------
 
-def _link_body(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv):
-    """Body moments of ``link`` at delta, deltadot.
+def _sd_stride(mmax):
+    """Per-link stride of the per-call shape data SD of Pb links (_pb_moments)."""
+    ms = mmax + 1
+    return 2 * ms + ms * ms + 4 + ms + mmax + 2
 
-    B[kP] = P = P0 + Cd^T + sum_l delta_l Q_l (rotary pseudo-inertia included),
-    V[kmr] = m_r, V[kqv + l] = q_l = c0_l + sum_k delta_k Mpsi_kl e_{a_k}, c0_l = (cx_l, 0, 0, c1_l),
-    V[kqdv + l] = sum_k deltadot_k Mpsi_kl e_{a_k}, B[kPv] = Pv = sum_l deltadot_l q_l e_{a_l}^T.
+
+def _pb_moments(fdat, idat, link, q, qd, SD, o):
+    """Shape moments of a Pb link at the current d (formulation.md 10.3, 11, 12 item 2) into SD[o:].
+
+    Own shapes phi_l (l < m: Phi_l = d^a_l N_l(xi); l = m: chi = dv/dd at fixed x =
+    sum_k delta_k rho_k, rho_k = d^(a_k - 1) F_k, F_k = a_k N_k + (1 - xi) N_k'), on the
+    protruding part sigma = d xi (x = l - d + sigma); the rear part has v = 0. Exact Gauss rule
+    in xi (4 points per stretching element, degree <= 7):
+      cx_l = int mu x phi_l,  c1_l = int mu phi_l,  Mpsi_lk = int mu phi_l phi_k       (m+1 each)
+      a0 = ddot^2 sum delta_k d rho_k/dd + 2 ddot sum deltadot_k rho_k   (r0dd = e_y a0)
+      d rho_k/dd = d^(a_k - 2) [(a_k - 1) F_k + (1 - xi) F_k'],  F_k' = (a_k - 1) N_k' + (1 - xi) N_k''
+      qa = int mu r a0 (4,),  ha_l = int mu phi_l a0
+      K(d)_kl = EI d^(a_k + a_l - 3) Kunit_kl:  (K delta)_k,  1/2 delta^T K delta,
+      dV_s/dd = 1/2 delta^T K' delta,  K'_kl = (a_k + a_l - 3) K_kl / d
+    Layout: cx (m+1), c1 (m+1), Mpsi ((m+1)^2), qa (4), ha (m+1), K delta (m), dV_s/dd, V_s.
     """
     N = idat[1]
     base = _H + _CI * N + _LI * link
     m = idat[base]
     d0 = idat[base + 1]
+    jd = idat[base + 2]
     off = idat[base + 3]
+    ms = m + 1
+    o_c1 = o + ms
+    o_M = o_c1 + ms
+    o_qa = o_M + ms * ms
+    o_ha = o_qa + 4
+    o_K = o_ha + ms
+    o_dK = o_K + m
+    for k in range(o, o_dK + 2):
+        SD[k] = 0.0
+    if m == 0:
+        return
+    ox = off + 21 + 8 * m + 2 * m * m
+    ne = int(fdat[ox + 2])
+    mu = fdat[ox + 3]
+    EI = fdat[ox + 4]
+    l = fdat[off + 20]
+    G = _GAUSS * ne
+    oxi = ox + _F_JOINT
+    ow = oxi + G
+    oN = ow + G
+    oN1 = oN + G * m
+    oN2 = oN1 + G * m
+    oKu = oN2 + G * m
+    oa = oKu + m * m
+    d = q[jd]
+    dd = qd[jd]
+    phi = np.zeros(ms)
+    for g in range(G):
+        xi = fdat[oxi + g]
+        W = mu * d * fdat[ow + g]
+        x = l - d + d * xi
+        v = 0.0
+        chi = 0.0
+        acc = 0.0
+        for k in range(m):
+            Nk = fdat[oN + g * m + k]
+            N1 = fdat[oN1 + g * m + k]
+            N2 = fdat[oN2 + g * m + k]
+            if Nk == 0.0 and N1 == 0.0 and N2 == 0.0:
+                phi[k] = 0.0
+                continue
+            ak = fdat[oa + k]
+            dpow = d if ak == 1.0 else 1.0
+            F = ak * Nk + (1.0 - xi) * N1
+            rho = dpow / d * F
+            F1 = (ak - 1.0) * N1 + (1.0 - xi) * N2
+            drho = dpow / (d * d) * ((ak - 1.0) * F + (1.0 - xi) * F1)
+            phi[k] = dpow * Nk
+            v += phi[k] * q[d0 + k]
+            chi += rho * q[d0 + k]
+            acc += dd * dd * drho * q[d0 + k] + 2.0 * dd * rho * qd[d0 + k]
+        phi[m] = chi
+        for a in range(ms):
+            wa = W * phi[a]
+            if wa == 0.0:
+                continue
+            SD[o + a] += wa * x
+            SD[o_c1 + a] += wa
+            SD[o_ha + a] += wa * acc
+            for b in range(ms):
+                SD[o_M + ms * a + b] += wa * phi[b]
+        SD[o_qa] += W * x * acc
+        SD[o_qa + 1] += W * v * acc
+        SD[o_qa + 3] += W * acc
+    for k in range(m):
+        ak = fdat[oa + k]
+        for j in range(m):
+            e = ak + fdat[oa + j] - 3.0
+            Kkj = EI * d ** e * fdat[oKu + m * k + j]
+            SD[o_K + k] += Kkj * q[d0 + j]
+            SD[o_dK] += 0.5 * e / d * Kkj * q[d0 + k] * q[d0 + j]
+            SD[o_dK + 1] += 0.5 * Kkj * q[d0 + k] * q[d0 + j]
+
+
+def _own(idat, link, q, qd, k):
+    """Own shape k of ``link``: (axis, position coefficient, velocity coefficient);
+    k < m: delta_k; k = m (Pb only): chi with coefficients (0, ddot)."""
+    N = idat[1]
+    base = _H + _CI * N + _LI * link
+    m = idat[base]
+    if k < m:
+        c = idat[base + 1] + k
+        return idat[_H + _CI * c + 1], q[c], qd[c]
+    return 1, 0.0, qd[idat[base + 2]]
+
+
+def _link_body(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, so):
+    """Body moments of ``link`` at delta, deltadot; returns (ms, src, o_cx): the number of own
+    shapes and where their moments cx, c1, Mpsi live (fdat, or SD[so:] for a Pb link).
+
+    B[kP] = P = P0 + Cd^T + sum_l delta_l Q_l (rotary pseudo-inertia included),
+    V[kmr] = m_r, V[kqv + l] = q_l = c0_l + sum_k delta_k Mpsi_kl e_{a_k}, c0_l = (cx_l, 0, 0, c1_l),
+    V[kqdv + l] = sum_k deltadot_k Mpsi_kl e_{a_k}, B[kPv] = Pv = sum_l deltadot_l q_l e_{a_l}^T
+    (over the own shapes; a Pb link adds chi with velocity coefficient ddot, _pb_moments).
+    """
+    N = idat[1]
+    base = _H + _CI * N + _LI * link
+    m = idat[base]
+    off = idat[base + 3]
+    if idat[base + 5] == JOINT_PB:
+        _pb_moments(fdat, idat, link, q, qd, SD, so)
+        src = SD
+        o_cx = so
+        ms = m + 1
+    else:
+        src = fdat
+        o_cx = off + 21
+        ms = m
     for a in range(4):
         V[kmr, a] = fdat[off + 16 + a]
         for b in range(4):
             B[kP, a, b] = fdat[off + 4 * a + b]
             B[kPv, a, b] = 0.0
-    o_cx = off + 21
-    o_c1 = o_cx + m
-    o_M = o_c1 + m
-    for l in range(m):
-        V[kqv + l, 0] = fdat[o_cx + l]
+    o_c1 = o_cx + ms
+    o_M = o_c1 + ms
+    for l in range(ms):
+        V[kqv + l, 0] = src[o_cx + l]
         V[kqv + l, 1] = 0.0
         V[kqv + l, 2] = 0.0
-        V[kqv + l, 3] = fdat[o_c1 + l]
+        V[kqv + l, 3] = src[o_c1 + l]
         for a in range(4):
             V[kqdv + l, a] = 0.0
-    for k in range(m):
-        ak = idat[_H + _CI * (d0 + k) + 1]
-        dk = q[d0 + k]
-        vk = qd[d0 + k]
-        for l in range(m):
-            Mkl = fdat[o_M + m * k + l]
+    for k in range(ms):
+        ak, dk, vk = _own(idat, link, q, qd, k)
+        for l in range(ms):
+            Mkl = src[o_M + ms * k + l]
             V[kqv + l, ak] += dk * Mkl
             V[kqdv + l, ak] += vk * Mkl
-    for l in range(m):
-        al = idat[_H + _CI * (d0 + l) + 1]
-        dl = q[d0 + l]
-        vl = qd[d0 + l]
-        V[kmr, al] += dl * fdat[o_c1 + l]
+    for l in range(ms):
+        al, dl, vl = _own(idat, link, q, qd, l)
+        V[kmr, al] += dl * src[o_c1 + l]
         for r in range(4):
             B[kP, r, al] += dl * V[kqv + l, r]
             B[kPv, r, al] += vl * V[kqv + l, r]
-        B[kP, al, 0] += dl * fdat[o_cx + l]
-        B[kP, al, 3] += dl * fdat[o_c1 + l]
+        B[kP, al, 0] += dl * src[o_cx + l]
+        B[kP, al, 3] += dl * src[o_c1 + l]
+    return ms, src, o_cx
 
 
 def _mmax(idat):
@@ -583,15 +953,19 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
     YY = n1
     EE = n1 + N
     QV = n1 + 2 * N
-    QDV = QV + mmax
-    MR = QDV + mmax
+    QDV = QV + mmax + 1
+    MR = QDV + mmax + 1
     V = np.zeros((MR + 1, 4))
+    SDS = _sd_stride(mmax)
+    SD = np.zeros(n * SDS)
     for i in range(n):
         base = _H + _CI * N + _LI * i
         m = idat[base]
         d0 = idat[base + 1]
         off = idat[base + 3]
-        _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV)
+        pb = idat[base + 5] == JOINT_PB
+        so = i * SDS
+        ms, src, o_cx = _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV, SD, so)
         # Pi_i = T P T^T;  mu_i = T m_r
         _mm(B, TS + i, kP, kX)
         _mmt(B, kX, TS + i, PIC + i)
@@ -601,7 +975,7 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
                 s += B[TS + i, a, b] * V[MR, b]
             V[MUC + i, a] = s
         if vel:
-            # F_i = T P Tdd0^T + 2 T Pv Td^T
+            # F_i = T P Tdd0^T + 2 T Pv Td^T (+ (T qa)(T e_y)^T for a Pb link: r0dd = e_y a0)
             _mmt(B, kX, TDDS + i, FC + i)
             _mm(B, TS + i, kPv, kX)
             for a in range(4):
@@ -610,11 +984,19 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
                     for c in range(4):
                         s += B[kX, a, c] * B[TDS + i, b, c]
                     B[FC + i, a, b] += 2.0 * s
-        o_c1 = off + 21 + m
+            if pb:
+                o_qa = so + 2 * ms + ms * ms
+                for a in range(4):
+                    s = 0.0
+                    for b in range(4):
+                        s += B[TS + i, a, b] * SD[o_qa + b]
+                    for b in range(4):
+                        B[FC + i, a, b] += s * B[TS + i, b, 1]
+        o_c1 = o_cx + ms
         o_K = off + 21 + 2 * m + m * m
-        for l in range(m):
-            c = d0 + l
-            al = idat[_H + _CI * c + 1]
+        for l in range(ms):
+            c = d0 + l if l < m else idat[base + 2]
+            al = 1 if l == m else idat[_H + _CI * c + 1]
             # y_c = T q_c;  e_c = T e_{a_c}
             for a in range(4):
                 s = 0.0
@@ -622,22 +1004,27 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
                     s += B[TS + i, a, b] * V[QV + l, b]
                 V[YY + c, a] = s
                 V[EE + c, a] = B[TS + i, a, al]
-            # own part of dV: -c1_l g~.e_l + (K delta)_l
+            # own part of dV: -c1_l g~.e_l + (K delta)_l  (Pb: K(d) delta, and dV_s/dd for chi)
             s = 0.0
             for a in range(3):
                 s += fdat[_F_G + a] * V[EE + c, a]
-            kd = 0.0
-            for k in range(m):
-                kd += fdat[o_K + m * l + k] * q[d0 + k]
-            dV[c] = -fdat[o_c1 + l] * s + kd
+            if pb:
+                kd = SD[so + 3 * ms + ms * ms + 4 + l]
+            else:
+                kd = 0.0
+                for k in range(m):
+                    kd += fdat[o_K + m * l + k] * q[d0 + k]
+            dV[c] = -src[o_c1 + l] * s + kd
             if vel:
-                # own part of h: e_l . (Tdd0 q_l + 2 Td qd_l)
+                # own part of h: e_l . (Tdd0 q_l + 2 Td qd_l)  (+ int mu phi_l a0 for a Pb link)
                 s = 0.0
                 for a in range(3):
                     x = 0.0
                     for b in range(4):
                         x += B[TDDS + i, a, b] * V[QV + l, b] + 2.0 * B[TDS + i, a, b] * V[QDV + l, b]
                     s += V[EE + c, a] * x
+                if pb:
+                    s += SD[so + 2 * ms + ms * ms + 4 + l]
                 h[c] = s
     # Composites: sums over the links from frame j outwards.
     for i in range(n - 1, -1, -1):
@@ -649,6 +1036,9 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
     # X_d = Pi^c_{f_d} S_d^T
     for d in range(N):
         _mmt(B, PIC + idat[_H + _CI * d + 2], SS + d, XS + d)
+    # M_ab = tr(S_a Pi^c_max(f_a, f_b) S_b^T) + [o_b >= 0, f_a <= o_b] e_b.(S_a y_b)
+    #        + [o_a >= 0, f_b <= o_a] e_a.(S_b y_a) + [o_a = o_b] Mpsi_(l_a l_b)
+    # (o: the link whose material the coordinate deforms, -1 if none; f: first frame it moves)
     for c in range(N):
         fc = idat[_H + _CI * c + 2]
         for d in range(c, N):
@@ -659,6 +1049,8 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
             else:
                 a = d
                 b = c
+            fa = idat[_H + _CI * a + 2]
+            fb = idat[_H + _CI * b + 2]
             # tr(S_a X_b); S has a zero last row
             val = 0.0
             for r in range(3):
@@ -666,19 +1058,30 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
                     val += B[SS + a, r, k] * B[XS + b, k, r]
             ob = idat[_H + _CI * b + 3]
             oa = idat[_H + _CI * a + 3]
-            if ob >= 0 and min(fc, fd) < max(fc, fd):
+            if ob >= 0 and fa <= ob:
                 # e_b . (S_a y_b): a moves the link that b deforms
                 for r in range(3):
                     x = 0.0
                     for k in range(4):
                         x += B[SS + a, r, k] * V[YY + b, k]
                     val += V[EE + b, r] * x
-            elif ob >= 0 and oa == ob and idat[_H + _CI * a + 1] == idat[_H + _CI * b + 1]:
-                # M_dd of two modes of one link along one axis
+            if oa >= 0 and fb <= oa:
+                for r in range(3):
+                    x = 0.0
+                    for k in range(4):
+                        x += B[SS + b, r, k] * V[YY + a, k]
+                    val += V[EE + a, r] * x
+            if ob >= 0 and oa == ob:
                 bl = _H + _CI * N + _LI * ob
                 m = idat[bl]
-                o_M = idat[bl + 3] + 21 + 2 * m
-                val += fdat[o_M + m * idat[_H + _CI * a + 4] + idat[_H + _CI * b + 4]]
+                la = idat[_H + _CI * a + 4]
+                lb = idat[_H + _CI * b + 4]
+                if idat[bl + 5] == JOINT_PB:
+                    ms = m + 1
+                    val += SD[ob * SDS + 2 * ms + ms * la + lb]
+                elif idat[_H + _CI * a + 1] == idat[_H + _CI * b + 1]:
+                    # Mpsi of two modes of one link along one axis
+                    val += fdat[idat[bl + 3] + 21 + 2 * m + m * la + lb]
             M[c, d] = val
             M[d, c] = val
     for c in range(N):
@@ -739,11 +1142,11 @@ def _cholesky_solve(M, b):
     return x, (2 if dmin < 1e-7 * dmax else 0), dmin, dmax
 
 
-def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out):
+def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out, SD):
     """out (12,): kinetic, gravity, strain energy [J]; linear momentum L [kg m/s];
     angular momentum about the origin H0 [kg m^2/s]; first moment sum T m_r [kg m].
 
-    Frames in B[ts + i], B[tds + i]; B[w + 20 .. w + 23] and V (2 mmax + 2, 4) are scratch.
+    Frames in B[ts + i], B[tds + i]; B[w + 20 .. w + 23], V (2 mmax + 4, 4) and SD are scratch.
     E_k = sum 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 deltadot^T M_dd deltadot,
     V_g = -g~ . sum T m_r,  V_s = 1/2 delta^T K delta,
     L = sum (Td m_r + T m_rdot),  H0 = sum vee(X),  X = T P Td^T + T Pv T^T = int mu p pdot^T.
@@ -758,7 +1161,8 @@ def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out):
     MR = 0
     MRD = 1
     QV = 2
-    QDV = 2 + mmax
+    QDV = 3 + mmax
+    SDS = _sd_stride(mmax)
     for a in range(12):
         out[a] = 0.0
     for i in range(n):
@@ -766,7 +1170,7 @@ def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out):
         m = idat[base]
         d0 = idat[base + 1]
         off = idat[base + 3]
-        _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV)
+        ms, src, o_cx = _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV, SD, i * SDS)
         T = ts + i
         Td = tds + i
         # Kinetic energy: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) here, the modal part below.
@@ -781,12 +1185,16 @@ def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out):
         o_K = off + 21 + 2 * m + m * m
         for a in range(4):
             V[MRD, a] = 0.0
-        for l in range(m):
-            al = idat[_H + _CI * (d0 + l) + 1]
-            out[0] += 0.5 * qd[d0 + l] * V[QDV + l, al]
-            V[MRD, al] += qd[d0 + l] * fdat[off + 21 + m + l]
-            for k in range(m):
-                out[2] += 0.5 * q[d0 + l] * fdat[o_K + m * l + k] * q[d0 + k]
+        for l in range(ms):
+            al, dl, vl = _own(idat, i, q, qd, l)
+            out[0] += 0.5 * vl * V[QDV + l, al]
+            V[MRD, al] += vl * src[o_cx + ms + l]
+        if idat[base + 5] == JOINT_PB:
+            out[2] += SD[i * SDS + 3 * ms + ms * ms + 4 + m + 1]
+        else:
+            for l in range(m):
+                for k in range(m):
+                    out[2] += 0.5 * q[d0 + l] * fdat[o_K + m * l + k] * q[d0 + k]
         for a in range(3):
             s = 0.0
             p = 0.0
@@ -908,7 +1316,8 @@ def kernel(fdat, idat, qs, qds, Q, job):
     SS = 3 * n + 3
     WK = SS + N
     B = np.zeros((WK + _W_SIZE, 4, 4))
-    V = np.zeros((2 * _mmax(idat) + 2, 4))
+    V = np.zeros((2 * _mmax(idat) + 4, 4))
+    SD = np.zeros(n * _sd_stride(_mmax(idat)))
     part = np.zeros(12)
     for k in range(K):
         for i in range(N):
@@ -916,7 +1325,7 @@ def kernel(fdat, idat, qs, qds, Q, job):
             qd[i] = qds[N * k + i]
         chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK)
         if job & (JOB_ENERGY | JOB_MOMENTUM):
-            _link_observables(fdat, idat, q, qd, B, TS, TDS, WK, V, part)
+            _link_observables(fdat, idat, q, qd, B, TS, TDS, WK, V, part, SD)
             if job & JOB_ENERGY:
                 o = L[_S_EN] + 3 * k
                 for a in range(3):
@@ -956,8 +1365,9 @@ def kernel(fdat, idat, qs, qds, Q, job):
 # calls, so fewer entry points compile faster. Helpers are compiled for the types
 # their callers use; called from Python they run uncompiled.
 _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_skew", "_skew3",
-            "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "chain_frames",
-            "_link_body", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
+            "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
+            "_hermite_at", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
+            "_sd_stride", "_own", "_link_body", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
 _ENTRIES = {"kernel": f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64)"}
 _state = {"ready": False, "cached": None, "seconds": 0.0, "kernel": None}

@@ -199,8 +199,99 @@ class FixedBase:
         return T
 
 
-#: Joint types a chain accepts today.
-JOINT_TYPES = (Revolute,)
+def _joint_range(kind: str, value) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{kind} range={value!r} must be a pair (d_min, d_max) in metres") from None
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo >= hi:
+        raise ValueError(f"{kind} range={value!r} must be finite with d_min < d_max (metres)")
+    return lo, hi
+
+
+def _joint_angle(kind: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, Real) or not np.isfinite(value):
+        raise ValueError(f"{kind} angle={value!r} must be a finite number of radians")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class SlidingPrismatic:
+    """Pa: a carriage fixed to link i slides along the host link i-1 (formulation.md 10.2).
+
+    The carriage has half-length c and rides on the host's centreline with two
+    contact points at host abscissae d - c and d + c; its frame sits at the
+    midpoint of their chord, x axis along the chord, and link i is clamped to
+    it at the fixed angle gamma:
+
+        G_i = Trans(d, vbar(d)) Rz(phibar(d)) Rz(gamma)
+        vbar = [v(d + c) + v(d - c)] / 2,   phibar = [v(d + c) - v(d - c)] / (2 c)
+
+    On the base (joint 1) the host is a straight rigid rail along the base x axis.
+
+    Parameters
+    ----------
+    angle : float
+        gamma [rad], link i's axis relative to the carriage.
+    half_length : float
+        c [m] >= 0; must be > 0 on a finite-element host (a point slider makes
+        M jump at every element node and breaks energy conservation).
+    range : (float, float)
+        (d_min, d_max) [m], the carriage centre's travel; on a host link
+        c <= d_min < d_max <= l_host - c.
+    """
+
+    angle: float = 0.0
+    half_length: float = 0.0
+    range: tuple = (0.0, 1.0)
+    kind = "Pa"
+
+    def __post_init__(self):
+        object.__setattr__(self, "angle", _joint_angle("SlidingPrismatic", self.angle))
+        c = self.half_length
+        if isinstance(c, bool) or not isinstance(c, Real) or not np.isfinite(c) or c < 0:
+            raise ValueError(f"SlidingPrismatic half_length={c!r} must be a number >= 0 (metres)")
+        object.__setattr__(self, "half_length", float(c))
+        object.__setattr__(self, "range", _joint_range("SlidingPrismatic", self.range))
+
+
+@dataclass(frozen=True)
+class FixedPrismatic:
+    """Pb: link i slides through a guide fixed at the host's tip (formulation.md 10.3).
+
+    The guide sits at the host's deflected tip, along its tangent turned by
+    gamma; link i's frame is at its rear end:
+
+        G_i = E_(i-1) Rz(gamma) Trans(d - l_i, 0)
+
+    d is the protruding length (guide to link i's tip). Only the protruding part
+    bends (stretching Hermite elements of length d / n_e); the part behind the
+    guide is straight but keeps its mass. On the base (joint 1) the guide is at
+    the base origin.
+
+    Parameters
+    ----------
+    angle : float
+        gamma [rad], the guide axis relative to the host's tip tangent.
+    range : (float, float)
+        (d_min, d_max) [m] with 0 < d_min < d_max <= l_i.
+    """
+
+    angle: float = 0.0
+    range: tuple = (0.0, 1.0)
+    kind = "Pb"
+
+    def __post_init__(self):
+        object.__setattr__(self, "angle", _joint_angle("FixedPrismatic", self.angle))
+        lo, hi = _joint_range("FixedPrismatic", self.range)
+        if lo <= 0:
+            raise ValueError(f"FixedPrismatic range={self.range!r}: d_min must be > 0 (the protruding "
+                             "length; the link's stiffness grows like 1/d^3 as d -> 0)")
+        object.__setattr__(self, "range", (lo, hi))
+
+
+#: Joint types a chain accepts.
+JOINT_TYPES = (Revolute, SlidingPrismatic, FixedPrismatic)
 
 
 @dataclass(frozen=True)
@@ -251,10 +342,14 @@ class Chain:
             raise ValueError(f"Chain joints has {len(joints)} entries for {len(links)} links; give one joint per link")
         for k, jt in enumerate(joints):
             if not isinstance(jt, JOINT_TYPES):
-                raise ValueError(f"Chain joints[{k}]={jt!r} is not a joint; use gi.Revolute()")
+                raise ValueError(
+                    f"Chain joints[{k}]={jt!r} is not a joint; use gi.Revolute(), gi.SlidingPrismatic(...) "
+                    "or gi.FixedPrismatic(...)")
         object.__setattr__(self, "joints", joints)
-        if not (self.base == "free" or isinstance(self.base, FixedBase)):
-            raise ValueError(f"Chain base={self.base!r} must be 'free' or gi.FixedBase(position=(b1, b2), angle=beta)")
+        if not (self.base in ("free", "planar") or isinstance(self.base, FixedBase)):
+            raise ValueError(f"Chain base={self.base!r} must be 'free', 'planar' or "
+                             "gi.FixedBase(position=(b1, b2), angle=beta)")
+        _check_joints(links, joints, self.base)
 
     @property
     def n_links(self) -> int:
@@ -262,7 +357,70 @@ class Chain:
 
     @property
     def free_base(self) -> bool:
+        """True for a floating base, spatial ('free') or planar ('planar')."""
         return isinstance(self.base, str)
+
+    @property
+    def planar(self) -> bool:
+        """True when the chain moves in the X1-X2 plane only (formulation.md section 8):
+        a planar free base, or any prismatic joint."""
+        return self.base == "planar" or any(j.kind != "R" for j in self.joints)
+
+
+def _check_joints(links, joints, base):
+    """The rules of formulation.md sections 8, 10.2, 10.3 and 13 for prismatic joints."""
+    prismatic = [k for k, j in enumerate(joints) if j.kind != "R"]
+    if base == "planar" and joints[0].kind != "R":
+        raise ValueError(f"Chain joints[0]={joints[0]!r}: on a planar free base (base='planar') joint 1 "
+                         "must be gi.Revolute(); its theta_1 is the floating orientation")
+    if not prismatic and base != "planar":
+        return
+    if base == "free":
+        raise ValueError(
+            f"Chain joints[{prismatic[0]}]={joints[prismatic[0]]!r}: prismatic joints are planar "
+            "(formulation.md section 8); use base='planar' for a floating chain or gi.FixedBase(...)")
+    for k, lk in enumerate(links):
+        if lk.elements and lk.element_directions != ("y",) or any(md.direction != "y" for md in lk.modes):
+            raise ValueError(f"Chain links[{k}] bends out of plane; a planar chain (prismatic joints or "
+                             "base='planar') allows in-plane bending only: element_directions=('y',), y-modes")
+    for k in prismatic:
+        jt = joints[k]
+        lo, hi = jt.range
+        if jt.kind == "Pb":
+            lk = links[k]
+            if lk.modes:
+                raise ValueError(
+                    f"Chain links[{k}] slides through a FixedPrismatic guide and has assumed modes; a Pb link "
+                    "is discretised by stretching finite elements: give it elements=n_e (or none: rigid)")
+            if callable(lk.mass_per_length) or any(callable(e) for e in lk.EI):
+                raise ValueError(f"Chain links[{k}] slides through a FixedPrismatic guide: its mass_per_length "
+                                 "and EI must be constants (a prismatic member has one cross-section)")
+            if hi > lk.length + 1e-12:
+                raise ValueError(f"Chain joints[{k}] FixedPrismatic range={jt.range!r}: d_max must be <= the "
+                                 f"link's length {lk.length:g} m (d is the protruding length)")
+            continue
+        if k == 0:
+            continue  # a rigid rail on the base: any range, c irrelevant
+        host = links[k - 1]
+        c = jt.half_length
+        if host.modes:
+            raise ValueError(
+                f"Chain joints[{k}] SlidingPrismatic on links[{k - 1}], which has assumed modes: a carriage "
+                "host must be a finite-element link (elements=n_e) or rigid")
+        if host.elements and c <= 0:
+            raise ValueError(
+                f"Chain joints[{k}] SlidingPrismatic half_length={c!r} on a finite-element host: give c > 0. "
+                "A point slider follows the host's slope v'(d), whose derivative v'' jumps at every element "
+                "node, so M(q) would jump there and energy would not be conserved (formulation.md 10.2)")
+        if joints[k - 1].kind == "Pb" and host.elements:
+            raise ValueError(
+                f"Chain joints[{k}] SlidingPrismatic on links[{k - 1}], a flexible link sliding through a "
+                "FixedPrismatic guide: not supported yet (the carriage's transform would depend on both "
+                f"prismatic variables); make links[{k - 1}] rigid (elements=0)")
+        if lo < c - 1e-12 or hi > host.length - c + 1e-12:
+            raise ValueError(
+                f"Chain joints[{k}] SlidingPrismatic range={jt.range!r}: the carriage must stay on the host, "
+                f"c <= d_min < d_max <= l_host - c = {host.length - c:g} m (c = {c:g} m)")
 
 
 def _as_function(v):
@@ -335,6 +493,40 @@ def shape_functions(link: Link, x, derivative: int = 0) -> tuple[tuple, np.ndarr
             np.concatenate([psi] * len(link.element_directions))
     psi = np.array([shape(md, l, x, derivative) for md in link.modes]).reshape(len(link.modes), x.size)
     return tuple(md.direction for md in link.modes), psi
+
+
+def link_deflection(model, q, i: int, x, derivative: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Deflection of link i (0-based) at material abscissae x (K,) [m]: (v (K,), w (K,)) [m].
+
+    v along the link frame's y axis, w along z (formulation.md sections 2, 9, 10.3);
+    ``derivative`` 0 .. 2 gives x-derivatives. A link behind a FixedPrismatic guide
+    (protruding length d) bends only on sigma = x - (l - d) in [0, d]:
+    v = sum_k d^(a_k) N_k(sigma / d) delta_k (stretching elements), 0 behind the guide.
+    """
+    q = np.asarray(q, dtype=float)
+    x = np.atleast_1d(np.asarray(x, dtype=float))
+    lk = model.chain.links[i]
+    idx = model.delta_index[i]
+    v, w = np.zeros(x.size), np.zeros(x.size)
+    if len(idx) == 0:
+        return v, w
+    delta = q[idx]
+    if model.chain.joints[i].kind == "Pb":
+        d = q[model.theta_index[i]]
+        sigma = x - (lk.length - d)
+        inside = sigma >= 0.0
+        N = hermite_shape(lk.elements, 1.0, np.clip(sigma / d, 0.0, 1.0), derivative)  # (m, K)
+        a = np.tile([0.0, 1.0], lk.elements)
+        # d/dx = (1/d) d/dxi
+        v = np.where(inside, (d ** (a - derivative) * delta) @ N, 0.0)
+        return v, w
+    directions, psi = shape_functions(lk, x, derivative)
+    for p_k, dk, s in zip(psi, delta, directions):
+        if s == "y":
+            v = v + p_k * dk
+        else:
+            w = w + p_k * dk
+    return v, w
 
 
 def _basis(link: Link, x: np.ndarray):
@@ -458,8 +650,10 @@ class Model:
         self._links = tuple(link_integrals(lk, quadrature) for lk in chain.links)
         # Free base: q = [X1, X2, X3, theta_-1, theta_0, theta_1 .. theta_n, deltas];
         # fixed base: q = [theta_1 .. theta_n, deltas] (formulation.md sections 1, 8).
-        base = ["X1", "X2", "X3", "theta_-1", "theta_0"] if chain.free_base else []
-        names = base + [f"theta_{i}" for i in range(1, n + 1)]
+        base = {"free": ["X1", "X2", "X3", "theta_-1", "theta_0"], "planar": ["X1", "X2"]}.get(
+            chain.base if chain.free_base else "", [])
+        kinds = [j.kind for j in chain.joints]
+        names = base + [f"theta_{i}" if kd == "R" else f"d_{i}" for i, kd in enumerate(kinds, start=1)]
         delta_index = []
         directions = []
         k = len(names)
@@ -478,8 +672,8 @@ class Model:
         self._theta_index = tuple(range(len(base), len(base) + n))
         self._bending = tuple([""] * (len(base) + n) + directions)
         # Unit of each coordinate: angles and FE node slopes in rad, the rest in m.
-        units = ["m", "m", "m", "rad", "rad"] if chain.free_base else []
-        units += ["rad"] * n
+        units = ["m", "m", "m", "rad", "rad"][:len(base)]
+        units += ["rad" if kd == "R" else "m" for kd in kinds]
         for lk, ld in zip(chain.links, self._links):
             units += (["m", "rad"] * (ld.K.shape[0] // 2)) if lk.elements else ["m"] * ld.K.shape[0]
         self._units = tuple(units)
@@ -499,8 +693,14 @@ class Model:
     coordinate_names = property(lambda self: self._names, doc="Names of q, length N.")
     delta_index = property(lambda self: self._delta_index, doc="Indices of each link's modal coordinates in q.")
     delta_slice = property(lambda self: self._delta_slice, doc="The same as slices of q.")
-    theta_index = property(lambda self: self._theta_index, doc="Index of theta_i in q, i = 1..n.")
-    free_base = property(lambda self: self._chain.free_base, doc="True for a free-flying base (X, theta_-1, theta_0 in q).")
+    theta_index = property(lambda self: self._theta_index,
+                           doc="Index in q of joint i's variable (theta_i or d_i), i = 1..n.")
+    joint_index = theta_index
+    free_base = property(lambda self: self._chain.free_base,
+                         doc="True for a floating base: X1..X3, theta_-1, theta_0 ('free') or X1, X2 ('planar') in q.")
+    planar = property(lambda self: self._chain.planar, doc="True for a planar chain (formulation.md section 8).")
+    joint_kinds = property(lambda self: tuple(j.kind for j in self._chain.joints),
+                           doc="'R', 'Pa' or 'Pb' per joint (n,).")
     base_transform = property(lambda self: self._base_transform, doc="T_0 (4, 4) of a fixed base, None for a free one.")
     coordinate_units = property(lambda self: self._units, doc="Unit of each coordinate, 'm' or 'rad' (N,).")
     bending_directions = property(

@@ -67,6 +67,7 @@ from .flight import SOLVERS, EventSpec, integrate_phase
 from .forces import damping_matrix, generalized_force
 from .impact import solve_impulses
 from .kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
+from .limits import JOINT_LIMIT_MODES, STATUS_JOINT_LIMIT, check_initial, joint_limits, limit_gaps
 from .results import (
     STATUS_FAILED,
     STATUS_FINISHED,
@@ -227,6 +228,8 @@ class _Contacts:
 
     def gaps_batch(self, qs: np.ndarray) -> np.ndarray:
         """g (K, W, J) [m] of the states qs (K, N): one kernel call for all of them."""
+        if not self.walls:
+            return np.zeros((len(qs), 0, self.n_joints))
         P = joint_positions_batch(self.model, qs)  # (K, J, 3)
         return np.stack([w.gap(P) for w in self.walls], axis=1).reshape(len(qs), len(self.walls), self.n_joints)
 
@@ -415,6 +418,80 @@ class _Recorder:
                 Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)))
 
 
+class _EndStops:
+    """The joint limits as row W of the gap matrix, their events and end-stop impacts (gibbsimpact.limits)."""
+
+    def __init__(self, limits, n_walls, n_joints):
+        self.limits, self.W, self.J = limits, n_walls, n_joints
+        self.cols = max(n_joints, len(limits))
+        self.n = np.array([lim.n for lim in limits])  # (L, N)
+        self.offset = np.array([lim.offset for lim in limits])
+        self.near = np.zeros(len(limits), dtype=bool)  # limits in their contact band (after an end-stop impact)
+        self.streak = np.zeros(len(limits), dtype=int)
+        self.times: list[float] = []
+
+    def _full(self, g_walls, qs):
+        """(K, W + 1, cols): wall gaps, then the limit gaps; +inf pads unused entries."""
+        K = qs.shape[0]
+        G = np.full((K, self.W + 1, self.cols), np.inf)
+        G[:, :self.W, :self.J] = g_walls.reshape(K, self.W, self.J)
+        G[:, self.W, :len(self.limits)] = qs @ self.n.T + self.offset
+        return G
+
+    def wrap(self, gaps):
+        return lambda q: self._full(gaps(q), q[None, :])[0]
+
+    def wrap_batch(self, gaps_batch):
+        return lambda qs: self._full(gaps_batch(qs), qs)
+
+    def events(self, events, kinds, q, contact_tol, sink_depth):
+        """Append one event per limit (or its sink / leave pair when it is in the band) to the wall events."""
+        g = limit_gaps(self.limits, q)
+        self.near &= g <= 2.0 * contact_tol
+        rows, kinds = [tuple(r) for r in zip(events.wall, events.joint, events.offset, events.direction)], list(kinds)
+        for k, gk in enumerate(g):
+            if self.near[k]:
+                rows.append((self.W, k, sink_depth - min(float(gk), 0.0), -1.0))
+                kinds.append(("sink", self.W, k))
+                rows.append((self.W, k, -3.0 * contact_tol, 1.0))
+                kinds.append(("leave", self.W, k))
+            else:
+                rows.append((self.W, k, 0.0, -1.0))
+                kinds.append(("hit", self.W, k))
+        a = np.array(rows, dtype=float).reshape(-1, 4)
+        return EventSpec(a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]), kinds
+
+    def impact(self, model, t, q, qd, k, e_stop, grazing_velocity, sinking):
+        """End-stop impact of limit k (Newton's law with W = n), or None when it does not approach."""
+        n = self.limits[k].n
+        # consecutive impacts of this stop without a "leave" event in between
+        self.streak[k] = self.streak[k] + 1 if self.near[k] else 1
+        self.near[k] = True
+        v = float(n @ qd)
+        if not (v < -grazing_velocity or (sinking and v < 0)):
+            return None
+        sol = solve_impulses(mass_matrix(model, q), n[:, None], qd, np.array([e_stop]))
+        return ImpactRecord(
+            time=t, joints=(self.limits[k].joint,), wall=(-1,), normals=np.zeros((1, 3)),
+            impulses=sol.impulses, v_before=sol.v_before, v_after=sol.v_after, restitution=np.array([e_stop]),
+            qdot_before=qd.copy(), qdot_after=sol.qdot_after.copy(),
+            energy_before=energy(model, q, qd), energy_after=energy(model, q, sol.qdot_after),
+            rounds=len(sol.rounds),
+        )
+
+    def accumulation(self, t, k, count, interval):
+        """Stop message when the joint has come to rest at end stop k: ``count`` impacts of
+        limit k in a row without its "leave" event in between (rule (a) of the module
+        docstring), or ``count`` impacts in a row less than ``interval`` apart (rule (b))."""
+        self.times.append(t)
+        dts = np.diff(self.times[-(count + 1):])
+        if self.streak[k] < count and not (dts.size >= count and np.all(dts < interval)):
+            return None
+        return (f"joint {self.limits[k].joint} came to rest at its end stop ({self.limits[k].name}) at "
+                f"t = {t:.9g} s: {count} end-stop impacts without leaving the stop; resting contact "
+                "at an end stop is not modelled: results up to here are kept")
+
+
 def simulate(
     model,
     q0,
@@ -435,6 +512,8 @@ def simulate(
     max_impacts: int = 10000,
     progress=None,
     inputs=None,
+    joint_limit: str = "stop",
+    joint_restitution: float = 0.5,
     _in_step_check: bool = True,
 ) -> Result:
     """Simulate flight phases and impacts from (q0, qdot0) over t_span.
@@ -467,6 +546,11 @@ def simulate(
         f(t, q, qdot)} (a torque [N m] on an angle, a force [N] on a translation).
         With inputs or damped links (``Link.damping``) the run also integrates their
         work W (Result.work) and energy_error measures E(t) - E(start) - (W(t) - W(start)).
+    joint_limit : "stop" (default) or "impact", what happens when a prismatic joint reaches
+        an end of its range (gibbsimpact.limits): "stop" ends the run with status
+        "joint_limit" (results kept); "impact" applies an end-stop impact with
+        ``joint_restitution`` (an ImpactRecord with wall -1) and goes on.
+    joint_restitution : float in [0, 1], e_stop of the end-stop impacts (joint_limit="impact")
     _in_step_check : private; False turns off the search for gap dips inside steps
         (flight.py), leaving solve_ivp's sign test at step ends: for benchmarks and tests only.
 
@@ -493,6 +577,13 @@ def simulate(
     for name, v in (("zeno_count", zeno_count), ("max_impacts", max_impacts)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ValueError(f"simulate {name}={v!r} must be an integer >= 1")
+    if joint_limit not in JOINT_LIMIT_MODES:
+        raise ValueError(f"simulate joint_limit={joint_limit!r} must be 'stop' (end the run at a joint limit) "
+                         "or 'impact' (an end-stop impact with joint_restitution)")
+    if isinstance(joint_restitution, bool) or not isinstance(joint_restitution, Real) or not 0.0 <= joint_restitution <= 1.0:
+        raise ValueError(f"simulate joint_restitution={joint_restitution!r} must be a number in [0, 1]")
+    limits = joint_limits(model)
+    check_initial(limits, q0)
     _check_inside(model, q0, walls, contact_tol)
     try:
         mass_matrix(model, q0)
@@ -512,7 +603,7 @@ def simulate(
         wall_restitution=[w.restitution for w in walls], output_dt=output_dt, max_step=max_step,
         contact_tol=contact_tol, grazing_velocity=grazing_velocity, penetration_tol=penetration_tol,
         zeno_interval=zeno_interval, zeno_count=int(zeno_count), max_impacts=int(max_impacts),
-        t_span=[t0, t_end],
+        t_span=[t0, t_end], joint_limit=joint_limit, joint_restitution=float(joint_restitution),
     )
     counters = {"nfev": 0, "n_steps": 0, "n_examined": 0}
 
@@ -538,6 +629,11 @@ def simulate(
             return np.full(y.shape, np.nan)
 
     contacts = _Contacts(model, walls)
+    # Joint limits, when the chain has prismatic joints: one more row of the gap matrix (row W).
+    gap_matrix, gap_batch = contacts.gaps, contacts.gaps_batch
+    stops = _EndStops(limits, len(walls), model.n_joints) if limits else None
+    if stops is not None:
+        gap_matrix, gap_batch = stops.wrap(contacts.gaps), stops.wrap_batch(contacts.gaps_batch)
     # |dg/dq| <= 1 + 2 sum l: a translation moves a joint 1:1, a rotation by at most its lever arm.
     lipschitz = 1.0 + 2.0 * sum(ld.length for ld in model.link_data)
     recorder = _Recorder(model, t0, q0, qdot0)
@@ -581,11 +677,13 @@ def simulate(
                 g_start = contacts.gaps(y[:N])
                 sink_depth = max(1e-6 * contact_tol, 64 * np.finfo(float).eps * (1.0 + float(np.abs(y[:3]).max())))
                 events, kinds = _phase_events(near, g_start, contact_tol, sink_depth)
+                if stops is not None:
+                    events, kinds = stops.events(events, kinds, y[:N], contact_tol, sink_depth)
                 try:
                     flown = out = integrate_phase(
-                        rhs, t, y, t_end, events, contacts.gaps, method=method, rtol=rtol, atol=atol,
+                        rhs, t, y, t_end, events, gap_matrix, method=method, rtol=rtol, atol=atol,
                         max_step=max_step, output_dt=output_dt, t_origin=t0, lipschitz=lipschitz, slack=contact_tol,
-                        n_q=N, check_in_step=_in_step_check, gap_batch=contacts.gaps_batch,
+                        n_q=N, check_in_step=_in_step_check, gap_batch=gap_batch,
                     )
                 except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
                     status, message = STATUS_FAILED, f"integration failed after t = {t:.9g} s: {exc}"
@@ -606,8 +704,9 @@ def simulate(
                 # Between events no joint may be beyond a wall (step ends and in-step samples).
                 if out.min_gap < -penetration_tol:
                     status = STATUS_PENETRATION
+                    what = "a wall or a joint limit" if stops is not None else "a wall"
                     message = (
-                        f"a joint went {-out.min_gap:.3g} m beyond a wall between events in the phase starting at "
+                        f"a joint went {-out.min_gap:.3g} m beyond {what} between events in the phase starting at "
                         f"t = {t:.9g} s without an event firing; tighten rtol or set max_step"
                     )
                     break
@@ -618,6 +717,33 @@ def simulate(
                 if out.event is None:
                     break
                 kind, w_i, j = kinds[out.event]
+                if w_i == len(walls):
+                    # A joint limit (row W of the gap matrix).
+                    if kind == "leave":
+                        stops.near[j] = False
+                    elif joint_limit == "stop":
+                        status = STATUS_JOINT_LIMIT
+                        message = (f"joint {limits[j].joint} reached its limit {limits[j].name} at t = {t:.9g} s; "
+                                   "results up to there are kept (simulate(..., joint_limit='impact') bounces instead)")
+                        break
+                    else:
+                        rec = stops.impact(model, t, y[:N], y[N:2 * N], j, joint_restitution, grazing_velocity,
+                                           kind == "sink")
+                        if rec is not None:
+                            y = np.concatenate((y[:N], rec.qdot_after, y[2 * N:]))
+                            phase += 1
+                            recorder.impact(rec, y[:N], phase)
+                            clock.n_impacts = recorder.n_impacts
+                            stop = stops.accumulation(rec.time, j, int(zeno_count), zeno_interval)
+                            if stop is not None:
+                                status, message = STATUS_JOINT_LIMIT, stop
+                                break
+                    stalled = stalled + 1 if t - t_prev <= 1e-14 * max(1.0, abs(t)) else 0
+                    if stalled >= 100:
+                        status = STATUS_FAILED
+                        message = f"event loop stalled at t = {t:.9g} s: 100 consecutive events without progress in time"
+                        break
+                    continue
                 sink_pair = (w_i, j) if kind == "sink" else None
                 if kind == "leave":
                     near[w_i, j] = False  # re-arm the normal event of this pair; no impact

@@ -28,7 +28,7 @@ import warnings
 
 import numpy as np
 
-from .model import shape_functions
+from .model import link_deflection
 from .walls import describe
 
 __all__ = [
@@ -60,10 +60,7 @@ def _deflections(model, q, n: int = _SAMPLES) -> list[tuple[np.ndarray, np.ndarr
         if len(idx) == 0:
             out.append((x, np.zeros(n)))
             continue
-        directions, psi = shape_functions(lk, x)
-        d = np.asarray(q, dtype=float)[idx]
-        v = sum((p * dk for p, dk, s in zip(psi, d, directions) if s == "y"), np.zeros(n))
-        w = sum((p * dk for p, dk, s in zip(psi, d, directions) if s == "z"), np.zeros(n))
+        v, w = link_deflection(model, q, i, x)
         out.append((x, np.hypot(v, w)))
     return out
 
