@@ -57,9 +57,11 @@ CHAINS = {
     "R-Pb": ([gi.Revolute(), _pb()], [0.4, 0.35]),
     "Pa-R": ([gi.SlidingPrismatic(angle=0.2, range=(-5.0, 5.0)), gi.Revolute()], [0.0, 0.5]),
     "Pb-R": ([gi.FixedPrismatic(angle=0.5, range=(0.6, 1.0)), gi.Revolute()], [0.8, 0.5]),
+    # A carriage on a flexible sliding link: its frame depends on both prismatic variables.
+    "Pb-Pa": ([gi.FixedPrismatic(angle=0.5, range=(0.6, 1.0)), _pa(range=(0.1, 0.9))], [0.8, 0.6]),
 }
 # Seconds simulated: a Pb link 1 that slides far in becomes stiff (element length d / n_e).
-DURATION = {"R-Pa": 1.0, "R-Pb": 1.0, "Pa-R": 1.0, "Pb-R": 0.5}
+DURATION = {"R-Pa": 1.0, "R-Pb": 1.0, "Pa-R": 1.0, "Pb-R": 0.5, "Pb-Pa": 0.5}
 
 
 @pytest.mark.parametrize("name", sorted(CHAINS))

@@ -76,7 +76,7 @@ import numpy as np
 # idat: [n, N, free, 0, 0, 0, 0, 0] + per coordinate (N rows of _CI ints)
 #       + per link (n rows of _LI ints)
 _H = 8
-_CI = 6  # kind, axis, first frame, own link (-1), local index, 0
+_CI = 6  # kind, axis, first frame, own link (-1), local index, first frame of a second twist (-1)
 _LI = 6  # m, first delta index in q, joint variable index in q, offset in fdat, end kind, joint kind
 KIND_TRANSLATION, KIND_ROTATION, KIND_MODE, KIND_PA, KIND_PB = 0, 1, 2, 3, 4
 END_RIGID, END_GENERAL = 0, 2  # a link end fixed to its frame, or moved by its modes
@@ -165,6 +165,12 @@ def pack(model):
             block += _pb_tables(lk)
         f += block
         off += sum(np.size(b) for b in block)
+    # A second twist (B[ss + N + c]): the protruding length D of a flexible Pb link that carries
+    # a Pa carriage moves the carriage's frame i.. once more, through its deflection (_pa_step).
+    ci[:, 5] = -1
+    for i, jt in enumerate(model.chain.joints):
+        if i > 0 and jt.kind == "Pa" and model.chain.joints[i - 1].kind == "Pb" and model.delta_index[i - 1].size:
+            ci[model.theta_index[i - 1], 5] = i
     fdat = np.ascontiguousarray(np.concatenate([np.ravel(np.asarray(b, dtype=float)) for b in f]))
     assert fdat.size == off
     return fdat, np.ascontiguousarray(idat)
@@ -542,20 +548,64 @@ def _hermite_at(ne, length, x, out):
     out[3, 0] = 2.0 * (e - 1) + 1.0
 
 
+def _host_shapes(fdat, idat, link, q, x, out):
+    """The (up to) four host functions of link ``link`` non-zero at host abscissa x [m]:
+    out[r] = (local index k, psi_k, d/dx, d2/dx2, d/dD, d2/dD2, d2/dxdD), r = 0..3.
+
+    An FE host (formulation.md 9.1): psi_k(x), D-derivatives zero. A Pb host with
+    protruding length D (10.3): psi_k = Phi_k(sigma; D) = D^a_k N_k(xi), sigma = x - (l - D),
+    xi = sigma / D, and at fixed x (11, 12 item 2):
+      d/dx = D^(a-1) N',  d2/dx2 = D^(a-2) N'',  d/dD = rho = D^(a-1) F,  F = a N + (1 - xi) N',
+      d2/dD2 = D^(a-2) [(a - 1) F + (1 - xi) F'],  d2/dxdD = D^(a-2) F',  F' = (a - 1) N' + (1 - xi) N''.
+    """
+    N = idat[1]
+    hb = _H + _CI * N + _LI * link
+    mh = idat[hb]
+    hoff = idat[hb + 3]
+    ne = int(fdat[hoff + 23 + 8 * mh + 2 * mh * mh])
+    hl = fdat[hoff + 20]
+    if idat[hb + 5] != JOINT_PB:
+        _hermite_at(ne, hl, x, out)
+        for r in range(4):
+            for c in range(4, 7):
+                out[r, c] = 0.0
+        return
+    D = q[idat[hb + 2]]
+    xi = (x - (hl - D)) / D
+    _hermite_at(ne, 1.0, xi, out)
+    for r in range(4):
+        a = float(int(out[r, 0]) % 2)  # local index even: a deflection dof (a = 0), odd: a slope dof (a = 1)
+        Nv = out[r, 1]
+        N1 = out[r, 2]
+        N2 = out[r, 3]
+        pa = D if a == 1.0 else 1.0
+        F = a * Nv + (1.0 - xi) * N1
+        F1 = (a - 1.0) * N1 + (1.0 - xi) * N2
+        out[r, 1] = pa * Nv
+        out[r, 2] = pa / D * N1
+        out[r, 3] = pa / (D * D) * N2
+        out[r, 4] = pa / D * F
+        out[r, 5] = pa / (D * D) * ((a - 1.0) * F + (1.0 - xi) * F1)
+        out[r, 6] = pa / (D * D) * F1
+
+
 def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
     """T <- T G for the carriage of joint ``link`` (formulation.md 10.2, 12 item 1);
-    the world twists of d_i and of every host coordinate into B[ss + c].
+    the world twists of d_i and of every host coordinate into B[ss + c] (and, on a
+    flexible Pb host with protruding length D = d_(i-1), D's second twist into B[ss + N + D's index]).
 
     G = Trans(d, vbar) Rz(phibar + gamma), vbar = sum b_k delta_k, phibar = sum a_k delta_k,
     b_k = [psi_k(d + c) + psi_k(d - c)] / 2,  a_k = [psi_k(d + c) - psi_k(d - c)] / (2 c)
-    (delta: the host's coordinates; zero on the base rail and on a rigid host).
-    With theta = phibar + gamma, t = (d, vbar, 0), Z = skew(e_z) and primes d/dd:
+    (delta: the host's coordinates; zero on the base rail and on a rigid host; psi_k depends
+    on D too on a Pb host, _host_shapes). With theta = phibar + gamma, t = (d, vbar, 0),
+    Z = skew(e_z) and subscripts for partial derivatives (u = d, D):
       local twist of q_c:  L_c = dG/dq_c G^-1 = [[Z theta_c, t_c - theta_c Z t], [0, 0]]
-        d: theta_d = phibar', t_d = (1, vbar', 0);  delta_k: theta_k = a_k, t_k = (0, b_k, 0)
-      Gd   = [[R' thetadot, tdot], [0, 0]],  thetadot = phibar' ddot + sum a_k deltadot_k,
-             tdot = (ddot, vbar' ddot + sum b_k deltadot_k, 0)
-      Gdd0 = [[R'' thetadot^2 + R' theta0dd, (0, vbar'' ddot^2 + 2 ddot sum b_k' deltadot_k, 0)], [0, 0]],
-             theta0dd = phibar'' ddot^2 + 2 ddot sum a_k' deltadot_k
+        d: theta_d = phibar_d, t_d = (1, vbar_d, 0);  D: theta_D = phibar_D, t_D = (0, vbar_D, 0);
+        delta_k: theta_k = a_k, t_k = (0, b_k, 0)
+      Gd   = [[R' thetadot, tdot], [0, 0]],  thetadot = sum_u phibar_u udot + sum a_k deltadot_k,
+             tdot = (ddot, sum_u vbar_u udot + sum b_k deltadot_k, 0)
+      Gdd0 = [[R'' thetadot^2 + R' theta0dd, (0, vbar0dd, 0)], [0, 0]],
+             theta0dd = sum_uv phibar_uv udot vdot + 2 sum_u udot sum a_k,u deltadot_k (vbar0dd alike)
     """
     N = idat[1]
     base = _H + _CI * N + _LI * link
@@ -570,32 +620,27 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
     kL = w + 6
     kTn = w + 7
     ks = w + 10
-    vb = 0.0
-    pb = 0.0
-    vb1 = 0.0
-    pb1 = 0.0
-    vb2 = 0.0
-    pb2 = 0.0
-    vdot = 0.0   # sum b_k deltadot_k
-    pdot = 0.0   # sum a_k deltadot_k
-    vcd = 0.0    # sum b_k' deltadot_k
-    pcd = 0.0    # sum a_k' deltadot_k
+    # sums over the host coordinates: S[0] = vbar-type (b), S[1] = phibar-type (a); columns:
+    # 0 value, 1 _d, 2 _dd, 3 _D, 4 _DD, 5 _dD, then with deltadot: 6 value, 7 _d, 8 _D
+    S = np.zeros((2, 9))
     mh = 0
     h0 = 0
+    jD = -1
+    Ddot = 0.0
+    ab = np.zeros((2, 4, 7))
     if link > 0:
         hb = _H + _CI * N + _LI * (link - 1)
         mh = idat[hb]
         h0 = idat[hb + 1]
-        hoff = idat[hb + 3]
-        ne = int(fdat[hoff + 23 + 8 * mh + 2 * mh * mh])
-        hl = fdat[hoff + 20]
+        if idat[hb + 5] == JOINT_PB and mh > 0:
+            jD = idat[hb + 2]
+            Ddot = qd[jD]
         for k in range(mh):
             _zero4(B, ss + h0 + k)
-    ab = np.zeros((2, 4, 4))
     if mh > 0:
-        # the four host functions non-zero at d + c (row 0) and at d - c (row 1)
-        _hermite_at(ne, hl, d + c, ab[0])
-        _hermite_at(ne, hl, d - c, ab[1])
+        # the four host functions non-zero at d + c (side 0) and at d - c (side 1)
+        _host_shapes(fdat, idat, link - 1, q, d + c, ab[0])
+        _host_shapes(fdat, idat, link - 1, q, d - c, ab[1])
         for side in range(2):
             sg = 1.0 if side == 0 else -1.0
             for r in range(4):
@@ -604,21 +649,26 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
                     continue
                 x = q[h0 + k]
                 y = qd[h0 + k]
-                vb += 0.5 * ab[side, r, 1] * x
-                pb += sg * ab[side, r, 1] * x / (2.0 * c)
-                vb1 += 0.5 * ab[side, r, 2] * x
-                pb1 += sg * ab[side, r, 2] * x / (2.0 * c)
-                vb2 += 0.5 * ab[side, r, 3] * x
-                pb2 += sg * ab[side, r, 3] * x / (2.0 * c)
-                vdot += 0.5 * ab[side, r, 1] * y
-                pdot += sg * ab[side, r, 1] * y / (2.0 * c)
-                vcd += 0.5 * ab[side, r, 2] * y
-                pcd += sg * ab[side, r, 2] * y / (2.0 * c)
-    th = pb + gamma
+                for col in range(6):
+                    S[0, col] += 0.5 * ab[side, r, 1 + col] * x
+                    S[1, col] += sg * ab[side, r, 1 + col] * x / (2.0 * c)
+                S[0, 6] += 0.5 * ab[side, r, 1] * y
+                S[1, 6] += sg * ab[side, r, 1] * y / (2.0 * c)
+                S[0, 7] += 0.5 * ab[side, r, 2] * y
+                S[1, 7] += sg * ab[side, r, 2] * y / (2.0 * c)
+                S[0, 8] += 0.5 * ab[side, r, 4] * y
+                S[1, 8] += sg * ab[side, r, 4] * y / (2.0 * c)
+    vb = S[0, 0]
+    th = S[1, 0] + gamma
     ct = math.cos(th)
     st = math.sin(th)
-    thd = pb1 * dd + pdot
-    th0dd = pb2 * dd * dd + 2.0 * dd * pcd
+    # first and qddot-free second time derivatives of theta and vbar
+    thd = S[1, 1] * dd + S[1, 3] * Ddot + S[1, 6]
+    vbd = S[0, 1] * dd + S[0, 3] * Ddot + S[0, 6]
+    th0dd = (S[1, 2] * dd * dd + 2.0 * S[1, 5] * dd * Ddot + S[1, 4] * Ddot * Ddot
+             + 2.0 * dd * S[1, 7] + 2.0 * Ddot * S[1, 8])
+    vb0dd = (S[0, 2] * dd * dd + 2.0 * S[0, 5] * dd * Ddot + S[0, 4] * Ddot * Ddot
+             + 2.0 * dd * S[0, 7] + 2.0 * Ddot * S[0, 8])
     for k in range(kG, kG + 3):
         _zero4(B, k)
     # G, Gd, Gdd0 (R' = [[-s, -c], [c, -s]], R'' = -R in the x-y block)
@@ -636,19 +686,26 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
         B[kG + 1, 1, 0] = ct * thd
         B[kG + 1, 1, 1] = -st * thd
         B[kG + 1, 0, 3] = dd
-        B[kG + 1, 1, 3] = vb1 * dd + vdot
+        B[kG + 1, 1, 3] = vbd
         B[kG + 2, 0, 0] = -ct * thd * thd - st * th0dd
         B[kG + 2, 0, 1] = st * thd * thd - ct * th0dd
         B[kG + 2, 1, 0] = -st * thd * thd + ct * th0dd
         B[kG + 2, 1, 1] = -ct * thd * thd - st * th0dd
-        B[kG + 2, 1, 3] = vb2 * dd * dd + 2.0 * dd * vcd
+        B[kG + 2, 1, 3] = vb0dd
     # Twists, from the frame before G: L = [[Z theta_q, t_q - theta_q Z t], [0, 0]], Z t = (-vbar, d, 0)
     _zero4(B, kL)
-    B[kL, 0, 1] = -pb1
-    B[kL, 1, 0] = pb1
-    B[kL, 0, 3] = 1.0 + pb1 * vb
-    B[kL, 1, 3] = vb1 - pb1 * d
+    B[kL, 0, 1] = -S[1, 1]
+    B[kL, 1, 0] = S[1, 1]
+    B[kL, 0, 3] = 1.0 + S[1, 1] * vb
+    B[kL, 1, 3] = S[0, 1] - S[1, 1] * d
     _conjugate(B, w, kL, ss + jd, ks)
+    if jD >= 0:
+        _zero4(B, kL)
+        B[kL, 0, 1] = -S[1, 3]
+        B[kL, 1, 0] = S[1, 3]
+        B[kL, 0, 3] = S[1, 3] * vb
+        B[kL, 1, 3] = S[0, 3] - S[1, 3] * d
+        _conjugate(B, w, kL, ss + N + jD, ks)
     if mh > 0:
         for k in range(mh):
             ak = 0.0
@@ -942,7 +999,7 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
     PIC = 3 * n1
     FC = 4 * n1
     SS = 5 * n1
-    XS = SS + N
+    XS = SS + 2 * N  # twists, then second twists (B[SS + N + c], used where idat's f2_c >= 0)
     WK = XS + N
     B = np.zeros((WK + _W_SIZE, 4, 4))
     kP = WK + 20
@@ -1082,6 +1139,38 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
                 elif idat[_H + _CI * a + 1] == idat[_H + _CI * b + 1]:
                     # Mpsi of two modes of one link along one axis
                     val += fdat[idat[bl + 3] + 21 + 2 * m + m * la + lb]
+            f2a = idat[_H + _CI * a + 5]
+            f2b = idat[_H + _CI * b + 5]
+            if f2a >= 0 or f2b >= 0:
+                # second twists: S_a(j) = S_a + [j >= f2_a] S2_a on frame j
+                for pa in range(2):
+                    if pa == 1 and f2a < 0:
+                        continue
+                    sa = SS + a + pa * N
+                    st_a = fa if pa == 0 else f2a
+                    for pb_ in range(2):
+                        if (pb_ == 1 and f2b < 0) or (pa == 0 and pb_ == 0):
+                            continue
+                        sb = SS + b + pb_ * N
+                        st = max(st_a, fb if pb_ == 0 else f2b)
+                        for r in range(3):
+                            for k in range(4):
+                                x = 0.0
+                                for l2 in range(4):
+                                    x += B[PIC + st, k, l2] * B[sb, r, l2]
+                                val += B[sa, r, k] * x
+                if f2a >= 0 and ob >= 0 and f2a <= ob:
+                    for r in range(3):
+                        x = 0.0
+                        for k in range(4):
+                            x += B[SS + N + a, r, k] * V[YY + b, k]
+                        val += V[EE + b, r] * x
+                if f2b >= 0 and oa >= 0 and f2b <= oa:
+                    for r in range(3):
+                        x = 0.0
+                        for k in range(4):
+                            x += B[SS + N + b, r, k] * V[YY + a, k]
+                        val += V[EE + a, r] * x
             M[c, d] = val
             M[d, c] = val
     for c in range(N):
@@ -1101,6 +1190,22 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
                 for k in range(4):
                     x += B[SS + c, r, k] * B[FC + fc, k, r]
             h[c] += x
+        f2 = idat[_H + _CI * c + 5]
+        if f2 >= 0:
+            # the second twist's share: -g~ . (S2_c mu^c_f2) and tr(S2_c F^c_f2)
+            s = 0.0
+            for r in range(3):
+                x = 0.0
+                for k in range(4):
+                    x += B[SS + N + c, r, k] * V[MUC + f2, k]
+                s += fdat[_F_G + r] * x
+            dV[c] -= s
+            if vel:
+                x = 0.0
+                for r in range(3):
+                    for k in range(4):
+                        x += B[SS + N + c, r, k] * B[FC + f2, k, r]
+                h[c] += x
 
 
 def _cholesky_solve(M, b):
@@ -1314,7 +1419,7 @@ def kernel(fdat, idat, qs, qds, Q, job):
     TDS = n + 1
     TDDS = 2 * n + 2
     SS = 3 * n + 3
-    WK = SS + N
+    WK = SS + 2 * N
     B = np.zeros((WK + _W_SIZE, 4, 4))
     V = np.zeros((2 * _mmax(idat) + 4, 4))
     SD = np.zeros(n * _sd_stride(_mmax(idat)))
@@ -1350,10 +1455,15 @@ def kernel(fdat, idat, qs, qds, Q, job):
                 o = L[_S_JAC] + 3 * N * ((n + 1) * k + j)
                 for c in range(N):
                     if idat[_H + _CI * c + 2] <= j:
+                        f2 = idat[_H + _CI * c + 5]
                         for a in range(3):
                             s = B[SS + c, a, 3]
                             for b in range(3):
                                 s += B[SS + c, a, b] * B[TS + j, b, 3]
+                            if 0 <= f2 <= j:
+                                s += B[SS + N + c, a, 3]
+                                for b in range(3):
+                                    s += B[SS + N + c, a, b] * B[TS + j, b, 3]
                             out[o + N * a + c] = s
     return out
 
@@ -1366,7 +1476,7 @@ def kernel(fdat, idat, qs, qds, Q, job):
 # their callers use; called from Python they run uncompiled.
 _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_skew", "_skew3",
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
-            "_hermite_at", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
+            "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
             "_sd_stride", "_own", "_link_body", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
 _ENTRIES = {"kernel": f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64)"}

@@ -412,11 +412,6 @@ def _check_joints(links, joints, base):
                 f"Chain joints[{k}] SlidingPrismatic half_length={c!r} on a finite-element host: give c > 0. "
                 "A point slider follows the host's slope v'(d), whose derivative v'' jumps at every element "
                 "node, so M(q) would jump there and energy would not be conserved (formulation.md 10.2)")
-        if joints[k - 1].kind == "Pb" and host.elements:
-            raise ValueError(
-                f"Chain joints[{k}] SlidingPrismatic on links[{k - 1}], a flexible link sliding through a "
-                "FixedPrismatic guide: not supported yet (the carriage's transform would depend on both "
-                f"prismatic variables); make links[{k - 1}] rigid (elements=0)")
         if lo < c - 1e-12 or hi > host.length - c + 1e-12:
             raise ValueError(
                 f"Chain joints[{k}] SlidingPrismatic range={jt.range!r}: the carriage must stay on the host, "
