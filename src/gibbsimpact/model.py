@@ -303,14 +303,24 @@ class Chain:
     give three rotations ``Rx(theta_-1) Ry(theta_0) Rz(theta_1)``; every further
     link adds a revolute joint about its own z axis.
 
-    Fixed base (``base=gi.FixedBase(position, angle)``): link 1 turns by
-    theta_1 about z at the base frame T_0; no base coordinates.
+    Fixed base (``base=gi.FixedBase(position, angle)``): joint 1 sits at the
+    base frame T_0; no base coordinates.
+
+    Planar floating base (``base="planar"``): coordinates X1, X2 translate the
+    base frame in the X1-X2 plane; joint 1 must be revolute (theta_1 is the
+    floating orientation).
+
+    Joints (formulation.md section 10): gi.Revolute() (theta_i [rad]),
+    gi.SlidingPrismatic (Pa, a carriage on the host link, d_i [m]) and
+    gi.FixedPrismatic (Pb, the link slides through a guide at the host's tip,
+    d_i = protruding length [m]). Prismatic joints make the chain planar: a
+    fixed or a planar floating base, in-plane bending only.
 
     Parameters
     ----------
     links : sequence of Link (n >= 1)
-    joints : sequence of n joints (gi.Revolute()), or None for all revolute
-    base : "free" or FixedBase
+    joints : sequence of n joints, or None for all revolute
+    base : "free" (spatial floating base), "planar" or FixedBase
     """
 
     links: tuple
@@ -623,10 +633,12 @@ class Model:
     Attributes
     ----------
     n_dof : int
-        N = 3 + (n + 2) + sum m_i (free base), n + sum m_i (fixed base).
+        N = 3 + (n + 2) + sum m_i (free base), 2 + n + sum m_i (planar base),
+        n + sum m_i (fixed base).
     coordinate_names : tuple of str, length N
         ``X1 X2 X3 theta_-1 theta_0 theta_1 ... theta_n delta_1_1 ...`` (free base),
-        ``theta_1 ... theta_n delta_1_1 ...`` (fixed base).
+        ``X1 X2 j_1 ... j_n delta_1_1 ...`` (planar base), ``j_1 ... j_n delta_1_1 ...``
+        (fixed base), with j_i = ``theta_i`` (revolute) or ``d_i`` (prismatic).
     """
 
     def __init__(self, chain: Chain, gravity: Sequence[float] = (0.0, -9.81, 0.0), quadrature=DEFAULT_QUADRATURE):
@@ -643,8 +655,8 @@ class Model:
         self._gravity = g
         g.setflags(write=False)
         self._links = tuple(link_integrals(lk, quadrature) for lk in chain.links)
-        # Free base: q = [X1, X2, X3, theta_-1, theta_0, theta_1 .. theta_n, deltas];
-        # fixed base: q = [theta_1 .. theta_n, deltas] (formulation.md sections 1, 8).
+        # Free base: q = [X1, X2, X3, theta_-1, theta_0, theta_1 .. theta_n, deltas]; planar base:
+        # [X1, X2, j_1 .. j_n, deltas]; fixed base: [j_1 .. j_n, deltas] (formulation.md sections 1, 8).
         base = {"free": ["X1", "X2", "X3", "theta_-1", "theta_0"], "planar": ["X1", "X2"]}.get(
             chain.base if chain.free_base else "", [])
         kinds = [j.kind for j in chain.joints]
