@@ -56,7 +56,26 @@ psihat_l = (e_{a_l} psi_l(x), 0) with a_l in {y, z} the bending axis of mode l.
    1/2 alpha.J alpha + alpha.(omega x J omega), the term of formulation.md
    section 4 (Gibbs-Appell of a rigid body is linear in its pseudo-inertia).
 
-Kinetic energy per link: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 deltadot^T M_dd deltadot.
+6. *Prismatic joints* (formulation.md 10, 12). A Pa carriage and a Pb guide are
+   local transforms like the others (_pa_step, _pb_step): each coordinate they
+   depend on gets its world twist. A Pb link's d also deforms the link's own
+   material (chi = dv/dd at fixed x): d is then an *own* coordinate of that link
+   (o_d = i, shape chi, velocity coefficient ddot) as well as a twist coordinate
+   (f_d = i), and for every pair
+
+       M_ab = tr(S_a Pi^c_max(f_a, f_b) S_b^T) + [o_b >= 0, f_a <= o_b] e_b.(S_a y_b)
+              + [o_a >= 0, f_b <= o_a] e_a.(S_b y_a) + [o_a = o_b] int mu phi_a phi_b
+
+   (for modes f = o + 1, so this is item 2). The Pb link's moments depend on d
+   and come from an exact Gauss rule per call (_pb_moments), with the
+   convective acceleration r0dd = e_y a0 adding int mu r a0 to F and
+   int mu phi_l a0 to the own part of h.
+7. *Two twists.* Under a Pa carriage on a flexible Pb link, the host's D moves
+   frames i-1.. by S_D and frames i.. also by S2_D (the carriage follows the
+   stretching deflection): S_D(j) = S_D + [j >= f2] S2_D, and every trace above
+   is summed over the pieces, each with the composite of its later start frame.
+
+Kinetic energy per link: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 int mu vdot^2.
 
 Data layout (``pack``): one float64 and one int64 array per model, so that a
 call passes few arguments (numba's dispatch cost grows with their number).
