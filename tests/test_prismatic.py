@@ -268,3 +268,20 @@ def test_fixed_base_fe_arm_with_a_sliding_link_strikes_a_plane():
     assert first.v_after[0] == pytest.approx(-first.v_before[0], rel=1e-9)
     E = res.energy()
     assert np.abs(E.total - E.total[0]).max() / _energy_scale(E) <= 1e-8
+
+
+def test_damped_sliding_link_balance_closes():
+    # Stiffness-proportional damping of a Pb link uses K(d) of the protruding part; the audit
+    # E(t) - E(0) - W_in - W_damp still closes, and the damping only dissipates.
+    host = gi.Link(1.0, 1.0, 10.0, elements=2)
+    arm = gi.Link(0.6, 0.5, 2.0, elements=2, damping=0.05)
+    model = gi.Model(gi.Chain([host, arm], joints=[gi.Revolute(), _pb()], base=gi.FixedBase((0.1, 0.2), 0.3)))
+    q0 = model.state(theta_1=0.4, d_2=0.35, delta_2_3=0.01)
+    res = gi.simulate(model, q0, model.state(theta_1=0.8), (0.0, 0.4), rtol=1e-11, atol=1e-12,
+                      inputs={"d_2": 1.0}, joint_limit="impact", joint_restitution=1.0)
+    assert res.status == "finished", res.message
+    E = res.energy()
+    W_in, W_damp = res.work[:, 0], res.work[:, 1]
+    assert W_damp[-1] < 0 and np.all(np.diff(W_damp) <= 1e-15)
+    balance = np.abs(E.total - E.total[0] - W_in - W_damp).max() / (_energy_scale(E) + np.abs(W_in).max())
+    assert balance <= 1e-9, balance

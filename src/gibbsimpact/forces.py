@@ -30,17 +30,42 @@ import numpy as np
 import scipy.linalg as sl
 
 
-def damping_matrix(model) -> np.ndarray:
-    """C = block-diag(beta_i K_i), shape (N, N) [N s/m, N s, N m s by block]; zeros when no link is damped."""
+def _pb_stiffness(link, d: float) -> np.ndarray:
+    """K(d) (m, m) of a link behind a FixedPrismatic guide with protruding length d [m]:
+    K_kl = EI d^(a_k + a_l - 3) K^_kl (formulation.md 11; assembled eq. (27) with h = d / n_e)."""
+    from .elements import assemble, element_stiffness
+
+    return assemble(element_stiffness(link.EI_z, d / link.elements), link.elements)
+
+
+def damping_depends_on_q(model) -> bool:
+    """True when a damped link slides through a FixedPrismatic guide (its K depends on d)."""
+    return any(lk.damping > 0 and lk.elements and jt.kind == "Pb"
+               for lk, jt in zip(model.chain.links, model.chain.joints))
+
+
+def damping_matrix(model, q=None) -> np.ndarray:
+    """C = block-diag(beta_i K_i), shape (N, N) [N s/m, N s, N m s by block]; zeros when no link is damped.
+
+    For a link behind a FixedPrismatic guide K_i = K_i(d_i), the stiffness of the
+    protruding part at q (N,) (required then), and beta_i uses omega_1 of the link
+    at full length (d = l): the damping coefficient is a material constant.
+    """
     N = model.n_dof
     C = np.zeros((N, N))
-    for link, ld, idx in zip(model.chain.links, model.link_data, model.delta_index):
+    for i, (link, ld, idx) in enumerate(zip(model.chain.links, model.link_data, model.delta_index)):
         zeta = link.damping
         if zeta == 0.0:
             continue
         w2 = sl.eigh(ld.K, ld.M_dd, eigvals_only=True)
         beta = 2.0 * zeta / np.sqrt(w2.min())
-        C[np.ix_(idx, idx)] = beta * ld.K
+        K = ld.K
+        if model.chain.joints[i].kind == "Pb" and link.elements:
+            if q is None:
+                raise ValueError("damping_matrix(model, q): a damped link slides through a FixedPrismatic guide, "
+                                 "so C depends on its protruding length; give q")
+            K = _pb_stiffness(link, float(q[model.theta_index[i]]))
+        C[np.ix_(idx, idx)] = beta * K
     C.setflags(write=False)
     return C
 

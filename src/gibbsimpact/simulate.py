@@ -64,7 +64,7 @@ import numpy as np
 
 from .dynamics import Energy, SingularMassMatrixError, energies, energy, forward_dynamics, mass_matrix
 from .flight import SOLVERS, EventSpec, integrate_phase
-from .forces import damping_matrix, generalized_force
+from .forces import damping_depends_on_q, damping_matrix, generalized_force
 from .impact import solve_impulses
 from .kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
 from .limits import JOINT_LIMIT_MODES, STATUS_JOINT_LIMIT, check_initial, joint_limits, limit_gaps
@@ -594,7 +594,8 @@ def simulate(
 
     N = model.n_dof
     Q_in = generalized_force(model, inputs, t0, q0, qdot0)
-    C_damp = damping_matrix(model)
+    C_varies = damping_depends_on_q(model)  # a damped Pb link: C = C(d)
+    C_damp = damping_matrix(model, q0)
     damped = bool(np.any(C_damp))
     driven = Q_in is not None or damped
     e_wall = np.array([restitution if w.restitution is None else w.restitution for w in walls])
@@ -618,7 +619,7 @@ def simulate(
                 return np.concatenate((qd, forward_dynamics(model, q, qd)))
             # (1) of forces.py: M qddot = Q_in + Q_damp - h - dV/dq, and the work rates qdot.Q.
             Qi = Q_in(t, q, qd) if Q_in is not None else np.zeros(N)
-            Qd = -(C_damp @ qd) if damped else np.zeros(N)
+            Qd = -((damping_matrix(model, q) if C_varies else C_damp) @ qd) if damped else np.zeros(N)
             qdd = forward_dynamics(model, q, qd, Qi + Qd)
             return np.concatenate((qd, qdd, [qd @ Qi, qd @ Qd]))
         except SingularMassMatrixError as exc:
