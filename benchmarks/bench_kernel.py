@@ -41,9 +41,29 @@ that fails prints its error and the next one runs):
    run <= 1.5 s wall.
 6. benchmarks/scaling.png: per-call cost against n, log-log, for gibbsimpact
    (rigid, 1 mode, 2 modes), Pinocchio and the symbolic route.
+7. Prismatic joints: ``forward_dynamics`` per call on a planar 3-link chain on a
+   fixed base with joints R, Pa, Pb (formulation.md 10.1-10.3), each link a
+   Hermite finite-element beam of 4 elements (N = 3 + 3 x 8 = 27), next to the
+   all-revolute chain R, R, R of the same links and elements (N = 27), and
+   against the independent planar derivation tests/reference/planar_oracle.py
+   (position map, forward-mode jets, Gauss quadrature in numpy; it shares no
+   code with the package and is not written for speed) on both chains. Links:
+   (l, mu, EI) = (1.0 m, 1.0 kg/m, 25 N m^2), (0.6, 0.8, 10), (0.5, 0.4, 4);
+   Pa: carriage half-length c = 0.05 m, gamma = 0.5 rad, on link 1; Pb:
+   gamma = -0.4 rad, through a guide at link 2's tip; base (0, 0), gravity -X2.
+   State: theta_1 = 0.7 rad (R-R-R: theta = 0.7, -0.4, 0.3 rad); d_2 = 0.43 m
+   (carriage contact points at 0.38 and 0.48 m, clear of link 1's nodes at
+   0.25, 0.5 m), d_3 = 0.37 m; node deflections uniform in +-2 cm /
+   +-0.05 rad, velocities N(0, 1). Every cost
+   is measured as CPU time (time.process_time) and as wall time of each of
+   ``repeats`` loops of ~budget s; minimum and median of the repeats are
+   printed (the ratios use the CPU minima). ``match``: max|qddot_oracle -
+   qddot| / max|qddot| at that state (1e-12 or less measured). Runs on its own with
+   ``--only prismatic`` (no plot; ~15 s).
 
 Usage:
     python benchmarks/bench_kernel.py [--quick] [--skip-cold] [--skip-simulate] [--repeats R]
+    python benchmarks/bench_kernel.py --only prismatic [--quick] [--repeats R]
 
 ``--quick`` is a smoke run: n = 2, 4, 8, 3 repeats of short loops, 1 timed
 simulate run, sympy for n <= 4 only.
@@ -485,6 +505,103 @@ def plot(cfg, results):
     return PNG
 
 
+# -- section 7: prismatic joints ----------------------------------------------------------------------
+
+# (l, mu, EI) of the three links, 4 Hermite elements each; joint parameters of section 7 (docstring).
+PRISMATIC_LINKS = ((1.0, 1.0, 25.0), (0.6, 0.8, 10.0), (0.5, 0.4, 4.0))
+PRISMATIC_ELEMENTS = 4
+PA = {"gamma": 0.5, "c": 0.05, "range": (0.1, 0.9)}
+PB = {"gamma": -0.4, "range": (0.2, 0.5)}
+PRISMATIC_JOINTS = {"R-Pa-Pb": ("R", "Pa", "Pb"), "R-R-R": ("R", "R", "R")}
+PRISMATIC_STATE = {"R": (0.7, -0.4, 0.3), "Pa": (None, 0.43, None), "Pb": (None, None, 0.37)}  # by position
+
+
+def planar_chain(kinds):
+    """(gibbsimpact Model, planar oracle, q, qdot) of the section-7 chain with joint kinds ``kinds``."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from reference.planar_oracle import PlanarChain, link
+
+    links, joints, ref = [], [], []
+    for (l, mu, ei), kind in zip(PRISMATIC_LINKS, kinds):
+        links.append(gi.Link(length=l, mass_per_length=mu, EI=ei, elements=PRISMATIC_ELEMENTS))
+        if kind == "R":
+            joints.append(gi.Revolute())
+            ref.append(link("R", l, mu, ei, PRISMATIC_ELEMENTS))
+        elif kind == "Pa":
+            joints.append(gi.SlidingPrismatic(angle=PA["gamma"], half_length=PA["c"], range=PA["range"]))
+            ref.append(link("Pa", l, mu, ei, PRISMATIC_ELEMENTS, gamma=PA["gamma"], c=PA["c"]))
+        else:
+            joints.append(gi.FixedPrismatic(angle=PB["gamma"], range=PB["range"]))
+            ref.append(link("Pb", l, mu, ei, PRISMATIC_ELEMENTS, gamma=PB["gamma"]))
+    chain = gi.Chain(links, joints=joints, base=gi.FixedBase((0.0, 0.0), 0.0))
+    model = gi.Model(chain, gravity=GRAVITY)
+    orc = PlanarChain(ref, base=(0.0, 0.0, 0.0), gravity=GRAVITY[:2])
+    if orc.coordinate_names != tuple(model.coordinate_names):
+        raise RuntimeError(f"oracle coordinates {orc.coordinate_names} != {model.coordinate_names}")
+    rng = np.random.default_rng(7)
+    joint_q = [PRISMATIC_STATE[kind][i] for i, kind in enumerate(kinds)]
+    n_el = model.n_dof - len(kinds)
+    defl = np.ravel([(rng.uniform(-0.02, 0.02), rng.uniform(-0.05, 0.05)) for _ in range(n_el // 2)])
+    q = np.concatenate([np.array(joint_q, dtype=float), defl])
+    qd = rng.normal(size=model.n_dof)
+    return model, orc, q, qd
+
+
+def per_call_cpu_wall(fn, repeats: int, budget: float) -> dict:
+    """Per-call cost [us] of ``repeats`` loops of ~``budget`` s: min and median of CPU and of wall time."""
+    fn()
+    number, t = 1, 0.0
+    while True:  # calibrate the loop length on wall time
+        t0 = time.perf_counter()
+        for _ in range(number):
+            fn()
+        t = time.perf_counter() - t0
+        if t >= budget or number >= 1 << 20:
+            break
+        number = max(number * 2, int(number * budget / max(t, 1e-9) * 1.1))
+    cpu, wall = [], []
+    for _ in range(repeats):
+        c0, w0 = time.process_time(), time.perf_counter()
+        for _ in range(number):
+            fn()
+        wall.append((time.perf_counter() - w0) / number * 1e6)
+        cpu.append((time.process_time() - c0) / number * 1e6)
+    return {"cpu_min": min(cpu), "cpu_med": float(np.median(cpu)), "wall_min": min(wall),
+            "wall_med": float(np.median(wall)), "calls": number}
+
+
+def prismatic_chains(cfg):
+    """Section 7: 3-link R-Pa-Pb chain (4 elements per link) against R-R-R and the planar oracle."""
+    section("7. forward_dynamics per call, planar 3-link FE chain (4 elements/link): R-Pa-Pb vs R-R-R, "
+            "planar oracle")
+    print("fixed base; (l, mu, EI) = " + ", ".join(f"({l:g}, {mu:g}, {ei:g})" for l, mu, ei in PRISMATIC_LINKS)
+          + f"; Pa c = {PA['c']:g} m, gamma = {PA['gamma']:g}; Pb gamma = {PB['gamma']:g}")
+    print(f"per call [us]: min / median of {cfg.repeats} loops of ~{cfg.budget} s, CPU (process_time) and wall")
+    out = {}
+    head = (f"{'chain':<8} {'N':>3} {'gi cpu min':>10} {'med':>7} {'wall min':>9} {'oracle cpu min':>14} "
+            f"{'med':>8} {'wall min':>9} {'oracle/gi':>9} {'match':>8}")
+    print(head)
+    for label, kinds in PRISMATIC_JOINTS.items():
+        model, orc, q, qd = planar_chain(kinds)
+        a_gi = forward_dynamics(model, q, qd)
+        a_ref = orc.forward_dynamics(q, qd)
+        match = float(np.abs(a_ref - a_gi).max() / np.abs(a_gi).max())
+        t_gi = per_call_cpu_wall(partial(forward_dynamics, model, q, qd), cfg.repeats, cfg.budget)
+        t_orc = per_call_cpu_wall(partial(orc.forward_dynamics, q, qd), cfg.repeats, cfg.budget)
+        ratio = t_orc["cpu_min"] / t_gi["cpu_min"]
+        out[label] = {"N": model.n_dof, "gi": t_gi, "oracle": t_orc, "ratio": ratio, "match": match}
+        print(f"{label:<8} {model.n_dof:>3} {t_gi['cpu_min']:>10.1f} {t_gi['cpu_med']:>7.1f} "
+              f"{t_gi['wall_min']:>9.1f} {t_orc['cpu_min']:>14.0f} {t_orc['cpu_med']:>8.0f} "
+              f"{t_orc['wall_min']:>9.0f} {ratio:>9.0f} {match:>8.1e}", flush=True)
+    if len(out) == 2:
+        p, r = out["R-Pa-Pb"], out["R-R-R"]
+        out["prismatic_over_revolute"] = p["gi"]["cpu_min"] / r["gi"]["cpu_min"]
+        print(f"R-Pa-Pb / R-R-R (same links, elements, N): gibbsimpact {out['prismatic_over_revolute']:.2f}x "
+              f"(median {p['gi']['cpu_med'] / r['gi']['cpu_med']:.2f}x), planar oracle "
+              f"{p['oracle']['cpu_min'] / r['oracle']['cpu_min']:.2f}x")
+    return out
+
+
 # -- main ---------------------------------------------------------------------------------------------
 
 def describe_environment():
@@ -517,6 +634,8 @@ def main(argv=None):
     ap.add_argument("--skip-cold", action="store_true", help="skip section 5 (cold start)")
     ap.add_argument("--skip-simulate", action="store_true", help="skip section 4 (simulate against the baseline)")
     ap.add_argument("--repeats", type=int, default=None, help="timing loops per measurement; the minimum is reported")
+    ap.add_argument("--only", choices=("prismatic",), default=None,
+                    help="run one section on its own: prismatic = section 7 (no plot)")
     args = ap.parse_args(argv)
     cfg = argparse.Namespace(
         sizes=(2, 4, 8) if args.quick else (2, 4, 8, 16, 32),
@@ -526,6 +645,9 @@ def main(argv=None):
         sympy_n_max=4 if args.quick else 16,
     )
     cfg.kernel_label = describe_environment()
+    if args.only == "prismatic":
+        print(f"{cfg.repeats} repeats of ~{cfg.budget} s loops per timing")
+        return {"prismatic": run_section(prismatic_chains, cfg)}
     print(f"sizes n = {cfg.sizes}; {cfg.repeats} repeats of ~{cfg.budget} s loops per timing (minimum reported)")
     results = {}
     results["rigid"] = run_section(rigid_vs_pinocchio, cfg)
@@ -540,6 +662,7 @@ def main(argv=None):
         print("\n(section 5 skipped: --skip-cold)")
     else:
         results["cold"] = run_section(cold_start, cfg)
+    results["prismatic"] = run_section(prismatic_chains, cfg)
     run_section(plot, cfg, results)
     return results
 

@@ -362,6 +362,16 @@ def with_key(range_key, value):
     if section == "links.modes":
         link["modes"][0][key] = value
         return d, f"links[1].modes[1].{key}"
+    if section == "links.joint":
+        # A rigid rod whose carriage (joint 1, Pa) runs on the base rail: any range, any c, any angle.
+        coords.pop("X1_m")
+        d["base"] = {"type": "fixed"}
+        lo, hi = (0.0, 1.0)
+        if key == "range_m":
+            lo, hi = (value, value + 1.0) if value < 0 else (value - 1.0, value)
+        link["joint"] = {"type": "Pa", "range_m": [lo, hi], key: [lo, hi] if key == "range_m" else value}
+        coords["d_1_m"] = (lo + hi) / 2
+        return d, f"links[1].joint.{key}"
     if section == "walls":
         wall = d["walls"][0]
         if key == "radius_m":
@@ -626,7 +636,7 @@ def test_base_table_errors(tmp_path):
     assert d["base.angle_rad"].startswith("sets the base angle again")
     no_type = ARM.replace("[base]\n", "[base]\nposition_m = [0, 0, 0]\n").replace('type = "fixed"\n', "")
     err = problems_of(tmp_path, no_type)
-    assert err.problems == [("base.type", "missing ('fixed' or 'free')")]
+    assert err.problems == [("base.type", "missing ('fixed', 'free' or 'planar')")]
     # type = "free" is the free-flying default.
     free = gi.load_case(write(tmp_path, GOOD + '\n[base]\ntype = "free"\n'))
     assert free.model.free_base and free.model.n_dof == 7
@@ -723,3 +733,306 @@ def test_fe_slopes_take_angle_units(tmp_path):
     bad.write_text(head + sep + "\ndelta_1_2_m = 0.01\n" + tail)
     with pytest.raises(gi.CaseError, match=r"delta_1_2 takes unit rad or deg, not m"):
         gi.load_case(bad)
+
+
+# -- prismatic joints, the planar base, joint limits --------------------------
+
+# A rigid rod hanging from a guide at the base origin (Pb, joint 1): d_1'' = g, so from
+# d_1 = 0.2 m at rest it reaches d_max = 0.5 m at t = sqrt(2 * 0.3 / 9.81) = 0.24731 s.
+DROP = """
+gravity_m_per_s2 = [0.0, -9.81, 0.0]
+
+[base]
+type = "fixed"
+angle_deg = -90.0
+
+[[links]]
+length_m = 0.6
+mass_per_length_kg_per_m = 1.0
+EI_N_m2 = 1.0
+
+[links.joint]
+type = "Pb"
+range_m = [0.1, 0.5]
+
+[initial.coordinates]
+d_1_m = 0.2
+
+[time]
+t_end_s = 0.4
+"""
+
+# An R-Pb chain and an R-Pa chain on a fixed base, finite-element links: the joint tables
+# are appended to the second [[links]] table.
+TWO = """
+gravity_m_per_s2 = [0.0, -9.81, 0.0]
+
+[base]
+type = "fixed"
+
+[[links]]
+length_m = 1.0
+mass_per_length_kg_per_m = 1.0
+EI_N_m2 = 25.0
+elements = 2
+
+[[links]]
+length_m = 0.6
+mass_per_length_kg_per_m = 0.5
+EI_N_m2 = 8.0
+elements = 2
+"""
+PB = TWO + '\n[links.joint]\ntype = "Pb"\nrange_m = [0.2, 0.6]\n'
+PA = TWO + '\n[links.joint]\ntype = "Pa"\nangle_rad = 0.6\nhalf_length_m = 0.04\nrange_m = [0.1, 0.95]\n'
+START = "\n[initial.coordinates]\nd_2_m = 0.4\n\n[time]\nt_end_s = 0.1\n"
+
+
+def test_R_Pb_case_parameters():
+    case = gi.load_case(CASES / "fixed_base_R_Pb_arm.toml")
+    m = case.model
+    assert m.joint_kinds == ("R", "Pb")
+    assert m.chain.joints == (gi.Revolute(), gi.FixedPrismatic(angle=0.0, range=(0.25, 0.75)))
+    assert m.chain.base == gi.FixedBase((0.0, 0.0), 0.0)
+    assert [(lk.length, lk.mass_per_length, lk.EI, lk.elements) for lk in m.chain.links] == [
+        (1.0, 1.0, (25.0, 25.0), 3), (0.8, 0.5, (2.0, 2.0), 2)]
+    assert m.coordinate_names == ("theta_1", "d_2", *(f"delta_1_{k}" for k in range(1, 7)),
+                                  *(f"delta_2_{k}" for k in range(1, 5)))
+    assert m.coordinate_units[:2] == ("rad", "m")
+    np.testing.assert_allclose(case.q0, m.state(theta_1=-math.pi / 2, d_2=0.45), rtol=0, atol=1e-16)
+    assert not np.any(case.qdot0) and case.t_span == (0.0, 2.0) and case.walls == ()
+    assert case.solver == {"method": "DOP853", "rtol": 1e-8, "atol": 1e-10, "output_dt": 1e-3, "joint_limit": "stop"}
+    assert [(s.coordinate, s.kind) for s in case.inputs] == [("theta_1", "sine"), ("d_2", "sine"), ("d_2", "pd")]
+    assert dict(case.inputs[1].parameters) == {"amplitude": 6.0, "frequency": 0.5, "phase": 0.0, "offset": -3.9}
+    assert dict(case.inputs[2].parameters) == {"target": 0.45, "stiffness": 50.0, "damping": 4.0}
+    # Hanging straight down: the mass centres of link 1 (0.5 m) and of link 2 (1 + d - l/2 = 1.05 m) below O1.
+    assert case.initial_energy().total == pytest.approx(-9.81 * (1.0 * 0.5 + 0.4 * 1.05), rel=1e-13)
+    # The slide's inputs about hold link 2 against its weight at t = 0.
+    f = case.simulate_kwargs()["inputs"]
+    assert f["d_2"](0.0, case.q0, case.qdot0) == pytest.approx(-3.9)
+
+
+def test_R_Pa_case_parameters():
+    case = gi.load_case(CASES / "fixed_base_R_Pa_arm.toml")
+    m = case.model
+    assert m.joint_kinds == ("R", "Pa") and m.coordinate_names[:3] == ("theta_1", "d_2", "delta_1_1")
+    (jt,) = m.chain.joints[1:]
+    assert isinstance(jt, gi.SlidingPrismatic)
+    assert jt.angle == pytest.approx(math.pi / 2, rel=1e-15)  # angle_deg = 90 in radians
+    assert (jt.half_length, jt.range) == (0.04, (0.1, 0.9))
+    np.testing.assert_allclose(case.q0, m.state(theta_1=-math.pi / 2, d_2=0.6), rtol=0, atol=1e-16)
+
+
+@pytest.mark.parametrize("name", ["fixed_base_R_Pb_arm", "fixed_base_R_Pa_arm"])
+def test_joint_cases_round_trip_through_case_from_dict(name):
+    import tomllib
+
+    path = CASES / f"{name}.toml"
+    a = gi.load_case(path)
+    b = case_from_dict(tomllib.loads(path.read_text()), name=name)
+    assert a.model.chain.joints == b.model.chain.joints and a.model.coordinate_names == b.model.coordinate_names
+    np.testing.assert_array_equal(a.q0, b.q0)
+    assert a.solver == b.solver and a.inputs == b.inputs
+
+
+def test_inline_joint_table_and_defaults(tmp_path):
+    # joint = { ... } inline is the same as [links.joint]; angle defaults to 0; "R" is the default joint.
+    text = TWO.replace('EI_N_m2 = 8.0\n', 'EI_N_m2 = 8.0\njoint = { type = "Pb", range_m = [0.2, 0.6] }\n')
+    case = gi.load_case(write(tmp_path, text + START))
+    assert case.model.chain.joints == (gi.Revolute(), gi.FixedPrismatic(range=(0.2, 0.6)))
+    explicit_r = TWO.replace('EI_N_m2 = 25.0\n', 'EI_N_m2 = 25.0\njoint = { type = "R" }\n')
+    case = gi.load_case(write(tmp_path, explicit_r + "\n[time]\nt_end_s = 0.1\n"))
+    assert case.model.joint_kinds == ("R", "R")
+
+
+def test_pa_joint_angle_rad_and_inputs_on_d(tmp_path):
+    text = with_inputs(PA + START, dict(coordinate="d_2", kind="pd", target_m=0.5, stiffness_N_per_m=20.0,
+                                        damping_N_s_per_m=1.5),
+                       dict(coordinate="d_2", kind="ramp", slope_N_per_s=2.0, end_s=0.5))
+    text = text.replace("d_2_m = 0.4", "d_2_m = 0.4\n\n[initial.velocities]\nd_2_m_per_s = 0.1")
+    case = gi.load_case(write(tmp_path, text))
+    assert case.model.chain.joints[1] == gi.SlidingPrismatic(angle=0.6, half_length=0.04, range=(0.1, 0.95))
+    k = case.model.coordinate_names.index("d_2")
+    assert (case.q0[k], case.qdot0[k]) == (0.4, 0.1)
+    f = case.simulate_kwargs()["inputs"]["d_2"]
+    assert f(1.0, case.q0, case.qdot0) == pytest.approx(20.0 * 0.1 - 1.5 * 0.1 + 2.0 * 0.5)
+
+
+def test_planar_base(tmp_path):
+    text = TWO.replace('type = "fixed"', 'type = "planar"') + """
+[initial]
+center_of_mass_m = [0.3, 0.2]
+center_of_mass_velocity_m_per_s = [0.1, -0.2, 0.0]
+
+[initial.coordinates]
+theta_1_deg = 30.0
+
+[time]
+t_end_s = 0.1
+"""
+    case = gi.load_case(write(tmp_path, text))
+    m = case.model
+    assert m.chain.base == "planar" and m.coordinate_names[:4] == ("X1", "X2", "theta_1", "theta_2")
+    assert case.q0[2] == pytest.approx(math.radians(30.0), rel=1e-15)
+    np.testing.assert_allclose(m.center_of_mass(case.q0), [0.3, 0.2, 0.0], atol=1e-15)
+    np.testing.assert_allclose(m.linear_momentum(case.q0, case.qdot0) / m.total_mass, [0.1, -0.2, 0.0], atol=1e-14)
+    bad = text.replace("[0.1, -0.2, 0.0]", "[0.1, -0.2, 0.5]") + "\n[initial.velocities]\nX1_m_per_s = 1.0\n"
+    bad = bad.replace("theta_1_deg = 30.0", "theta_1_deg = 30.0\ntheta_0_rad = 0.1")
+    d = dict(problems_of(tmp_path, bad).problems)
+    assert d["initial.center_of_mass_velocity_m_per_s"].startswith(
+        "a planar base ([base] type = 'planar') moves in the X1-X2 plane: the third component must be 0, got 0.5")
+    assert d["initial.coordinates.theta_0_rad"].startswith("unknown coordinate theta_0 (a planar base has no X3, "
+                                                           "theta_-1, theta_0")
+    d = dict(problems_of(tmp_path, text.replace('type = "planar"', 'type = "planar"\nangle_deg = 5')).problems)
+    assert d["base.angle_deg"].startswith("a planar free-flying base has no fixed position or angle")
+    # center_of_mass_m together with X1_m names the planar coordinates.
+    both = text.replace("theta_1_deg = 30.0", "theta_1_deg = 30.0\nX2_m = 0.1")
+    d = dict(problems_of(tmp_path, both).problems)
+    assert d["initial.center_of_mass_m"] == "sets X1, X2; remove X1_m/X2_m from [initial.coordinates]"
+
+
+JOINT_ERRORS = [
+    # (base text, old, new, key path, start of the message)
+    (PB, 'type = "Pb"', 'type = "P"', "links[2].joint.type", "unknown joint type 'P'; use 'R' (revolute"),
+    (PB, 'type = "Pb"', 'type = "pb"', "links[2].joint.type", "unknown joint type 'pb'; did you mean 'Pb'?"),
+    (PB, 'type = "Pb"\n', "", "links[2].joint.type", "missing ('R' (revolute, the default)"),
+    (PB, "range_m = [0.2, 0.6]", "rang_m = [0.2, 0.6]", "links[2].joint.rang_m",
+     "unknown key (did you mean 'range_m'?)"),
+    (PB, "range_m = [0.2, 0.6]", "angle_deg = 5.0", "links[2].joint.range_m", "missing ([d_min, d_max] in m"),
+    (PB, "[0.2, 0.6]", "[0.6, 0.2]", "links[2].joint.range_m",
+     "must be [d_min, d_max] with d_min < d_max, got [0.6, 0.2]"),
+    (PB, "[0.2, 0.6]", "[0.2]", "links[2].joint.range_m", "expected an array of 2 numbers, got an array of 1"),
+    (PB, "[0.2, 0.6]", "[0.0, 0.6]", "links[2].joint.range_m", "d_min = 0 m must be > 0: a Pb joint's d is the "
+                                                               "length protruding from the guide"),
+    (PB, "[0.2, 0.6]", "[0.2, 0.7]", "links[2].joint.range_m",
+     "d_max = 0.7 m is more than links[2].length_m = 0.6: d_2 is the length protruding from the guide"),
+    (PB, "range_m", "half_length_m = 0.1\nrange_m", "links[2].joint.half_length_m",
+     "only a Pa carriage has a half-length"),
+    (PB, "range_m", "angle_deg = 1.0\nangle_rad = 0.1\nrange_m", "links[2].joint.angle_rad",
+     "sets the joint angle again (already set by angle_deg)"),
+    (PB, 'type = "Pb"', 'type = "R"', "links[2].joint.range_m",
+     "a revolute joint (type = 'R') has no [d_min, d_max]: remove it, or set type = 'Pa' or 'Pb'"),
+    (PB, "[base]\ntype = \"fixed\"\n", "", "links[2].joint.type",
+     "a prismatic joint ('Pb') needs a planar chain, and a chain without [base]"),
+    (PB, 'elements = 2\n\n[links.joint]', 'modes = [{ kind = "clamped-free" }]\n\n[links.joint]',
+     "links[2].modes", "link 2 slides through a Pb guide (links[2].joint): it is discretised by stretching"),
+    (PB, "EI_N_m2 = 25.0\nelements = 2", 'EI_N_m2 = 25.0\nelements = 2\nelement_directions = ["y", "z"]',
+     "links[1].element_directions", "a planar chain (prismatic joints or [base] type = 'planar') bends in the plane"),
+    # A Pb link's element frequencies grow like (l / d)^2: fine at d = l (2.7e10 rad/s), not at d_min.
+    (PB.replace("[0.2, 0.6]", "[0.05, 0.6]"), "EI_N_m2 = 8.0", "EI_N_m2 = 1e15", "links[2].EI_N_m2",
+     "makes the highest mode of elements = 2 vibrate at omega = 3.90217e12 rad/s with length_m = 0.6 and "
+     "mass_per_length_kg_per_m = 0.5 at the shortest protruding length d_min = 0.05 m (links[2].joint.range_m)"),
+    (PA, "half_length_m = 0.04", "half_length_m = 0.0", "links[2].joint.half_length_m",
+     "must be > 0 on a finite-element host (links[1].elements = 2), got 0"),
+    (PA, "[0.1, 0.95]", "[0.02, 0.95]", "links[2].joint.range_m",
+     "the carriage must stay on link 1: half_length_m <= d_min < d_max <= links[1].length_m - half_length_m = "
+     "0.96 m, got [0.02, 0.95] with half_length_m = 0.04"),
+    (PA, "EI_N_m2 = 25.0\nelements = 2", 'EI_N_m2 = 25.0\nmodes = [{ kind = "clamped-free" }]',
+     "links[2].joint.type", "a Pa carriage rides on link 1, which has assumed modes"),
+    (PA, '[base]\ntype = "fixed"', '[base]\ntype = "planar"', "links[2].element_directions", None),
+]
+
+
+@pytest.mark.parametrize("text,old,new,key,message", JOINT_ERRORS, ids=[e[3] + "-" + str(k) for k, e in
+                                                                       enumerate(JOINT_ERRORS)])
+def test_joint_errors_name_the_key(tmp_path, text, old, new, key, message):
+    assert old in text
+    bad = text.replace(old, new, 1) + START
+    if message is None:  # a planar base and a carriage: valid
+        assert gi.load_case(write(tmp_path, bad)).model.coordinate_names[:4] == ("X1", "X2", "theta_1", "d_2")
+        return
+    d = dict(problems_of(tmp_path, bad).problems)
+    assert key in d, d
+    assert d[key].startswith(message), d[key]
+
+
+def test_planar_base_needs_a_revolute_joint_1(tmp_path):
+    text = DROP.replace('type = "fixed"\nangle_deg = -90.0', 'type = "planar"')
+    d = dict(problems_of(tmp_path, text).problems)
+    assert d["links[1].joint.type"].startswith("on a planar free-flying base ([base] type = 'planar') joint 1 "
+                                               "must be 'R'")
+
+
+def test_pa_carriage_on_a_pb_link_must_start_on_its_protruding_part(tmp_path):
+    # R, Pb (flexible link 2), Pa on link 2: the carriage's state-dependent bound
+    # d_3 - c >= l_2 - d_2 (gibbsimpact.limits) is checked at t = 0 and named.
+    three = PB + """
+[[links]]
+length_m = 0.3
+mass_per_length_kg_per_m = 0.5
+EI_N_m2 = 8.0
+
+[links.joint]
+type = "Pa"
+half_length_m = 0.02
+range_m = [0.05, 0.5]
+""" + START
+    ok = gi.load_case(write(tmp_path, three.replace("d_2_m = 0.4", "d_2_m = 0.4\nd_3_m = 0.4")))
+    assert ok.model.joint_kinds == ("R", "Pb", "Pa")
+    d = dict(problems_of(tmp_path, three.replace("d_2_m = 0.4", "d_2_m = 0.4\nd_3_m = 0.1")).problems)
+    assert list(d) == ["initial.coordinates.d_3_m"]
+    assert d["initial.coordinates.d_3_m"].startswith("d_3 = 0.1 m, d_2 = 0.4 m is outside the range of joint 3: "
+                                                     "d_3 - c >= l_")
+    assert d["initial.coordinates.d_3_m"].endswith("(links[3].joint.range_m); change the initial value")
+
+
+def test_initial_d_outside_its_range_names_the_key(tmp_path):
+    d = dict(problems_of(tmp_path, PB + START.replace("d_2_m = 0.4", "d_2_m = 0.7")).problems)
+    assert d == {"initial.coordinates.d_2_m": "d_2 = 0.7 m is outside the range of joint 2: d_2 <= d_max = 0.6 m "
+                                              "(links[2].joint.range_m); change the initial value"}
+    # Not given: d_2 = 0, outside every Pb range (and the kinematics would divide by d).
+    d = dict(problems_of(tmp_path, PB + START.replace("d_2_m = 0.4", "theta_1_deg = 10")).problems)
+    assert d == {"initial.coordinates": "d_2 = 0 m is outside the range of joint 2: d_2 >= d_min = 0.2 m "
+                                        "(links[2].joint.range_m); set initial.coordinates.d_2_m (0 when not given)"}
+
+
+def test_joint_coordinate_names_and_units(tmp_path):
+    text = PB + START.replace("d_2_m = 0.4", "d_2_m = 0.4\ntheta_2_deg = 5\nd_1_m = 0.1")
+    d = dict(problems_of(tmp_path, text).problems)
+    assert d["initial.coordinates.theta_2_deg"].startswith(
+        "unknown coordinate theta_2 (joint 2 is prismatic: its coordinate is d_2 in m, set by links[2].joint.type)")
+    assert d["initial.coordinates.d_1_m"].startswith(
+        "unknown coordinate d_1 (joint 1 is revolute: its coordinate is theta_1")
+    d = dict(problems_of(tmp_path, PB + START.replace("d_2_m = 0.4", "d_2_deg = 20")).problems)
+    assert d["initial.coordinates.d_2_deg"] == "d_2 takes unit m, not deg"
+    d = dict(problems_of(tmp_path, PB + START.replace("d_2_m = 0.4", "d_2 = 0.4")).problems)
+    assert d["initial.coordinates.d_2"] == "add the unit to the key: d_2_m"
+    text = with_inputs(PB + START, dict(coordinate="d_2", kind="constant", value_N_m=1.0))
+    d = dict(problems_of(tmp_path, text).problems)
+    assert d["inputs[1].value_N_m"] == "d_2 is a length: its input is a force in N; use value_N"
+
+
+def test_joint_limit_solver_keys(tmp_path):
+    from gibbsimpact.case import _SOLVER_CHOICES
+    from gibbsimpact.limits import JOINT_LIMIT_MODES
+
+    assert tuple(_SOLVER_CHOICES["joint_limit"]) == JOINT_LIMIT_MODES
+    case = gi.load_case(write(tmp_path, DROP + '\n[solver]\njoint_limit = "impact"\njoint_restitution = 1.0\n'))
+    assert case.solver == {"joint_limit": "impact", "joint_restitution": 1.0}
+    kw = case.simulate_kwargs(joint_limit="stop")
+    assert kw["joint_limit"] == "stop" and kw["joint_restitution"] == 1.0
+    d = dict(problems_of(tmp_path, DROP + '\n[solver]\njoint_limit = "bounce"\njoint_restitution = 1.5\n').problems)
+    assert d["solver.joint_limit"] == ("unknown value 'bounce'; use 'stop' (end the run with status joint_limit) or "
+                                       "'impact' (an end-stop impact)")
+    assert d["solver.joint_restitution"] == "must be in [0, 1] (1 = elastic, 0 = plastic), got 1.5"
+    problems = dict(case.override_problems(joint_limit="bounce", joint_restitution=2.0))
+    assert problems["joint_limit"].startswith("unknown value 'bounce'")
+    assert problems["joint_restitution"].startswith("must be in [0, 1]")
+    with pytest.raises(CaseError, match="joint_limit: unknown value 'bounce'"):
+        case.simulate_kwargs(joint_limit="bounce")
+
+
+def test_rod_through_a_base_guide_reaches_its_limit_in_closed_form(tmp_path):
+    case = gi.load_case(write(tmp_path, DROP))
+    m = case.model
+    assert m.coordinate_names == ("d_1",) and m.joint_kinds == ("Pb",)
+    # The rod points down from the guide; its rear end is l - d behind it: O1 at (0, l - d), O2 at (0, -d).
+    np.testing.assert_allclose(m.joint_positions(case.q0)[:, :2], [[0.0, 0.4], [0.0, -0.2]], atol=1e-15)
+    res = case.simulate(rtol=1e-11, atol=1e-13)  # joint_limit "stop" by default
+    assert res.status == "joint_limit" and "joint 1 reached its limit d_1 <= d_max = 0.5 m" in res.message
+    assert res.t[-1] == pytest.approx(math.sqrt(2 * 0.3 / 9.81), rel=1e-8)
+    # "impact" with e = 1: the rod bounces off the end stop and energy is kept.
+    res = case.simulate(rtol=1e-11, atol=1e-13, joint_limit="impact", joint_restitution=1.0)
+    assert res.status == "finished" and [(r.wall, r.joints) for r in res.impacts] == [((-1,), (1,))]
+    assert res.impacts[0].time == pytest.approx(math.sqrt(2 * 0.3 / 9.81), rel=1e-8)
+    E = res.energy().total
+    assert abs(E[-1] - E[0]) < 1e-9

@@ -526,3 +526,114 @@ def test_sigterm_during_a_run_in_process_exit_130(tmp_path, capsys, monkeypatch)
     assert err.startswith("gibbsimpact: error: simulation stopped early (interrupted): stopped by SIGTERM at t = ")
     res = gi.load_result(tmp_path / "result.npz")
     assert res.status == "interrupted" and 0.0 < res.t[-1] < 0.3
+
+
+# -- prismatic joints --------------------------------------------------------
+
+# A rigid rod hanging from a guide at the base origin (Pb): it slides out under gravity and
+# reaches d_max = 0.5 m at t = sqrt(2 * 0.3 / 9.81) = 0.2473 s; joint_limit = "stop" ends the run there.
+PB_DROP = """
+name = "pb_drop"
+gravity_m_per_s2 = [0.0, -9.81, 0.0]
+
+[base]
+type = "fixed"
+angle_deg = -90.0
+
+[[links]]
+length_m = 0.6
+mass_per_length_kg_per_m = 1.0
+EI_N_m2 = 1.0
+
+[links.joint]
+type = "Pb"
+range_m = [0.1, 0.5]
+
+[initial.coordinates]
+d_1_m = 0.2
+
+[time]
+t_end_s = 0.4
+
+[solver]
+rtol = 1e-10
+atol = 1e-12
+joint_limit = "stop"
+"""
+
+
+def test_show_lists_the_joints(capsys):
+    code, out, err = run_main(["show", CASES / "fixed_base_R_Pb_arm.toml"], capsys)
+    assert code == 0 and err == ""
+    assert "N = 12 generalised coordinates, 24 first-order ODEs" in out
+    assert ("joints:\n  joint 1: R (revolute): link 1 turns by theta_1 about z at the base\n"
+            "  joint 2: Pb (fixed prismatic): link 2 slides through a guide at the tip of link 1, turned 0 deg from "
+            "its tangent; d_2 (the length protruding from the guide) in [0.25, 0.75] m, 0.45 m at t0\n") in out
+    rows = [ln.split() for ln in out.splitlines() if ln[:4].strip().isdigit()]
+    assert [r[1] for r in rows[:3]] == ["theta_1", "d_2", "delta_1_1"] and rows[1][2:4] == ["0.45", "m"]
+    assert "2 stretching Hermite cubic element(s) on the protruding length in y" in out
+    # Link 2 bends as a clamped-free beam of length d_2 = 0.45 m: 1.8751^2 sqrt(2 / (0.5 * 0.45^4)) = 34.7261 rad/s.
+    assert "clamped-free omega at the protruding length d_2 = 0.45 m = 34.7429 (beam 34.7261)" in out
+    assert "omega ~ 1/d^2: the highest is 6980 rad/s at d_min = 0.25 m" in out
+    assert "inputs[2] on d_2: sine Q = -3.9 + 6 sin(2 pi 0.5 Hz t + 0 deg) N" in out
+    assert "inputs[3] on d_2: pd servo Q = 50 N/m * (target - d_2) - 4 N s/m * d_2_dot, target 0.45 m" in out
+    assert "joint_limit = stop" in out
+    code, out, err = run_main(["show", CASES / "fixed_base_R_Pa_arm.toml"], capsys)
+    assert code == 0 and ("  joint 2: Pa (sliding prismatic): a carriage of half-length c = 0.04 m runs along link 1, "
+                          "link 2 fixed to it at 90 deg; d_2 (the carriage centre's position along link 1) in "
+                          "[0.1, 0.9] m, 0.6 m at t0\n") in out
+    code, out, err = run_main(["show", CASES / "fixed_base_fe_arm.toml"], capsys)
+    assert "joints: all revolute" in out
+
+
+def test_show_prismatic_joint_1_and_planar_base(tmp_path, capsys):
+    case = tmp_path / "drop.toml"
+    case.write_text(PB_DROP)
+    code, out, err = run_main(["show", case], capsys)
+    assert code == 0
+    assert "angle -90 deg about X3; joint 1 is a guide at the base origin that link 1 slides through" in out
+    assert "joint 1: Pb (fixed prismatic): link 1 slides through a guide at the base origin, at 0 deg to the base " \
+           "x axis; d_1 (the length protruding from the guide) in [0.1, 0.5] m, 0.2 m at t0" in out
+    planar = (CASES / "fixed_base_fe_arm.toml").read_text().replace('type = "fixed"\nposition_m = [0.0, 0.6]',
+                                                                    'type = "planar"')
+    planar = planar.replace("angle_deg = 0.0                # link 1 along X1 at theta_1 = 0\n", "")
+    planar = planar.split("[[walls]]")[0] + "\n[time]\nt_end_s = 0.1\n"  # no floor, inputs, ...: links only
+    case.write_text(planar)
+    code, out, err = run_main(["show", case], capsys)
+    assert code == 0, err
+    assert "base: free-flying in the X1-X2 plane (O1 at X1, X2; link 1 turned by theta_1 about X3)" in out
+    rows = [ln.split() for ln in out.splitlines() if ln[:4].strip().isdigit()]
+    assert [r[1] for r in rows[:4]] == ["X1", "X2", "theta_1", "theta_2"]
+
+
+def test_run_R_Pb_arm_briefly(tmp_path, capsys):
+    code, out, err = run_main(["run", CASES / "fixed_base_R_Pb_arm.toml", "--out", tmp_path, "--t-end", "0.02",
+                               "--no-plots", "--quiet"], capsys)
+    assert code == 0 and out == "" and err == ""
+    for name in ("timeseries.csv", "impacts.csv", "summary.json", "result.npz"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["status"] == "finished" and s["t_final_s"] == 0.02 and s["n_impacts"] == 0
+    assert s["model"]["coordinate_names"][:3] == ["theta_1", "d_2", "delta_1_1"]
+    assert s["settings"]["joint_limit"] == "stop" and s["settings"]["rtol"] == 1e-8
+    assert s["work_final_J"]["inputs"] != 0.0 and s["max_relative_energy_error"] < 1e-9
+    cols = gio.read_csv(tmp_path / "timeseries.csv")
+    assert cols["d_2_m"][0] == 0.45 and 0.44 < cols["d_2_m"][-1] < 0.46
+
+
+def test_joint_limit_stops_the_run_exit_3(tmp_path, capsys):
+    case = tmp_path / "drop.toml"
+    case.write_text(PB_DROP)
+    code, out, err = run_main(["run", case, "--out", tmp_path / "o", "--no-plots", "--quiet"], capsys)
+    assert code == 3 and out == ""
+    assert err.startswith("gibbsimpact: error: simulation stopped early (joint_limit): joint 1 reached its limit "
+                          "d_1 <= d_max = 0.5 m at t = 0.24730968")
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["status"] == "joint_limit" and s["t_final_s"] == pytest.approx(math.sqrt(0.6 / 9.81), rel=1e-8)
+
+
+def test_exit_codes_list_joint_limit(capsys):
+    assert "joint_limit" in cli.EXIT_CODES and "joint_limit" in cli.__doc__
+    with pytest.raises(SystemExit):
+        cli.main(["run", "--help"])
+    assert "joint_limit: a prismatic joint reached an end of its range" in capsys.readouterr().out

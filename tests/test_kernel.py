@@ -25,7 +25,7 @@ checks that what numba compiles is that same source:
    Measured: Jacobians within 1.5e-10 of the differences (tolerance 1e-8),
    energies within 1.4e-15 relative (tolerance 1e-13).
 
-Test 3 compiles the kernel from scratch (~15-20 s of CPU); the rest takes ~5 s.
+Test 3 compiles the kernel from scratch (~20-30 s of CPU); the rest takes ~5 s.
 """
 
 from __future__ import annotations

@@ -313,3 +313,202 @@ def test_camera_looks_along_the_least_motion():
     floor = np.column_stack([rng.normal(size=200), 0.01 * rng.normal(size=200), rng.normal(size=200)])
     assert plotting.camera(floor)[0] == pytest.approx(75.0)  # motion in X1-X3: from above (capped)
     assert plotting.camera(rng.normal(size=(300, 3))) == (18.0, -60.0)  # no clear direction: default
+
+
+# --------------------------------------------------------------------------
+# Prismatic joints and the planar floating base: d in metres, tip deflections, end stops
+
+def _two_links():
+    return [gi.Link(length=1.0, mass_per_length=1.0, EI=25.0, elements=3),
+            gi.Link(length=0.6, mass_per_length=0.5, EI=8.0, elements=2)]
+
+
+def _prismatic_run(which):
+    """Short runs (0.05 s) of an R-Pb and an R-Pa chain on a fixed base and of an R-Pb chain on a
+    planar floating base falling onto a floor."""
+    fixed = gi.FixedBase(position=(0.0, 0.0), angle=0.0)
+    if which == "R-Pb":
+        # Driven (work and power balance); d_2 runs into d_max = 0.6 at t ~ 0.025 s: an end-stop impact.
+        chain = gi.Chain(_two_links(), joints=[gi.Revolute(), gi.FixedPrismatic(angle=0.0, range=(0.2, 0.6))],
+                         base=fixed)
+        model = gi.Model(chain, gravity=(0.0, -9.81, 0.0))
+        return gi.simulate(model, model.state(theta_1=0.3, d_2=0.55, delta_1_5=0.01),
+                           model.state(theta_1=1.0, d_2=2.0), (0.0, 0.05), rtol=1e-7, atol=1e-9, output_dt=1e-3,
+                           inputs={"theta_1": lambda t, q, qd: 0.5 * np.sin(t)}, joint_limit="impact")
+    if which == "R-Pa":
+        chain = gi.Chain(_two_links(), base=fixed, joints=[
+            gi.Revolute(), gi.SlidingPrismatic(angle=0.6, half_length=0.04, range=(0.1, 0.95))])
+        model = gi.Model(chain, gravity=(0.0, -9.81, 0.0))
+        return gi.simulate(model, model.state(theta_1=0.3, d_2=0.5, delta_1_5=0.01),
+                           model.state(theta_1=1.0, d_2=0.5), (0.0, 0.05), rtol=1e-7, atol=1e-9, output_dt=1e-3)
+    chain = gi.Chain(_two_links(), joints=[gi.Revolute(), gi.FixedPrismatic(angle=0.3, range=(0.2, 0.6))],
+                     base="planar")
+    model = gi.Model(chain, gravity=(0.0, -9.81, 0.0))
+    return gi.simulate(model, model.state(X2=0.05, theta_1=0.3, d_2=0.4, delta_2_3=0.01),
+                       model.state(X2=-1.0, d_2=0.5), (0.0, 0.05), rtol=1e-7, atol=1e-9, output_dt=1e-3,
+                       walls=[gi.Plane((0, 0, 0), (0, 1, 0))])
+
+
+PRISMATIC = ("R-Pb", "R-Pa", "planar R-Pb")
+
+
+@pytest.fixture(scope="module")
+def prismatic():
+    """{name: (Result, {figure: Figure})}, every figure of FIGURES built once per run."""
+    out = {}
+    for name in PRISMATIC:
+        res = _prismatic_run(name)
+        assert res.success, res
+        out[name] = (res, plotting.plot_result(res, n_points=11))
+    return out
+
+
+def _lines_labelled(ax, text):
+    return [ln for ln in ax.get_lines() if ln.get_label() == text]
+
+
+@pytest.mark.parametrize("name", PRISMATIC)
+def test_every_figure_builds_for_prismatic_chains(prismatic, name):
+    res, figs = prismatic[name]
+    assert set(figs) == set(plotting.FIGURES)
+    assert plotting.is_planar(res)  # a planar base has no X3, theta_-1, theta_0: drawn in 2D
+    assert len(figs["joint_positions"].axes) == 2
+    assert all(ax.name != "3d" for ax in figs["configurations"].axes + figs["trajectory"].axes)
+    assert figs["configurations"].axes[0].get_aspect() == 1.0
+    # The prismatic joint's symbol is drawn: the guide of a Pb link, the carriage of a Pa link.
+    kind = "guide" if "Pb" in name else "carriage"
+    labels = [ln.get_label() for ln in figs["configurations"].axes[0].get_lines()]
+    assert any(s.startswith(kind) for s in labels), labels
+    if "Pb" in name:
+        assert "link 2 behind its guide" in labels
+    # Angles: theta_1 only on the radian axis (a planar base adds no theta_-1, theta_0, and X1, X2 are
+    # not angles); the energy figure shows the balance.
+    ax = figs["angles"].axes[0]
+    assert "[rad]" in ax.get_ylabel()
+    assert [ln.get_label() for ln in ax.get_lines() if not ln.get_label().startswith("_")] == [r"$\theta_{1}$"]
+    assert figs["energy"].axes[1].get_ylabel().startswith("$E - E(t_0)")
+    import matplotlib.pyplot as plt
+
+    for f in figs.values():
+        plt.close(f)
+
+
+def test_prismatic_variable_is_in_metres_with_its_range(prismatic):
+    from matplotlib.figure import Figure
+
+    res, figs = prismatic["R-Pb"]
+    model = res.model
+    k = model.coordinate_names.index("d_2")
+    axes = figs["angles"].axes
+    assert [a.get_ylabel() for a in axes] == ["joint angle [rad]", "angular velocity [rad/s]",
+                                              "prismatic joint d [m]", "prismatic velocity [m/s]"]
+    ax = axes[2]
+    (curve,) = _lines_labelled(ax, "$d_{2}$")
+    np.testing.assert_array_equal(curve.get_ydata(), res.q[:, k])
+    # The range: two horizontal dashed lines at d_min and d_max spanning the axis.
+    flat = [ln for ln in ax.get_lines() if len(set(ln.get_ydata())) == 1 and ln.get_linestyle() == "--"]
+    assert sorted(float(ln.get_ydata()[0]) for ln in flat) == [0.2, 0.6]
+    assert ax.get_ylim()[0] <= 0.2 and ax.get_ylim()[1] >= 0.6
+    np.testing.assert_array_equal(_lines_labelled(axes[3], r"$\dot{d}_{2}$")[0].get_ydata(), res.qdot[:, k])
+    # No d on the angle axes.
+    assert not any("d_{2}" in ln.get_label() for a in axes[:2] for ln in a.get_lines())
+    # Given axes: with two, the angles and d (positions before rates).
+    two = Figure().subplots(2, 1)
+    res.plot("angles", ax=two)
+    assert "[rad]" in two[0].get_ylabel() and two[1].get_ylabel() == "prismatic joint d [m]"
+
+
+@pytest.mark.parametrize("name", PRISMATIC)
+def test_deflection_figure_is_the_tip_deflection(prismatic, name):
+    from gibbsimpact.model import link_deflection
+
+    res, figs = prismatic[name]
+    model = res.model
+    ax = figs["deflection"].axes[0]
+    assert ax.get_ylabel() == "tip deflection [m]"
+    rows = np.linspace(0, len(res.t) - 1, 12).astype(int)
+    for i, lk in enumerate(model.chain.links):
+        (line,) = _lines_labelled(ax, f"link {i + 1}: $v(l_{{{i + 1}}})$")
+        np.testing.assert_array_equal(line.get_xdata(), res.t)
+        want = [link_deflection(model, res.q[r], i, np.array([lk.length]))[0][0] for r in rows]
+        np.testing.assert_allclose(line.get_ydata()[rows], want, rtol=1e-12, atol=1e-15)
+        assert np.ptp(line.get_ydata()) > 1e-6  # the links do bend in these runs
+    if "Pb" in name:  # below: the protruding length with its range
+        low = figs["deflection"].axes[1]
+        np.testing.assert_array_equal(_lines_labelled(low, "link 2: $d_{2}$")[0].get_ydata(),
+                                      res.q[:, model.coordinate_names.index("d_2")])
+        assert "[m]" in low.get_ylabel()
+    else:
+        assert len(figs["deflection"].axes) == 1
+
+
+def test_deflection_of_clamped_clamped_modes_is_at_mid_span(planar):
+    # Clamped-clamped shapes vanish at the tip: the figure shows v(l/2) instead of a zero line.
+    from gibbsimpact.model import link_deflection
+
+    fig = plotting.plot_deflection(planar)
+    ax = fig.axes[0]
+    model = planar.model
+    rows = np.linspace(0, len(planar.t) - 1, 7).astype(int)
+    for i, lk in enumerate(model.chain.links):
+        (line,) = _lines_labelled(ax, f"link {i + 1}: $v(l_{{{i + 1}}}/2)$")
+        want = [link_deflection(model, planar.q[r], i, np.array([0.5 * lk.length]))[0][0] for r in rows]
+        np.testing.assert_allclose(line.get_ydata()[rows], want, rtol=1e-12, atol=1e-15)
+    assert ax.get_ylabel() == "deflection [m]" and "mid-span" in _texts(fig)
+    rigid = gi.Model([gi.Link(1.0, 1.0, 1.0, rotary_inertia=(1e-4, 1e-4, 1e-4))])
+    assert plotting.plot_deflection(_still(rigid, rigid.state(), [])) is None
+
+
+def test_end_stop_impacts_are_labelled_as_stops(prismatic, tmp_path):
+    res, figs = prismatic["R-Pb"]
+    stops = [r for r in res.impacts if tuple(r.wall) == (-1,)]
+    assert stops and stops[0].joints == (2,)
+    k = res.impacts.index(stops[0]) + 1
+    # Footnote of the time plots, title of the configuration panel, marker in the trajectory.
+    note = _texts(figs["angles"])
+    assert f"{k}: stop 2 (d_max) at" in note and "O2 at" not in note
+    titles = [a.get_title() for a in figs["configurations"].axes]
+    assert any(t.startswith(f"impact {k}:") and t.endswith("stop 2 (d_max)") for t in titles), titles
+    traj = figs["trajectory"].axes[0]
+    (marks,) = _lines_labelled(traj, "end-stop impacts")
+    assert len(marks.get_xdata()) == len(stops)
+    # The marker sits at the guide: the tip of link 1 (the host).
+    q = res.q[np.searchsorted(res.t, stops[0].time)]
+    tip1 = plotting.link_points(res.model, q, 5)[0, -1]
+    np.testing.assert_allclose([marks.get_xdata()[0], marks.get_ydata()[0]], tip1[:2], atol=1e-12)
+    # An end stop mixed with wall contacts in one record, and the animation, do not break either.
+    import dataclasses
+
+    from gibbsimpact.results import ImpactRecord
+
+    rec = stops[0]
+    mixed = ImpactRecord(rec.time, (3, 2), (0, -1), np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]),
+                         np.ones(2), -np.ones(2), np.ones(2), np.ones(2), rec.qdot_before, rec.qdot_after,
+                         rec.energy_before, rec.energy_after)
+    both = dataclasses.replace(res, impacts=[mixed], walls=(gi.Plane((0, -2, 0), (0, 1, 0)),))
+    fig = plotting.plot_configurations(both, n_points=5)
+    assert fig.axes[1].get_title().endswith("O3+stop 2 (d_max)")
+    assert "1: O3+stop 2 (d_max) at" in plotting._impact_note(both)
+    plotting.plot_trajectory(both, n_points=5)
+    from PIL import Image
+
+    path = plotting.animate(res, tmp_path / "stops.gif", fps=40, speed=0.5, n_points=5, max_frames=6)
+    with Image.open(path) as im:
+        assert im.n_frames >= 2
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+
+
+def test_stop_message_loses_nested_remarks_whole():
+    import dataclasses
+
+    from gibbsimpact.results import Result
+
+    res = Result(model=None, walls=(), t=np.array([0.0, 0.25]), q=np.zeros((2, 1)), qdot=np.zeros((2, 1)),
+                 phase=np.zeros(2, dtype=int), impacts=[], status="joint_limit",
+                 message="joint 2 reached its limit d_2 <= d_max = 0.6 m at t = 0.25 s; results up to there are "
+                         "kept (simulate(..., joint_limit='impact') bounces instead)")
+    line = plotting._status_line(res)
+    assert line.endswith("results up to there are kept") and "bounces" not in line and "(" not in line[20:]
+    assert plotting._status_line(dataclasses.replace(res, status="finished")) == ""

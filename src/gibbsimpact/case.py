@@ -8,6 +8,13 @@ numbered from 1 in key paths, like links and joints.
 
 Units are part of the key names (``length_m``, ``t_end_s``, ``theta_1_deg``);
 a value is never silently converted from a unit the key does not name.
+
+A link's ``[links.joint]`` table makes its joint prismatic (``type = "Pa"`` or
+``"Pb"``, ``range_m``, ``angle_deg``, ``half_length_m``; revolute without one);
+the variable of a prismatic joint i is ``d_i`` [m] (``d_2_m`` in
+``[initial.coordinates]``, forces in N on it in ``[[inputs]]``), and
+``[solver]`` ``joint_limit`` / ``joint_restitution`` say what its end stops do.
+``[base]`` ``type = "planar"`` is a floating base in the X1-X2 plane.
 """
 
 from __future__ import annotations
@@ -27,7 +34,8 @@ import scipy.linalg as sl
 from .dynamics import SingularMassMatrixError, forward_dynamics
 from .elements import MAX_ELEMENTS
 from .inputs import INPUT_KINDS, InputSpec, is_angle_coordinate, named_inputs
-from .model import Chain, FixedBase, Link, Model
+from .limits import joint_limits, limit_gaps
+from .model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
 from .modes import MODE_DIRECTIONS, MODE_KINDS, Mode, natural_frequency
 from .walls import Circle, Plane, Sphere, describe
 
@@ -81,6 +89,10 @@ RANGES = {
     "links.elements": Range(0, MAX_ELEMENTS, integer=True,
                             why="the explicit solvers' step shrinks as 1/elements^2"),
     "links.damping_ratio": Range(0, 10, why="of the link's first elastic mode; 1 = critical"),
+    "links.joint.angle_deg": Range(-1e4 * _DEG, 1e4 * _DEG, "deg", why="1e4 rad"),
+    "links.joint.angle_rad": Range(-1e4, 1e4, "rad"),
+    "links.joint.half_length_m": Range(0, 1e6, "m"),
+    "links.joint.range_m": Range(-1e6, 1e6, "m"),
     "base.position_m": Range(-1e6, 1e6, "m"),
     "base.angle_rad": Range(-1e4, 1e4, "rad"),
     "base.angle_deg": Range(-1e4 * _DEG, 1e4 * _DEG, "deg", why="1e4 rad"),
@@ -131,6 +143,7 @@ RANGES = {
     "solver.zeno_interval_s": Range(1e-15, 1e9, "s"),
     "solver.zeno_count": Range(1, 1e6, integer=True),
     "solver.max_impacts": Range(1, 1e6, integer=True, why="each impact keeps about 2 kB in memory"),
+    "solver.joint_restitution": Range(0, 1, why="1 = elastic, 0 = plastic"),
     "output.dpi": Range(10, 1200, integer=True, why="up to journal line-art resolution"),
     "output.animation_fps": Range(1, 100, integer=True, why="GIF frame delays are whole hundredths of a second"),
     "output.animation_speed": Range(1e-12, 1e12),
@@ -159,6 +172,12 @@ SOLVER_KEYS = {
     "zeno_interval_s": ("zeno_interval", "number", "impact spacing counted as accumulating, s"),
     "zeno_count": ("zeno_count", "number", "consecutive close impacts that stop the run"),
     "max_impacts": ("max_impacts", "number", "impact budget"),
+    "joint_limit": ("joint_limit", "str", "at the end of a prismatic joint's range: 'stop' the run or 'impact'"),
+    "joint_restitution": ("joint_restitution", "number", "coefficient of restitution of the end-stop impacts"),
+}
+#: [solver] string keys with a fixed set of values (and what each means).
+_SOLVER_CHOICES = {
+    "joint_limit": {"stop": "end the run with status joint_limit", "impact": "an end-stop impact"},
 }
 #: Keyword of Case.simulate that overrides a case-file key -> that key's path.
 OVERRIDE_KEYS = {"t_end": "time.t_end_s", **{kw: f"solver.{key}" for key, (kw, _, _) in SOLVER_KEYS.items()}}
@@ -199,15 +218,31 @@ _LINK_KEYS = {
     "elements": "number of Hermite cubic finite elements (exclusive with modes)",
     "element_directions": "bending directions of the elements, ['y'] or ['y', 'z']",
     "damping_ratio": "structural damping ratio of the link's first elastic mode",
+    "joint": "[links.joint] table: the joint that carries this link (default: revolute)",
+}
+#: Joint types of [links.joint] (gi.Revolute, gi.SlidingPrismatic, gi.FixedPrismatic) -> what each is.
+_JOINT_TYPES = {
+    "R": "revolute: the link turns by theta_i at the host's tip",
+    "Pa": "sliding prismatic: a carriage fixed to the link runs along the host, d_i",
+    "Pb": "fixed prismatic: the link slides through a guide at the host's tip, d_i",
+}
+_JOINT_KEYS = {
+    "type": "'R' (revolute, the default), 'Pa' (a carriage on the host) or 'Pb' (a guide at the host's tip)",
+    "angle_deg": "fixed angle gamma of a Pa or Pb joint in deg",
+    "angle_rad": "fixed angle gamma of a Pa or Pb joint in rad",
+    "half_length_m": "half-length c of a Pa carriage in m",
+    "range_m": "[d_min, d_max] of a Pa or Pb joint in m",
 }
 _BASE_KEYS = {
-    "type": "'fixed' or 'free'",
+    "type": "'fixed', 'free' or 'planar'",
     "position_m": "base position (b1, b2) or (b1, b2, b3) in m",
     "angle_deg": "base angle beta about X3 in deg",
     "angle_rad": "base angle beta about X3 in rad",
 }
 #: Coordinates of a free base that a fixed base does not have.
 _FREE_BASE_COORDINATES = ("X1", "X2", "X3", "theta_-1", "theta_0")
+#: Coordinates of a free base that a planar floating base does not have.
+_SPATIAL_COORDINATES = ("X3", "theta_-1", "theta_0")
 #: [[inputs]] keys of each kind -> (parameter of InputSpec, required, default, factor to SI).
 #: ``{F}`` is N_m on an angle coordinate and N on a length coordinate, ``{Q}`` rad or m.
 _INPUT_KEYS = {
@@ -289,10 +324,9 @@ _OUTPUT_KEYS = {
     "points_per_link": "sample points drawn along each link",
 }
 
-_COORD = re.compile(r"^(X[123]|theta_(?:-1|m1|0|[1-9][0-9]*)|delta_[1-9][0-9]*_[1-9][0-9]*)_(m|rad|deg)$")
-_RATE = re.compile(
-    r"^(X[123]|theta_(?:-1|m1|0|[1-9][0-9]*)|delta_[1-9][0-9]*_[1-9][0-9]*)_(m_per_s|rad_per_s|deg_per_s)$"
-)
+_NAME = r"(X[123]|theta_(?:-1|m1|0|[1-9][0-9]*)|d_[1-9][0-9]*|delta_[1-9][0-9]*_[1-9][0-9]*)"
+_COORD = re.compile(rf"^{_NAME}_(m|rad|deg)$")
+_RATE = re.compile(rf"^{_NAME}_(m_per_s|rad_per_s|deg_per_s)$")
 
 
 class CaseError(ValueError):
@@ -502,6 +536,11 @@ class Case:
                 if v is not _BAD and v not in _METHODS:
                     r.add(labels[kw], f"unknown method {v!r}; use one of {', '.join(_METHODS)}")
                 continue
+            if kw in _SOLVER_CHOICES:
+                v = r.value(v, labels[kw], "str")
+                if v is not _BAD and v not in _SOLVER_CHOICES[kw]:
+                    r.add(labels[kw], _choice_message(kw, v))
+                continue
             v = r.value(v, labels[kw], "number", _range_of(OVERRIDE_KEYS[kw]))
             if v is _BAD:
                 t_span = None if kw == "t_end" else t_span
@@ -670,18 +709,24 @@ def _element_frequencies_ok(r: _Reader, model: Model) -> bool:
     """Every finite-element link's highest eigenfrequency at most MAX_MODE_FREQUENCY (the modes' limit).
 
     omega_max = sqrt of the largest generalised eigenvalue of the link's (K, M_dd) (clamped at its frame).
+    A link behind a Pb guide bends over its protruding length d only (stretching elements):
+    omega scales as (l / d)^2, largest at d_min.
     """
     ok = True
-    for i, (link, ld) in enumerate(zip(model.chain.links, model.link_data), start=1):
+    for i, (link, ld, jt) in enumerate(zip(model.chain.links, model.link_data, model.chain.joints), start=1):
         if not link.elements:
             continue
         omega = math.sqrt(max(float(sl.eigh(ld.K, ld.M_dd, eigvals_only=True)[-1]), 0.0))
+        at = ""
+        if jt.kind == "Pb":
+            omega *= (link.length / jt.range[0]) ** 2
+            at = f" at the shortest protruding length d_min = {_fmt(jt.range[0])} m (links[{i}].joint.range_m)"
         if not omega <= MAX_MODE_FREQUENCY:
             r.add(f"links[{i}].EI_N_m2",
                   f"makes the highest mode of elements = {link.elements} vibrate at omega = {_fmt(omega)} rad/s with "
-                  f"length_m = {_fmt(link.length)} and mass_per_length_kg_per_m = {_fmt(link.mass_per_length)}; above "
-                  f"{_fmt(MAX_MODE_FREQUENCY)} rad/s (periods of picoseconds) a beam model has no meaning: lower "
-                  f"EI_N_m2 or elements")
+                  f"length_m = {_fmt(link.length)} and mass_per_length_kg_per_m = {_fmt(link.mass_per_length)}{at}; "
+                  f"above {_fmt(MAX_MODE_FREQUENCY)} rad/s (periods of picoseconds) a beam model has no meaning: "
+                  f"lower EI_N_m2 or elements")
             ok = False
     return ok
 
@@ -720,19 +765,21 @@ def _base(r: _Reader, tbl):
     tbl = r.table(tbl, "base", _BASE_KEYS, "a [base] table")
     if tbl is None:
         return _BAD
-    kind = r.get(tbl, "base", "type", "str", required=True, what="'fixed' or 'free'")
+    kind = r.get(tbl, "base", "type", "str", required=True, what="'fixed', 'free' or 'planar'")
     if kind is _BAD:
         return _BAD
-    if kind not in ("fixed", "free"):
+    if kind not in ("fixed", "free", "planar"):
         r.add("base.type",
-              f"unknown base type {kind!r}; use 'fixed' (joint 1 at a fixed point) or 'free' (free-flying)")
+              f"unknown base type {kind!r}; use 'fixed' (joint 1 at a fixed point), 'free' (free-flying in "
+              "space) or 'planar' (free-flying in the X1-X2 plane)")
         return _BAD
-    if kind == "free":
+    if kind in ("free", "planar"):
         extra = [k for k in ("position_m", "angle_deg", "angle_rad") if k in tbl]
         for k in extra:
             r.add(_join("base", k),
-                  "a free-flying base has no fixed position or angle: remove it or set type = 'fixed'")
-        return _BAD if extra else "free"
+                  f"a {'planar ' if kind == 'planar' else ''}free-flying base has no fixed position or angle: "
+                  "remove it or set type = 'fixed'")
+        return _BAD if extra else kind
     position = [0.0, 0.0, 0.0]
     if "position_m" in tbl:
         raw = tbl["position_m"]
@@ -753,6 +800,161 @@ def _base(r: _Reader, tbl):
     if _BAD in (position, angle):
         return _BAD
     return FixedBase(position=tuple(position), angle=angle)
+
+
+def _joint(r: _Reader, link_tbl, path: str):
+    """The joint of one [[links]] table (its [links.joint]; Revolute() without one), _BAD on a problem.
+
+    path is the link's key path (links[i]); the joint's keys are links[i].joint.<key>.
+    """
+    if not isinstance(link_tbl, dict):
+        return _BAD  # _link reports it
+    if "joint" not in link_tbl:
+        return Revolute()
+    path = _join(path, "joint")
+    tbl = r.table(link_tbl["joint"], path, _JOINT_KEYS, "a [links.joint] table")
+    if tbl is None:
+        return _BAD
+    kind = r.get(tbl, path, "type", "str", required=True, what=_JOINT_KEYS["type"])
+    if kind is _BAD:
+        return _BAD
+    if kind not in _JOINT_TYPES:
+        close = [k for k in _JOINT_TYPES if k.lower() == kind.lower()]
+        hint = f"did you mean {close[0]!r}? " if close else ""
+        r.add(_join(path, "type"), f"unknown joint type {kind!r}; {hint}use "
+                                   + ", ".join(f"{k!r} ({what})" for k, what in _JOINT_TYPES.items()))
+        return _BAD
+    # Keys the type does not have.
+    ok = True
+    allowed = {"R": (), "Pa": ("angle_deg", "angle_rad", "half_length_m", "range_m"),
+               "Pb": ("angle_deg", "angle_rad", "range_m")}[kind]
+    for key in tbl:
+        if key == "type" or key in allowed or key not in _JOINT_KEYS:
+            continue
+        ok = False
+        if kind == "R":
+            r.add(_join(path, key), f"a revolute joint (type = 'R') has no {_JOINT_KEYS[key].split(' of ')[0]}: "
+                                    "remove it, or set type = 'Pa' or 'Pb' for a prismatic joint")
+        else:
+            r.add(_join(path, key), "only a Pa carriage has a half-length (a Pb guide sits at the host's tip): "
+                                    "remove it or set type = 'Pa'")
+    if kind == "R":
+        return Revolute() if ok else _BAD
+    angle = 0.0
+    if "angle_deg" in tbl and "angle_rad" in tbl:
+        r.add(_join(path, "angle_rad"), "sets the joint angle again (already set by angle_deg); give one of them")
+        angle = _BAD
+    elif "angle_deg" in tbl:
+        angle = r.get(tbl, path, "angle_deg", "number")
+        angle = math.radians(angle) if angle is not _BAD else _BAD
+    elif "angle_rad" in tbl:
+        angle = r.get(tbl, path, "angle_rad", "number")
+    half = r.get(tbl, path, "half_length_m", "number", default=0.0)
+    rng = r.get(tbl, path, "range_m", "vector2", required=True,
+                what=f"[d_min, d_max] in m, the travel of the joint's coordinate ({_JOINT_KEYS['range_m']})")
+    if rng is not _BAD and not rng[0] < rng[1]:
+        r.add(_join(path, "range_m"), f"must be [d_min, d_max] with d_min < d_max, got "
+                                      f"[{_fmt(rng[0])}, {_fmt(rng[1])}]")
+        rng = _BAD
+    elif rng is not _BAD and kind == "Pb" and not rng[0] > 0:
+        r.add(_join(path, "range_m"), f"d_min = {_fmt(rng[0])} m must be > 0: a Pb joint's d is the length "
+                                      "protruding from the guide, and the link's stiffness grows like 1/d^3 as "
+                                      "d -> 0")
+        rng = _BAD
+    if not ok or _BAD in (angle, half, rng):
+        return _BAD
+    if kind == "Pa":
+        return SlidingPrismatic(angle=angle, half_length=half, range=tuple(rng))
+    return FixedPrismatic(angle=angle, range=tuple(rng))
+
+
+def _chain_ok(r: _Reader, links, joints, base) -> bool:
+    """The rules of a chain with prismatic joints or a planar base (formulation.md 8, 10.2, 10.3, 13),
+    each reported at the key to change."""
+    ok = True
+    kinds = [j.kind for j in joints]
+    prismatic = [k for k, kd in enumerate(kinds) if kd != "R"]
+    if base == "planar" and kinds[0] != "R":
+        r.add("links[1].joint.type", "on a planar free-flying base ([base] type = 'planar') joint 1 must be 'R': "
+                                     "theta_1 is the chain's orientation; set [base] type = 'fixed' for a "
+                                     "prismatic joint 1")
+        ok = False
+    if not prismatic and base != "planar":
+        return ok
+    if base == "free":
+        for k in prismatic:
+            r.add(f"links[{k + 1}].joint.type",
+                  f"a prismatic joint ({kinds[k]!r}) needs a planar chain, and a chain without [base] (or with "
+                  "type = 'free') flies in space: add [base] with type = 'fixed' (or 'planar' for a floating chain)")
+        return False
+    for k, lk in enumerate(links, start=1):
+        if lk.elements and lk.element_directions != ("y",):
+            r.add(f"links[{k}].element_directions",
+                  "a planar chain (prismatic joints or [base] type = 'planar') bends in the plane only: "
+                  "set element_directions = ['y']")
+            ok = False
+        if any(md.direction != "y" for md in lk.modes):
+            r.add(f"links[{k}].modes", "a planar chain (prismatic joints or [base] type = 'planar') bends in the "
+                                       "plane only: give modes in direction 'y' only")
+            ok = False
+    for k in prismatic:
+        i, jt, lk = k + 1, joints[k], links[k]
+        p = f"links[{i}].joint"
+        lo, hi = jt.range
+        if kinds[k] == "Pb":
+            if lk.modes:
+                r.add(f"links[{i}].modes", f"link {i} slides through a Pb guide ({p}): it is discretised by "
+                                           "stretching finite elements; give it elements instead of modes (or "
+                                           "neither: rigid)")
+                ok = False
+            if hi > lk.length + 1e-12:
+                r.add(_join(p, "range_m"), f"d_max = {_fmt(hi)} m is more than links[{i}].length_m = "
+                                           f"{_fmt(lk.length)}: d_{i} is the length protruding from the guide, at "
+                                           "most the link's length")
+                ok = False
+            continue
+        if k == 0:
+            continue  # a carriage on a straight rigid rail along the base x axis: any range
+        host, c, h = links[k - 1], jt.half_length, i - 1
+        if host.modes:
+            r.add(_join(p, "type"), f"a Pa carriage rides on link {h}, which has assumed modes: give links[{h}] "
+                                    "elements instead of modes, or neither (rigid)")
+            ok = False
+        if host.elements and c <= 0:
+            r.add(_join(p, "half_length_m"),
+                  f"must be > 0 on a finite-element host (links[{h}].elements = {host.elements}), got {_fmt(c)}: a "
+                  "point carriage follows the host's slope, whose derivative jumps at every element node, so the "
+                  f"mass matrix would jump there (formulation.md 10.2); e.g. half_length_m = "
+                  f"{_fmt(float(f'{host.length / host.elements / 10:.1g}'))}")
+            ok = False
+        if lo < c - 1e-12 or hi > host.length - c + 1e-12:
+            r.add(_join(p, "range_m"), f"the carriage must stay on link {h}: half_length_m <= d_min < d_max <= "
+                                       f"links[{h}].length_m - half_length_m = {_fmt(host.length - c)} m, got "
+                                       f"[{_fmt(lo)}, {_fmt(hi)}] with half_length_m = {_fmt(c)}")
+            ok = False
+    return ok
+
+
+def _joint_ranges_ok(r: _Reader, model: Model, q0, coordinates: dict) -> bool:
+    """Every prismatic joint's initial d inside its range (gibbsimpact.limits), reported at its key."""
+    ok = True
+    names = model.coordinate_names
+    for lim, g in zip(joint_limits(model), limit_gaps(joint_limits(model), q0)):
+        if g >= 0:
+            continue
+        ok = False
+        own = names[model.theta_index[lim.joint - 1]]
+        touched = [own] + [names[k] for k in np.nonzero(lim.n)[0] if names[k] != own]  # the joint's own d first
+        keys = sorted((key for key in coordinates if re.sub(r"_m$", "", key) in touched),
+                      key=lambda key: touched.index(re.sub(r"_m$", "", key)))
+        values = ", ".join(f"{n} = {_fmt(float(q0[names.index(n)]))} m" for n in touched)
+        unset = [n for n in touched if not any(re.sub(r"_m$", "", key) == n for key in keys)]
+        fix = (f"set {' and '.join(f'initial.coordinates.{n}_m' for n in unset)} (0 when not given)" if unset
+               else "change the initial value")
+        r.add(f"initial.coordinates.{keys[0]}" if keys else "initial.coordinates",
+              f"{values} is outside the range of joint {lim.joint}: {lim.name} (links[{lim.joint}].joint.range_m); "
+              f"{fix}")
+    return ok
 
 
 def _input(r: _Reader, tbl, path: str, model):
@@ -814,8 +1016,16 @@ def _input(r: _Reader, tbl, path: str, model):
 def _unknown_coordinate(name: str, names) -> str:
     """The message for a coordinate name the model does not have."""
     hint = ""
+    joint = re.fullmatch(r"(theta|d)_([1-9][0-9]*)", name)
     if name in _FREE_BASE_COORDINATES and "X1" not in names:
         hint = f" (a fixed base has no {', '.join(_FREE_BASE_COORDINATES)}: [base] type = 'fixed')"
+    elif name in _SPATIAL_COORDINATES and "X1" in names and "X3" not in names:
+        hint = (f" (a planar base has no {', '.join(_SPATIAL_COORDINATES)}: [base] type = 'planar' moves in "
+                "the X1-X2 plane with X1, X2 and theta_1)")
+    elif joint and f"{'d' if joint[1] == 'theta' else 'theta'}_{joint[2]}" in names:
+        other = f"{'d' if joint[1] == 'theta' else 'theta'}_{joint[2]}"
+        what = "prismatic: its coordinate is d_{0} in m" if other[0] == "d" else "revolute: its coordinate is theta_{0}"
+        hint = f" (joint {joint[2]} is {what.format(joint[2])}, set by links[{joint[2]}].joint.type)"
     return f"unknown coordinate {name}{hint}; this model has {', '.join(names)}"
 
 
@@ -844,6 +1054,20 @@ def _wall(r: _Reader, tbl, path: str):
     if _BAD in (point, normal, e):
         return _BAD
     return Plane(point=tuple(point), normal=tuple(normal), restitution=e)
+
+
+def _com_vector(r: _Reader, it: dict, key: str, base):
+    """[initial] center_of_mass_m / center_of_mass_velocity_m_per_s: 3 numbers, or on a planar base 2
+    (or 3 with the third 0); None when absent, _BAD on a problem."""
+    if base != "planar" or not isinstance(it.get(key), list) or len(it[key]) != 3:
+        kind = "vector2" if base == "planar" and isinstance(it.get(key), list) and len(it[key]) == 2 else "vector3"
+        return r.get(it, "initial", key, kind, default=None)
+    v = r.get(it, "initial", key, "vector3")
+    if v is not _BAD and v[2] != 0.0:
+        r.add(_join("initial", key), f"a planar base ([base] type = 'planar') moves in the X1-X2 plane: the third "
+                                     f"component must be 0, got {_fmt(v[2])}; or give two numbers")
+        return _BAD
+    return v
 
 
 def _state_table(r: _Reader, tbl, path: str, pattern, units: dict, names, coord_units=None):
@@ -907,6 +1131,11 @@ def _state_table(r: _Reader, tbl, path: str, pattern, units: dict, names, coord_
     return out if ok else _BAD
 
 
+def _choice_message(key: str, v: str) -> str:
+    """The message for a value of a [solver] choice key (_SOLVER_CHOICES) it does not take."""
+    return f"unknown value {v!r}; use " + " or ".join(f"{c!r} ({what})" for c, what in _SOLVER_CHOICES[key].items())
+
+
 #: How messages name the time and solver keys of a case file.
 _FILE_NAMES = {"t_start": "time.t_start_s", **OVERRIDE_KEYS}
 
@@ -964,12 +1193,19 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
         links = _BAD
     else:
         links = _build_each(raw_links, lambda k, lt: _link(r, lt, _join("links", k)))
+    joints = _build_each(raw_links, lambda k, lt: _joint(r, lt, _join("links", k))) \
+        if isinstance(raw_links, list) and raw_links else _BAD
     base = _base(r, top["base"]) if "base" in top else "free"
     model = None
-    if _BAD not in (links, gravity, base):
-        model = Model(Chain(tuple(links), base=base), gravity=tuple(gravity))
-        if not _element_frequencies_ok(r, model):
-            model = None
+    if _BAD not in (links, joints, gravity, base) and _chain_ok(r, links, joints, base):
+        try:
+            chain = Chain(tuple(links), joints=tuple(joints), base=base)
+        except ValueError as exc:  # pragma: no cover - _chain_ok mirrors Chain's checks
+            r.add("links", str(exc))
+        else:
+            model = Model(chain, gravity=tuple(gravity))
+            if not _element_frequencies_ok(r, model):
+                model = None
 
     # Walls.
     walls = []
@@ -1006,6 +1242,9 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
                 if key == "method" and v not in _METHODS:
                     r.add("solver.method", f"unknown method {v!r}; use one of {', '.join(_METHODS)}")
                     continue
+                if key in _SOLVER_CHOICES and v not in _SOLVER_CHOICES[key]:
+                    r.add(f"solver.{key}", _choice_message(key, v))
+                    continue
                 solver[kw] = v
     if t_span is not _BAD:
         _check_samples(r, t_span, solver, _FILE_NAMES)
@@ -1034,8 +1273,10 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
         cv = _state_table(r, it.get("velocities", {}), "initial.velocities", _RATE,
                           {"X": ("m_per_s",), "theta": ("rad_per_s", "deg_per_s"), "delta": ("m_per_s",)}, names,
                           units_of)
-        com = r.get(it, "initial", "center_of_mass_m", "vector3", default=None)
-        comv = r.get(it, "initial", "center_of_mass_velocity_m_per_s", "vector3", default=None)
+        com = _com_vector(r, it, "center_of_mass_m", base)
+        comv = _com_vector(r, it, "center_of_mass_velocity_m_per_s", base)
+        nx = 2 if base == "planar" else 3  # X1, X2 (, X3) lead q on a free-flying base
+        xs = "X1, X2" if base == "planar" else "X1, X2, X3"
         if isinstance(base, FixedBase):
             # Both set the base coordinates X of a free-flying chain.
             for key, v in (("center_of_mass_m", com), ("center_of_mass_velocity_m_per_s", comv)):
@@ -1045,12 +1286,14 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
                                                  "base.position_m and the joint angles instead")
             com = _BAD if com is not None else None
             comv = _BAD if comv is not None else None
-        if com not in (None, _BAD) and cq is not _BAD and names is not None and any(i < 3 for i in cq):
-            r.add("initial.center_of_mass_m", "sets X1, X2, X3; remove X1_m/X2_m/X3_m from [initial.coordinates]")
+        if com not in (None, _BAD) and cq is not _BAD and names is not None and any(i < nx for i in cq):
+            r.add("initial.center_of_mass_m",
+                  f"sets {xs}; remove {'/'.join(x + '_m' for x in xs.split(', '))} from [initial.coordinates]")
             com = _BAD
-        if comv not in (None, _BAD) and cv is not _BAD and names is not None and any(i < 3 for i in cv):
+        if comv not in (None, _BAD) and cv is not _BAD and names is not None and any(i < nx for i in cv):
             r.add("initial.center_of_mass_velocity_m_per_s",
-                  "sets the rates of X1, X2, X3; remove X1_m_per_s/X2_m_per_s/X3_m_per_s from [initial.velocities]")
+                  f"sets the rates of {xs}; remove {'/'.join(x + '_m_per_s' for x in xs.split(', '))} from "
+                  "[initial.velocities]")
             comv = _BAD
         if model is not None and _BAD not in (cq, cv, com, comv):
             q0 = np.zeros(model.n_dof)
@@ -1059,19 +1302,23 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
                 q0[i] = v
             for i, v in cv.items():
                 qdot0[i] = v
+            coords = it.get("coordinates", {})
+            if not _joint_ranges_ok(r, model, q0, coords if isinstance(coords, dict) else {}):
+                q0 = qdot0 = None  # the kinematics need d inside its range (a Pb link: d > 0)
+        if q0 is not None:
             if com is not None:
                 # c(q) = X + c(q with X = 0) because Trans(X) comes first; the
                 # undeformed chain: delta = 0.
                 q_und = q0.copy()
-                q_und[:3] = 0.0
+                q_und[:nx] = 0.0
                 for idx in model.delta_index:
                     q_und[idx] = 0.0
-                q0[:3] = np.asarray(com) - model.center_of_mass(q_und)
+                q0[:nx] = np.asarray(com)[:nx] - model.center_of_mass(q_und)[:nx]
             if comv is not None:
                 # Linear momentum is m Xdot + (terms without Xdot).
                 qd = qdot0.copy()
-                qd[:3] = 0.0
-                qdot0[:3] = np.asarray(comv) - model.linear_momentum(q0, qd) / model.total_mass
+                qd[:nx] = 0.0
+                qdot0[:nx] = np.asarray(comv)[:nx] - model.linear_momentum(q0, qd)[:nx] / model.total_mass
 
     # Inputs.
     inputs = []

@@ -4,7 +4,8 @@
 Exit codes (EXIT_CODES, also in ``--help``): 0 success; 2 bad input (invalid
 case file, bad option, unreadable file, an output folder that cannot be
 written), nothing simulated; 3 the simulation stopped early (status zeno,
-max_impacts, penetration or failed; the partial results are still written);
+max_impacts, penetration, joint_limit or failed; the partial results are
+still written);
 130 interrupted by Ctrl-C or SIGTERM (status "interrupted"; the partial
 results are still written); 1 an unexpected error. With several case files the
 worst code of the runs counts. Errors are reported on stderr as
@@ -32,7 +33,8 @@ EXIT_CODES = """exit codes:
   1    unexpected error (please report it)
   2    bad input: case file, option, or an output folder that cannot be
        written (one line names every problem); nothing is simulated
-  3    a simulation stopped early (zeno, max_impacts, penetration, failed);
+  3    a simulation stopped early (zeno, max_impacts, penetration,
+       joint_limit: a prismatic joint reached an end of its range, failed);
        its results up to there are written
   130  interrupted by Ctrl-C or SIGTERM: the run stops with status
        "interrupted" and its results up to there are written
@@ -170,6 +172,7 @@ def describe_case(case) -> str:
     lines.append(f"chain: {m.n_links} link(s), N = {m.n_dof} generalised coordinates, {2 * m.n_dof} first-order ODEs, "
                  f"total mass {m.total_mass:g} kg")
     lines.append(_describe_base(m))
+    lines += _describe_joints(case)
     lines.append("coordinates, in order (initial value, initial rate):")
     for k, name in enumerate(m.coordinate_names):
         unit = "rad" if is_angle_coordinate(m, k) else "m"
@@ -193,7 +196,7 @@ def describe_case(case) -> str:
                          f"beta l = {md.beta_l:.6f}, omega = {w:.6g} rad/s (f = {w / (2 * np.pi):.6g} Hz, "
                          f"period {2 * np.pi / w:.4g} s)")
         if lk.elements:
-            lines += _describe_elements(m, i)
+            lines += _describe_elements(m, i, case.q0)
         if lk.damping:
             lines.append(_describe_damping(m, i))
     lines.append("")
@@ -236,12 +239,48 @@ def _describe_base(m) -> str:
     """One line: the base of the chain."""
     import numpy as np
 
+    if m.chain.base == "planar":
+        return "base: free-flying in the X1-X2 plane (O1 at X1, X2; link 1 turned by theta_1 about X3)"
     if m.free_base:
         return "base: free-flying (O1 at X1, X2, X3; rotations theta_-1, theta_0, theta_1)"
     base = m.chain.base
     pos = ", ".join(f"{c:g}" for c in base.position)
-    return (f"base: fixed at ({pos}) m, angle {np.degrees(base.angle):g} deg about X3; "
-            "joint 1 turns link 1 by theta_1 about z there")
+    what = {"R": "joint 1 turns link 1 by theta_1 about z there",
+            "Pa": "joint 1 is a carriage on a rail along the base x axis",
+            "Pb": "joint 1 is a guide at the base origin that link 1 slides through"}[m.chain.joints[0].kind]
+    return f"base: fixed at ({pos}) m, angle {np.degrees(base.angle):g} deg about X3; {what}"
+
+
+def _describe_joints(case) -> list:
+    """Lines on the joints: type, fixed angle, half-length and range of each prismatic joint."""
+    import numpy as np
+
+    m = case.model
+    joints = m.chain.joints
+    if all(j.kind == "R" for j in joints):
+        return ["joints: all revolute (theta_i turns link i about z at the tip of link i-1, or at the base)"]
+    lines = ["joints:"]
+    for i, (jt, k) in enumerate(zip(joints, m.theta_index), start=1):
+        host = "the base" if i == 1 else f"link {i - 1}"
+        name = m.coordinate_names[k]
+        if jt.kind == "R":
+            lines.append(f"  joint {i}: R (revolute): link {i} turns by {name} about z at the "
+                         f"{'base' if i == 1 else f'tip of link {i - 1}'}")
+            continue
+        lo, hi = jt.range
+        now = f", {case.q0[k]:g} m at t0"
+        angle = f"{np.degrees(jt.angle):g} deg"
+        if jt.kind == "Pa":
+            rail = "a straight rigid rail along the base x axis" if i == 1 else host
+            lines.append(f"  joint {i}: Pa (sliding prismatic): a carriage of half-length c = {jt.half_length:g} m runs "
+                         f"along {rail}, link {i} fixed to it at {angle}; {name} (the carriage centre's position "
+                         f"along {host}) in [{lo:g}, {hi:g}] m{now}")
+        else:
+            guide = "at the base origin" if i == 1 else f"at the tip of link {i - 1}, turned {angle} from its tangent"
+            lines.append(f"  joint {i}: Pb (fixed prismatic): link {i} slides through a guide {guide}"
+                         f"{f', at {angle} to the base x axis' if i == 1 else ''}; {name} (the length protruding "
+                         f"from the guide) in [{lo:g}, {hi:g}] m{now}")
+    return lines
 
 
 def _element_frequencies(ld, direction: str):
@@ -258,31 +297,48 @@ def _element_frequencies(ld, direction: str):
     return np.sqrt(np.maximum(w2, 0.0))
 
 
-def _describe_elements(m, i: int) -> list:
-    """Lines on the finite elements of link i (1-based): coordinates and lowest clamped-free frequencies."""
+def _describe_elements(m, i: int, q0=None) -> list:
+    """Lines on the finite elements of link i (1-based): coordinates and lowest clamped-free frequencies.
+
+    A link behind a Pb guide bends over its protruding length d only (stretching elements): its
+    frequencies are those of a clamped-free beam of length d, shown at d(q0), and the highest also at
+    d_min, where it is largest (omega ~ 1/d^2).
+    """
     import numpy as np
 
     from .modes import Mode, natural_frequency
 
     lk, ld, idx = m.chain.links[i - 1], m.link_data[i - 1], m.delta_index[i - 1]
+    jt = m.chain.joints[i - 1]
     names = m.coordinate_names
     lines = []
     per = 2 * lk.elements
+    length, scale, at = lk.length, 1.0, ""
+    if jt.kind == "Pb":
+        d0 = float(q0[m.theta_index[i - 1]]) if q0 is not None else jt.range[1]
+        length, scale = d0, (lk.length / d0) ** 2
+        at = f" at the protruding length {names[m.theta_index[i - 1]]} = {d0:g} m"
     for j, d in enumerate(lk.element_directions):
         first, last = names[idx[j * per]], names[idx[(j + 1) * per - 1]]
         what = "v (in-plane)" if d == "y" else "w (out-of-plane)"
-        lines.append(f"    {lk.elements} Hermite cubic element(s) in {d}, bending {what}: {first} ... {last} = "
+        kind = "stretching Hermite cubic element(s) on the protruding length" if jt.kind == "Pb" \
+            else "Hermite cubic element(s)"
+        lines.append(f"    {lk.elements} {kind} in {d}, bending {what}: {first} ... {last} = "
                      f"(deflection m, slope rad) at nodes 1 ... {lk.elements}")
         ei = lk.EI_z if d == "y" else lk.EI_y
-        w = _element_frequencies(ld, d)
+        w = _element_frequencies(ld, d) * scale
         shown = []
         for n, omega in enumerate(w[:3], start=1):
-            exact = natural_frequency(Mode("clamped-free", d, n), lk.length, lk.mass_per_length, ei) \
+            exact = natural_frequency(Mode("clamped-free", d, n), length, lk.mass_per_length, ei) \
                 if not callable(ei) and not callable(lk.mass_per_length) else None
             beam = f" (beam {exact:.6g})" if exact is not None else ""
             shown.append(f"{omega:.6g}{beam}")
-        lines.append(f"      clamped-free omega = {', '.join(shown)} rad/s; highest {w[-1]:.4g} rad/s "
+        lines.append(f"      clamped-free omega{at} = {', '.join(shown)} rad/s; highest {w[-1]:.4g} rad/s "
                      f"(period {2 * np.pi / w[-1]:.3g} s)")
+        if jt.kind == "Pb":
+            w_min = w[-1] / scale * (lk.length / jt.range[0]) ** 2
+            lines.append(f"      omega ~ 1/d^2: the highest is {w_min:.4g} rad/s at d_min = {jt.range[0]:g} m "
+                         f"(period {2 * np.pi / w_min:.3g} s)")
     return lines
 
 

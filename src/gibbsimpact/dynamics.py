@@ -122,8 +122,9 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
     fdat, idat, zeros = model.kernel_data
     N = zeros.size
     shape = (N,)
+    # (A read-only array is screened out here: numba's TypeError for it costs ~0.3 ms.)
     if Q is None and q.__class__ is np.ndarray and qdot.__class__ is np.ndarray and q.shape == shape \
-            and qdot.shape == shape:
+            and qdot.shape == shape and q.flags.writeable and qdot.flags.writeable:
         try:
             out = _k.compiled()(fdat, idat, q, qdot, zeros, _k.JOB_SOLVE)
         except TypeError:

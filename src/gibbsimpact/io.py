@@ -13,6 +13,8 @@ Files (docs/case-format.md, "Output files"):
 
 Links, joints, walls and impacts are numbered from 1 in the files; in the
 Python API ``ImpactRecord.wall`` is the 0-based index into ``Result.walls``.
+An end-stop impact of a prismatic joint (``simulate(..., joint_limit="impact")``)
+has ``wall == -1`` in the API, wall 0 in the files ("end stop of joint i").
 Numbers are written with the shortest decimal text that reads back to the
 same double.
 
@@ -36,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from .dynamics import Energy
-from .model import Chain, FixedBase, Link, Model, Revolute
+from .model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
 from .modes import Mode
 from .results import ImpactRecord, Result
 from .walls import Circle, Plane, Sphere, describe
@@ -166,7 +168,7 @@ def write_impacts_csv(result: Result, path) -> Path:
             for c, (joint, wall) in enumerate(zip(rec.joints, rec.wall)):
                 w.writerow(
                     [str(i), _fmt(rec.time), str(len(rec.joints)), str(int(joint)), str(int(wall) + 1),
-                     describe(result.walls[int(wall)])]
+                     describe(result.walls[int(wall)]) if wall >= 0 else f"end stop of joint {int(joint)}"]
                     + [_fmt(v) for v in np.asarray(rec.normals)[c]]
                     + [_fmt(rec.impulses[c]), _fmt(rec.v_before[c]), _fmt(rec.v_after[c]), _fmt(rec.restitution[c])]
                     + [_fmt(v) for v in rec.energy_before]
@@ -333,7 +335,17 @@ def model_to_dict(model: Model) -> dict:
     base = model.chain.base
     if not model.free_base:
         d["base"] = {"type": "fixed", "position": list(base.position), "angle": float(base.angle)}
-    d["joints"] = [jt.kind for jt in model.chain.joints]
+    elif base == "planar":
+        d["base"] = {"type": "planar"}
+    joints = []
+    for jt in model.chain.joints:
+        j = {"kind": jt.kind}
+        if jt.kind != "R":
+            j.update(angle=float(jt.angle), range=[float(v) for v in jt.range])
+        if jt.kind == "Pa":
+            j["half_length"] = float(jt.half_length)
+        joints.append(j)
+    d["joints"] = joints
     quad = getattr(model, "quadrature", None)
     if quad is not None:
         d["quadrature"] = [int(v) for v in quad]
@@ -351,10 +363,22 @@ def model_from_dict(d: dict) -> Model:
     ]
     kw = {"quadrature": tuple(d["quadrature"])} if "quadrature" in d else {}
     b = d.get("base")
-    base = FixedBase(tuple(b["position"]), b["angle"]) if b is not None else "free"
-    kinds = {"R": Revolute}
-    joints = tuple(kinds[k]() for k in d.get("joints", ["R"] * len(links)))
-    return Model(Chain(tuple(links), joints=joints, base=base), gravity=tuple(d["gravity"]), **kw)
+    if b is None:
+        base = "free"
+    elif b.get("type") == "planar":
+        base = "planar"
+    else:
+        base = FixedBase(tuple(b["position"]), b["angle"])
+    joints = []
+    for j in d.get("joints", ["R"] * len(links)):
+        j = {"kind": j} if isinstance(j, str) else j  # files written before prismatic joints: kinds only
+        if j["kind"] == "R":
+            joints.append(Revolute())
+        elif j["kind"] == "Pa":
+            joints.append(SlidingPrismatic(angle=j["angle"], half_length=j["half_length"], range=tuple(j["range"])))
+        else:
+            joints.append(FixedPrismatic(angle=j["angle"], range=tuple(j["range"])))
+    return Model(Chain(tuple(links), joints=tuple(joints), base=base), gravity=tuple(d["gravity"]), **kw)
 
 
 def wall_to_dict(w) -> dict:

@@ -1136,17 +1136,9 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
             oa = idat[_H + _CI * a + 3]
             if ob >= 0 and fa <= ob:
                 # e_b . (S_a y_b): a moves the link that b deforms
-                for r in range(3):
-                    x = 0.0
-                    for k in range(4):
-                        x += B[SS + a, r, k] * V[YY + b, k]
-                    val += V[EE + b, r] * x
+                val += _e_sy(B, V, SS + a, YY + b, EE + b)
             if oa >= 0 and fb <= oa:
-                for r in range(3):
-                    x = 0.0
-                    for k in range(4):
-                        x += B[SS + b, r, k] * V[YY + a, k]
-                    val += V[EE + a, r] * x
+                val += _e_sy(B, V, SS + b, YY + a, EE + a)
             if ob >= 0 and oa == ob:
                 bl = _H + _CI * N + _LI * ob
                 m = idat[bl]
@@ -1170,26 +1162,12 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
                     for pb_ in range(2):
                         if (pb_ == 1 and f2b < 0) or (pa == 0 and pb_ == 0):
                             continue
-                        sb = SS + b + pb_ * N
                         st = max(st_a, fb if pb_ == 0 else f2b)
-                        for r in range(3):
-                            for k in range(4):
-                                x = 0.0
-                                for l2 in range(4):
-                                    x += B[PIC + st, k, l2] * B[sb, r, l2]
-                                val += B[sa, r, k] * x
+                        val += _tr_sps(B, sa, PIC + st, SS + b + pb_ * N)
                 if f2a >= 0 and ob >= 0 and f2a <= ob:
-                    for r in range(3):
-                        x = 0.0
-                        for k in range(4):
-                            x += B[SS + N + a, r, k] * V[YY + b, k]
-                        val += V[EE + b, r] * x
+                    val += _e_sy(B, V, SS + N + a, YY + b, EE + b)
                 if f2b >= 0 and oa >= 0 and f2b <= oa:
-                    for r in range(3):
-                        x = 0.0
-                        for k in range(4):
-                            x += B[SS + N + b, r, k] * V[YY + a, k]
-                        val += V[EE + a, r] * x
+                    val += _e_sy(B, V, SS + N + b, YY + a, EE + a)
             M[c, d] = val
             M[d, c] = val
     for c in range(N):
@@ -1225,6 +1203,29 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
                     for k in range(4):
                         x += B[SS + N + c, r, k] * B[FC + f2, k, r]
                 h[c] += x
+
+
+def _tr_sps(B, sa, k, sb):
+    """tr(B[sa] B[k] B[sb]^T) for twists B[sa], B[sb] (zero last row)."""
+    val = 0.0
+    for r in range(3):
+        for i in range(4):
+            x = 0.0
+            for j in range(4):
+                x += B[k, i, j] * B[sb, r, j]
+            val += B[sa, r, i] * x
+    return val
+
+
+def _e_sy(B, V, s, y, e):
+    """V[e] . (B[s] V[y]) over the first three rows: e_b . (S_a y_b)."""
+    val = 0.0
+    for r in range(3):
+        x = 0.0
+        for k in range(4):
+            x += B[s, r, k] * V[y, k]
+        val += V[e, r] * x
+    return val
 
 
 def _cholesky_solve(M, b):
@@ -1496,7 +1497,9 @@ def kernel(fdat, idat, qs, qds, Q, job):
 _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_skew", "_skew3",
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
             "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
-            "_sd_stride", "_own", "_link_body", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
+            "_sd_stride", "_own", "_link_body", "_tr_sps", "_e_sy", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
+#: Helpers called from more than one function, compiled as their own dispatchers.
+_SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
 _ENTRIES = {"kernel": f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64)"}
 _state = {"ready": False, "cached": None, "seconds": 0.0, "kernel": None}
@@ -1532,6 +1535,11 @@ def _compile_all():
             return numba.njit(sig, nogil=True)(f) if sig else numba.njit(nogil=True)(f)
 
     for name in _HELPERS:
+        if name in _SHARED:
+            # Called from several functions: one dispatcher compiles it once (an overload
+            # would be typed and lowered again for every caller).
+            g[name] = jit(g[name])
+            continue
         # Compiled inside the entry points that call them (no wrapper, no separate finalisation).
         numba.extending.register_jitable(g[name])
     for name, sig in _ENTRIES.items():
@@ -1566,7 +1574,7 @@ def _cache_is_warm():
 def ensure_compiled():
     """Compile the kernel on first use (or load it from numba's cache); cheap afterwards.
 
-    A one-line notice goes to stderr before a compile (about 15-20 s of CPU);
+    A one-line notice goes to stderr before a compile (about 20-30 s of CPU);
     loading from the cache (~0.5 s) is silent. If the cache state cannot be
     read, the notice appears once compiling has taken NOTICE_AFTER_S.
     """
@@ -1580,7 +1588,7 @@ def ensure_compiled():
 
         def notice():
             shown.append(True)
-            print("gibbsimpact: compiling the dynamics kernel (first use; about 15-20 s of CPU) ...",
+            print("gibbsimpact: compiling the dynamics kernel (first use; about 20-30 s of CPU) ...",
                   file=sys.stderr, flush=True)
 
         warm = None if jit_disabled() else _cache_is_warm()

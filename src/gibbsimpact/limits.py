@@ -59,8 +59,9 @@ def joint_limits(model) -> tuple[Limit, ...]:
             n = e.copy()
             n[kp] = 1.0
             c, lh = jt.half_length, links[i - 1].length
-            out.append(Limit(f"{names[k]} - c >= l_{i - 1} - {names[kp]} (the carriage stays on the protruding "
-                             f"part of link {i - 1})", i + 1, n, -c - lh))
+            # (i is 0-based: joint i + 1's host is link i)
+            out.append(Limit(f"{names[k]} - c >= l_{i} - {names[kp]} (the carriage stays on the protruding "
+                             f"part of link {i})", i + 1, n, -c - lh))
     for lim in out:
         lim.n.setflags(write=False)
     return tuple(out)

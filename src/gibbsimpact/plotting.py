@@ -21,6 +21,16 @@ when the motion is planar and in 3D otherwise; in 3D, X2 (the usual "up"
 against gravity) is the vertical axis and the camera looks along the
 direction in which the joints moved least. Link drawings and joint paths
 have separate colour sets; red is kept for impacts.
+
+Prismatic joints: their variables d_i [m] get panels of their own in "angles"
+(with their ranges as thin dashed lines); configuration drawings show a
+FixedPrismatic (Pb) guide as a small sleeve at the host's tip with the link's
+part behind it as a thin line along the host, a SlidingPrismatic (Pa)
+carriage as a box on its host (and, on the base, its rail). An end-stop
+impact (ImpactRecord wall -1) is named "stop i (d_min|d_max)" and drawn as a
+red diamond at the guide or carriage. "deflection" is each link's tip
+deflection in its own frame (model.link_deflection at x = l_i; at mid-span
+for clamped-clamped modes), with the protruding length of Pb links below.
 """
 
 from __future__ import annotations
@@ -33,17 +43,18 @@ import textwrap
 import numpy as np
 
 from .kinematics import transforms
-from .model import shape_functions
+from .model import link_deflection
 from .walls import Circle, Plane, Sphere, describe
 
 __all__ = [
-    "FIGURES", "animate", "camera", "is_planar", "link_points", "plot_angles", "plot_configurations", "plot_energy",
-    "plot_joint_positions", "plot_joint_velocities", "plot_modes", "plot_one", "plot_result", "plot_trajectory",
-    "save_figures",
+    "FIGURES", "animate", "camera", "is_planar", "link_points", "plot_angles", "plot_configurations",
+    "plot_deflection", "plot_energy", "plot_joint_positions", "plot_joint_velocities", "plot_modes", "plot_one",
+    "plot_result", "plot_trajectory", "save_figures", "tip_deflections",
 ]
 
 #: Figure keys of plot_result, in drawing order; each is saved as <key>.png.
-FIGURES = ("angles", "modes", "joint_positions", "joint_velocities", "energy", "configurations", "trajectory")
+FIGURES = ("angles", "modes", "deflection", "joint_positions", "joint_velocities", "energy", "configurations",
+           "trajectory")
 
 _PLANAR_TOL = 1e-9  # m or rad: out-of-plane motion below this counts as planar
 
@@ -116,11 +127,115 @@ def link_points(model, q, n_points: int = 41) -> np.ndarray:
         x = np.linspace(0.0, lk.length, n_points)
         r = np.zeros((4, n_points))
         r[0], r[3] = x, 1.0
-        directions, psi = shape_functions(lk, x)
-        for k, d, p_k in zip(model.delta_index[i], directions, psi):
-            r[1 if d == "y" else 2] += p_k * q[k]
+        r[1], r[2] = link_deflection(model, q, i, x)
         out[i] = (T[i] @ r)[:3].T
     return out
+
+
+def _points_on_link(model, q, T, i: int, x) -> np.ndarray:
+    """Points of link i (0-based) at abscissae x (m,) in its deformed shape, (m, 3) [m]."""
+    x = np.asarray(x, dtype=float)
+    r = np.zeros((4, x.size))
+    r[0], r[3] = x, 1.0
+    r[1], r[2] = link_deflection(model, q, i, x)
+    return (T[i] @ r)[:3].T
+
+
+def _link_parts(model, q, n_points: int = 41) -> list:
+    """Per link (main (m, 3), rear (2, 3) or None) [m].
+
+    A link sliding through a FixedPrismatic guide (Pb, protruding length d) is split at the
+    guide: main is its protruding part x = l - d ... l, where it bends, sampled with
+    ``n_points`` points; rear is the straight part behind the guide, x = 0 ... l - d (None when
+    d = l). Every other link is main only, as link_points samples it.
+    """
+    q = np.asarray(q, dtype=float)
+    T = transforms(model, q)
+    out = []
+    for i, lk in enumerate(model.chain.links):
+        rear = None
+        if model.chain.joints[i].kind == "Pb":
+            s = min(max(lk.length - float(q[model.theta_index[i]]), 0.0), lk.length)
+            main = _points_on_link(model, q, T, i, np.linspace(s, lk.length, n_points))
+            if s > 0.0:
+                rear = _points_on_link(model, q, T, i, np.array([0.0, s]))
+        else:
+            main = _points_on_link(model, q, T, i, np.linspace(0.0, lk.length, n_points))
+        out.append((main, rear))
+    return out
+
+
+def _chain_scale(model) -> float:
+    """Length that sizes the joint symbols: the sum of the link lengths [m]."""
+    return float(sum(lk.length for lk in model.chain.links)) or 1.0
+
+
+def _box(p, a, b, half_length, half_width) -> np.ndarray:
+    """Closed outline (5, 3) of the rectangle centred at p with unit axes a (length) and b (width)."""
+    corners = [(1, 1), (-1, 1), (-1, -1), (1, -1), (1, 1)]
+    return np.array([p + sa * half_length * a + sb * half_width * b for sa, sb in corners])
+
+
+def _stop_point(model, q, joint: int) -> np.ndarray:
+    """Where prismatic joint ``joint`` (1-based) is drawn (3,) [m]: the guide of a FixedPrismatic
+    joint (link i's axis at x = l_i - d_i), the carriage centre O_i of a SlidingPrismatic one."""
+    q = np.asarray(q, dtype=float)
+    T = transforms(model, q)
+    i = joint - 1
+    if model.chain.joints[i].kind == "Pb":
+        s = model.chain.links[i].length - float(q[model.theta_index[i]])
+        return (T[i] @ np.array([s, 0.0, 0.0, 1.0]))[:3]
+    return T[i][:3, 3].copy()
+
+
+def _prismatic_marks(model, q) -> list:
+    """Outlines of the prismatic joints at q: [(kind, joint i (1-based), (m, 3) polyline [m])].
+
+    kind "guide": the FixedPrismatic guide, a sleeve around link i's axis at the host's tip;
+    "carriage": the SlidingPrismatic carriage, a box along its chord on the host (length 2 c,
+    at least a few per cent of the chain so that a point slider shows); "rail": the straight
+    rail on the base of a SlidingPrismatic joint 1, its travel d_min - c ... d_max + c along the
+    base x axis, with a tick at each end.
+    """
+    kinds = [j.kind for j in model.chain.joints]
+    if all(k == "R" for k in kinds):
+        return []
+    q = np.asarray(q, dtype=float)
+    T = transforms(model, q)
+    L = _chain_scale(model)
+    out = []
+    for i, jt in enumerate(model.chain.joints):
+        if jt.kind == "Pb":
+            a, b = T[i][:3, 0], T[i][:3, 1]
+            out.append(("guide", i + 1, _box(_stop_point(model, q, i + 1), a, b, 0.03 * L, 0.014 * L)))
+        elif jt.kind == "Pa":
+            g = jt.angle
+            # The carriage frame is link i's frame turned back by gamma.
+            a = np.cos(g) * T[i][:3, 0] - np.sin(g) * T[i][:3, 1]
+            b = np.sin(g) * T[i][:3, 0] + np.cos(g) * T[i][:3, 1]
+            out.append(("carriage", i + 1, _box(T[i][:3, 3], a, b, max(jt.half_length, 0.015 * L), 0.012 * L)))
+            if i == 0 and model.base_transform is not None:
+                T0 = np.asarray(model.base_transform, dtype=float)
+                lo, hi = jt.range[0] - jt.half_length, jt.range[1] + jt.half_length
+                ends = [(T0 @ np.array([x, 0.0, 0.0, 1.0]))[:3] for x in (lo, hi)]
+                out.append(("rail", 1, np.array(ends)))
+                for e in ends:
+                    out.append(("rail", 1, np.array([e - 0.02 * L * T0[:3, 1], e + 0.02 * L * T0[:3, 1]])))
+    return out
+
+
+#: How the joint symbols are drawn: kind -> (legend label, line keywords).
+_MARK_STYLE = {
+    "guide": ("guide (prismatic, link slides through)", {"color": "k", "lw": 1.3}),
+    "carriage": ("carriage (prismatic, slides on the host)", {"color": "k", "lw": 1.8}),
+    "rail": ("rail of joint 1 (its travel)", {"color": "0.35", "lw": 1.0}),
+}
+
+
+def _scene_points(model, q, n_points: int = 41) -> np.ndarray:
+    """Every point a configuration drawing shows (links and prismatic joint symbols), (m, 3) [m]."""
+    pts = [link_points(model, q, n_points).reshape(-1, 3)] + [P for _, _, P in _prismatic_marks(model, q)]
+    return np.concatenate(pts)
 
 
 def _wall_is_2d(w) -> bool:
@@ -135,7 +250,8 @@ def is_planar(result) -> bool:
     """True when the chain stays in the X1-X2 plane (X3, theta_-1, theta_0, z-modes ~ 0) and every
     wall has a curve as its section with that plane."""
     model = result.model
-    idx = [2, 3, 4] if model.free_base else []
+    # Only the spatial free base has X3, theta_-1, theta_0 (a planar one has X1, X2 only).
+    idx = [2, 3, 4] if model.chain.base == "free" else []
     idx += [k for k, d in enumerate(model.bending_directions) if d == "z"]
     planar = np.all(np.abs(result.q[:, idx]) < _PLANAR_TOL) and np.all(np.abs(result.qdot[:, idx]) < _PLANAR_TOL)
     return bool(planar) and all(_wall_is_2d(w) for w in result.walls)
@@ -239,11 +355,13 @@ def _plane_polygon_3d(walls, k: int, lo, hi) -> np.ndarray:
 # Labels
 
 def _tex(name: str, dot: bool = False) -> str:
-    """Mathtext label of a coordinate name: theta_-1 -> theta_{-1}, delta_1_2 -> delta_{1,2}."""
+    """Mathtext label of a coordinate name: theta_-1 -> theta_{-1}, delta_1_2 -> delta_{1,2}, d_2 -> d_{2}."""
     if name.startswith("theta_"):
         sym, sub = r"\theta", name[6:]
     elif name.startswith("delta_"):
         sym, sub = r"\delta", name[6:].replace("_", ",")
+    elif name.startswith("d_"):
+        sym, sub = "d", name[2:]
     else:
         sym, sub = "X", name[1:]
     if dot:
@@ -255,11 +373,60 @@ def _joint_list(joints) -> str:
     return "+".join(f"O{j}" for j in joints)
 
 
+def _is_stop(wall) -> bool:
+    """True for an end-stop contact (a prismatic joint at an end of its range: wall index -1)."""
+    return int(wall) < 0
+
+
+def _sample_at(result, time: float) -> np.ndarray:
+    """q at the first sample at or after ``time`` (an impact time: the state before the impact)."""
+    return result.q[min(int(np.searchsorted(result.t, time, side="left")), len(result.t) - 1)]
+
+
+def _stop_label(result, joint: int, q) -> str:
+    """'stop i (d_min)' / 'stop i (d_max)' for an end-stop impact of prismatic joint i at q, or
+    'stop i' when it is another limit (a carriage at the end of a Pb link's protruding part)."""
+    model = result.model
+    jt = model.chain.joints[joint - 1] if 1 <= joint <= model.n_links else None
+    if jt is None or jt.kind == "R":
+        return f"stop {joint}"
+    d = float(q[model.theta_index[joint - 1]])
+    lo, hi = jt.range
+    tol = 1e-3 * (hi - lo)
+    if abs(d - lo) <= tol:
+        return f"stop {joint} (d_min)"
+    if abs(d - hi) <= tol:
+        return f"stop {joint} (d_max)"
+    return f"stop {joint}"
+
+
+def _contacts_text(result, rec) -> str:
+    """The contacts of an impact: 'O2' for a joint point at a wall, 'stop 2 (d_max)' for an end stop."""
+    walls = tuple(rec.wall) if len(rec.wall) == len(rec.joints) else (0,) * len(rec.joints)
+    if not any(_is_stop(w) for w in walls):
+        return _joint_list(rec.joints)
+    q = _sample_at(result, rec.time)
+    return "+".join(_stop_label(result, int(j), q) if _is_stop(w) else f"O{j}" for j, w in zip(rec.joints, walls))
+
+
+def _split_contacts(rec):
+    """(wall contacts [(joint point j, normal (3,))], end-stop joints [i]) of an impact record."""
+    walls = tuple(rec.wall) if len(rec.wall) == len(rec.joints) else (0,) * len(rec.joints)
+    normals = np.asarray(rec.normals, dtype=float).reshape(-1, 3)
+    hits, stops = [], []
+    for c, (j, w) in enumerate(zip(rec.joints, walls)):
+        if _is_stop(w):
+            stops.append(int(j))
+        else:
+            hits.append((int(j), normals[c] if c < len(normals) else np.zeros(3)))
+    return hits, stops
+
+
 def _impact_note(result, limit: int = 8) -> str:
     imps = result.impacts
     if not imps:
         return "no impacts"
-    items = [f"{k}: {_joint_list(r.joints)} at {r.time:.6f} s" for k, r in enumerate(imps[:limit], start=1)]
+    items = [f"{k}: {_contacts_text(result, r)} at {r.time:.6f} s" for k, r in enumerate(imps[:limit], start=1)]
     more = f"; ... ({len(imps)} in all, every one in impacts.csv)" if len(imps) > limit else ""
     return "impacts (dotted lines): " + "; ".join(items) + more
 
@@ -270,7 +437,9 @@ def _status_line(result, width: int = 150) -> str:
     if result.status == "finished":
         return ""
     head = f"STOPPED EARLY ({result.status}) at t = {float(result.t[-1]):.6g} s: "
-    msg = re.sub(r"\s*\([^()]*\)", "", str(result.message))
+    msg, prev = str(result.message), None
+    while msg != prev:  # innermost first, so that nested remarks go whole
+        msg, prev = re.sub(r"\s*\([^()]*\)", "", msg), msg
     return head + textwrap.shorten(msg, max(20, width - len(head)), placeholder=" ...")
 
 
@@ -406,33 +575,75 @@ def _legend(ax, ncol=None, outside=True):
 # --------------------------------------------------------------------------
 # Time histories
 
-def plot_angles(result, case_name=None, ax=None):
-    """Joint angles theta [rad] and their rates [rad/s] against time; returns the Figure.
+def _joint_variables(result):
+    """[(colour index, coordinate index, joint number or None, 'R' | 'Pa' | 'Pb')] of the joint variables
+    plot_angles draws: theta_-1, theta_0 of a spatial free base when the motion is not planar,
+    then theta_i / d_i of every joint (a planar free base adds no angle: its theta_1 is joint 1's)."""
+    model = result.model
+    rows = [(k, i, kd) for i, (k, kd) in enumerate(zip(model.theta_index, model.joint_kinds), start=1)]
+    if model.chain.base == "free" and not is_planar(result):
+        rows = [(3, None, "R"), (4, None, "R")] + rows
+    return [(c, k, i, kd) for c, (k, i, kd) in enumerate(rows)]
 
-    ax : None (a new figure with both panels), one Axes (the angles only) or two (angles, rates).
+
+#: Line styles of the d curves: none of them dashed like the range lines (_RANGE_STYLE).
+_P_STYLES = ("-", "-.", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 1)))
+_RANGE_STYLE = {"ls": (0, (5, 3)), "lw": 0.8, "alpha": 0.8, "zorder": 1}
+
+
+def _draw_ranges(ax, model, rows, colour=None):
+    """Thin dashed lines at d_min and d_max of the prismatic joints of ``rows`` [(colour index, _, joint, _)],
+    in the colour of their curves (or ``colour(joint)``)."""
+    for c, _, i, _ in rows:
+        for k, y in enumerate(model.chain.joints[i - 1].range):
+            ax.axhline(y, color=colour(i) if colour else f"C{c % 10}", label=f"range of $d_{{{i}}}$" if k == 0 else None,
+                       **_RANGE_STYLE)
+
+
+def plot_angles(result, case_name=None, ax=None):
+    """Joint variables against time: angles theta [rad] and their rates [rad/s]; the variables d [m]
+    of prismatic joints (thin dashed lines: their ranges d_min, d_max) and their rates [m/s] on
+    panels of their own; returns the Figure.
+
+    Panels, top to bottom: angles, angular velocities, then (with prismatic joints) d and d rates.
+    ax : None (a new figure with every panel) or one or more Axes that receive the panels in that
+    order; with fewer Axes than panels the rates are left out first (one Axes: the angles, or d
+    for a chain of prismatic joints only; two: angles and d).
     """
     model = result.model
-    idx = list(model.theta_index)
-    if model.free_base and not is_planar(result):
-        idx = [3, 4] + idx
+    rows = _joint_variables(result)
+    groups = {"R": [r for r in rows if r[3] == "R"], "P": [r for r in rows if r[3] != "R"]}
+    panels = [(g, rate) for g in ("R", "P") for rate in (False, True) if groups[g]]
     own = ax is None
     if own:
-        fig = _figure((9.5, 6))
-        axes = list(fig.subplots(2, 1, sharex=True))
+        fig = _figure((9.5, 6.0 if len(panels) <= 2 else 1.2 + 2.1 * len(panels)))
+        axes = list(fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0])
     else:
-        axes = _given_axes(ax, 2, "plot_angles")
+        axes = _given_axes(ax, len(panels), "plot_angles")
         fig = axes[0].figure
-    for c, k in enumerate(idx):
-        name = model.coordinate_names[k]
-        axes[0].plot(result.t, result.q[:, k], label=_tex(name), **_style(c))
-        if len(axes) > 1:
-            axes[1].plot(result.t, result.qdot[:, k], label=_tex(name, dot=True), **_style(c))
-    axes[0].set_ylabel("joint angle [rad]")
-    if len(axes) > 1:
-        axes[1].set_ylabel("angular velocity [rad/s]")
+        keep = sorted(panels, key=lambda p: p[1])[:len(axes)]  # positions before rates
+        panels = [p for p in panels if p in keep]
+    ylabels = {("R", False): "joint angle [rad]", ("R", True): "angular velocity [rad/s]",
+               ("P", False): "prismatic joint d [m]", ("P", True): "prismatic velocity [m/s]"}
+    for a, (g, rate) in zip(axes, panels):
+        for pos, (c, k, _, _) in enumerate(groups[g]):
+            name = model.coordinate_names[k]
+            # One colour per joint variable over all panels; line styles cycle within a panel (never
+            # dashed for d, whose range lines are dashed).
+            style = dict(_style(pos, f"C{c % 10}"), ls=(_STYLES if g == "R" else _P_STYLES)[pos % 4])
+            a.plot(result.t, (result.qdot if rate else result.q)[:, k], label=_tex(name, dot=rate), **style)
+        if g == "P" and not rate:
+            _draw_ranges(a, model, groups[g])
+        a.set_ylabel(ylabels[g, rate])
     for a in axes:
         _legend(a, outside=own)
-    _finish_time_figure(fig, axes, result, _title(result, "joint angles and angular velocities", case_name), own)
+    if not groups["P"]:
+        what = "joint angles and angular velocities"
+    elif not groups["R"]:
+        what = "prismatic joint variables d (dashed: their ranges) and velocities"
+    else:
+        what = "joint variables: angles [rad], prismatic d [m] (dashed: ranges), and their rates"
+    _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
     return fig
 
 
@@ -509,6 +720,94 @@ def plot_modes(result, case_name=None, ax=None):
     return fig
 
 
+def tip_deflections(model, qs) -> list:
+    """Tip deflection of every flexible link in its own frame at the states qs (K, N):
+    [(link i (0-based), "v" | "w", x [m], values (K,) [m])], v along the link frame's y axis, w
+    along z (w only for a link that bends in z), at x = l_i.
+
+    The value is link_deflection(model, q, i, x) at every state: for a link with fixed
+    shapes it is linear in the link's coordinates (one evaluation per coordinate); for a link in
+    a FixedPrismatic guide, whose elements stretch with d, it is v(l) = sum_k d^(a_k) N_k(1)
+    delta_k, the stretching elements at their tip (model.link_deflection). A direction whose
+    shapes all vanish at the tip (clamped-clamped modes) is taken at mid-span, x = l_i / 2.
+    """
+    from .elements import hermite_shape
+
+    qs = np.atleast_2d(np.asarray(qs, dtype=float))
+    out = []
+    for i, lk in enumerate(model.chain.links):
+        idx = np.asarray(model.delta_index[i], dtype=int)
+        if idx.size == 0:
+            continue
+        if model.chain.joints[i].kind == "Pb":
+            N1 = hermite_shape(lk.elements, 1.0, np.array([1.0]))[:, 0]  # (2 n_e,) at the tip, xi = 1
+            a = np.tile([0.0, 1.0], lk.elements)
+            d = qs[:, model.theta_index[i]]
+            out.append((i, "v", lk.length, (d[:, None] ** a * qs[:, idx]) @ N1))
+            continue
+        x = np.array([lk.length, 0.5 * lk.length])
+        basis = np.zeros((2, idx.size, 2))  # [tip | mid-span, coordinate, v | w]
+        for c, k in enumerate(idx):
+            e = np.zeros(model.n_dof)
+            e[k] = 1.0
+            basis[:, c] = np.column_stack(link_deflection(model, e, i, x))
+        dirs = {model.bending_directions[k] for k in idx}
+        for comp, name in ((0, "v"), (1, "w")):
+            if ("y" if name == "v" else "z") in dirs:
+                at = 0 if np.abs(basis[0, :, comp]).max() > 1e-12 * np.abs(basis[1, :, comp]).max() else 1
+                out.append((i, name, float(x[at]), qs[:, idx] @ basis[at, :, comp]))
+    return out
+
+
+def plot_deflection(result, case_name=None, ax=None):
+    """Tip deflection of each flexible link in its own frame, v(l_i) (and w(l_i) for a link bending in
+    z) [m], in the link's colour of the configuration drawings (at mid-span, l_i / 2, for a link
+    whose shapes all vanish at the tip: clamped-clamped modes); below, for links sliding through a
+    FixedPrismatic guide, their protruding length d [m] (dashed: its range). None for a chain of
+    rigid links.
+
+    ax : None (a new figure), one Axes (the deflections) or two (deflections, protruding lengths).
+    """
+    model = result.model
+    curves = tip_deflections(model, result.q)
+    if not curves:
+        return None
+    pb = [i for i, kd in enumerate(model.joint_kinds) if kd == "Pb"]  # 0-based links in a guide
+    n_panels = 2 if pb else 1
+    own = ax is None
+    if own:
+        fig = _figure((9.5, 6.0 if pb else 4.2))
+        axes = list(fig.subplots(n_panels, 1, sharex=True, squeeze=False,
+                                 gridspec_kw={"height_ratios": [2.0, 1.0]} if pb else None)[:, 0])
+    else:
+        axes = _given_axes(ax, n_panels, "plot_deflection")
+        fig = axes[0].figure
+    mid = any(x != model.chain.links[i].length for i, _, x, _ in curves)
+    for c, (i, comp, x, values) in enumerate(curves):
+        at = f"l_{{{i + 1}}}" if x == model.chain.links[i].length else f"l_{{{i + 1}}}/2"
+        # Link colours as in the configuration drawings; styles cycle so that curves that coincide
+        # (a symmetric motion) stay visible.
+        axes[0].plot(result.t, values, label=f"link {i + 1}: ${comp}({at})$", **_style(c, _link_colour(i)))
+    axes[0].set_ylabel("deflection [m]" if mid else "tip deflection [m]")
+    axes[0].ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+    if len(axes) > 1:
+        for pos, i in enumerate(pb):
+            axes[1].plot(result.t, result.q[:, model.theta_index[i]], color=_link_colour(i), lw=1.3,
+                         ls=_P_STYLES[pos % len(_P_STYLES)], label=f"link {i + 1}: $d_{{{i + 1}}}$")
+        _draw_ranges(axes[1], model, [(0, None, i + 1, "Pb") for i in pb], colour=lambda j: _link_colour(j - 1))
+        axes[1].set_ylabel("protruding\nlength d [m]")
+    for a in axes:
+        _legend(a, outside=own)
+    what = ("tip deflection of each link in its own frame, v(l) along its y axis, w(l) along z"
+            if any(c[1] == "w" for c in curves) else "tip deflection v(l) of each link in its own frame")
+    if mid:
+        what += "; at mid-span, l/2, where the shapes vanish at the tip"
+    if pb:
+        what += "; below: protruding length of the links in a prismatic guide"
+    _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
+    return fig
+
+
 def _joint_components(result, values, what, unit, case_name, ax):
     dims = 2 if is_planar(result) else 3
     own = ax is None
@@ -564,8 +863,10 @@ def plot_energy(result, case_name=None, ax=None):
     axes[0].plot(result.t, E.total, lw=1.8, color="k", label="total")
     balance = E.total - E.total[0]
     if result.work is not None:
-        axes[0].plot(result.t, result.work[:, 0], label="work of inputs", **_style(3))
-        axes[0].plot(result.t, result.work[:, 1], label="work of damping", **_style(4))
+        # A work that stays zero (no inputs, or no damped link) is left out of the legend and the plot.
+        for c, text in enumerate(("work of inputs", "work of damping")):
+            if np.any(result.work[:, c] != 0.0) or not np.any(result.work != 0.0) and c == 0:
+                axes[0].plot(result.t, result.work[:, c], label=text, **_style(3 + c))
         balance = balance - result.work.sum(axis=1)
         ylabel = r"$E - E(t_0) - W$ [J]"
         what = "max relative power-balance error in flight"
@@ -618,18 +919,49 @@ def _draw_walls_2d(ax, walls, extent):
         ln.set_gid(f"wall {k + 1}")
 
 
-def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, arrow=0.25):
-    pts = link_points(model, q, n_points)
-    for i in range(pts.shape[0]):
-        ax.plot(pts[i, :, 0], pts[i, :, 1], lw=2.4, color=_link_colour(i), solid_capstyle="round", zorder=3,
-                label=f"link {i + 1}")
-    O = transforms(model, np.asarray(q, dtype=float))[:, :3, 3]
+#: Marker of an end-stop impact (a prismatic joint at an end of its range); stars are wall impacts.
+_STOP_MARKER = {"marker": "D", "ms": 8, "color": "red", "mec": "darkred", "ls": "none"}
+
+
+def _draw_links(plot, model, q, n_points, lw=2.4, colour=None, label=True, **kw):
+    """Draw every link through ``plot(points (m, 3), **style)``: the part of a Pb link behind its guide
+    thinner and on top (it runs along the host), then the prismatic joint symbols."""
+    for i, (main, rear) in enumerate(_link_parts(model, q, n_points)):
+        c = colour or _link_colour(i)
+        plot(main, lw=lw, color=c, label=f"link {i + 1}" if label else None, **kw)
+        if rear is not None:
+            rear_kw = dict(kw, zorder=kw["zorder"] + 0.5) if "zorder" in kw else kw
+            plot(rear, lw=0.45 * lw, color=c, label=f"link {i + 1} behind its guide" if label else None, **rear_kw)
+    seen = set()
+    for kind, _, P in _prismatic_marks(model, q):
+        text, style = _MARK_STYLE[kind]
+        style = dict(style, color=colour) if colour is not None else style
+        plot(P, label=text if label and kind not in seen else None, **{**style, **kw})
+        seen.add(kind)
+
+
+def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, arrow=0.25, stops=()):
+    _draw_links(lambda P, **st: ax.plot(P[:, 0], P[:, 1], solid_capstyle="round", **st), model, q, n_points,
+                zorder=3)
+    T = transforms(model, np.asarray(q, dtype=float))
+    O = T[:, :3, 3]
     ax.plot(O[:, 0], O[:, 1], "o", ms=4, color="k", zorder=4)
     for j, p in enumerate(O, start=1):
         if j in hit:
             ax.plot(p[0], p[1], "*", ms=13, color="red", mec="darkred", zorder=5)
         if labels:
-            ax.annotate(f"$O_{{{j}}}$", p[:2], xytext=(4, 4), textcoords="offset points", fontsize=8, zorder=6)
+            a = T[j - 1][:2, 0] if j <= model.n_links else np.zeros(2)
+            if j <= model.n_links and model.joint_kinds[j - 1] == "Pb" and np.linalg.norm(a) > 0:
+                # The rear end of a link in a guide lies on the host, with the guide just ahead:
+                # its label goes beside the link (right-hand side), not onto the guide.
+                a = a / np.linalg.norm(a)
+                ax.annotate(f"$O_{{{j}}}$", p[:2], xytext=(9 * a[1], -9 * a[0]), textcoords="offset points",
+                            fontsize=8, zorder=6, ha="center", va="center")
+            else:
+                ax.annotate(f"$O_{{{j}}}$", p[:2], xytext=(4, 4), textcoords="offset points", fontsize=8, zorder=6)
+    for i in stops:
+        p = _stop_point(model, q, i)
+        ax.plot(p[0], p[1], zorder=5, **_STOP_MARKER)
     if normals is not None:
         for j, n in normals:
             p = O[j - 1]
@@ -641,10 +973,10 @@ _MAX_PANELS = 12  # the initial state and at most 11 impacts
 
 
 def _panels(result):
-    """(time, q, title, hit joints, [(joint, normal)]) for the initial state, the impacts (the first ones
-    and the last, _MAX_PANELS in all) and, without impacts or when the run stopped after its last
-    impact, the final state."""
-    panels = [(float(result.t[0]), result.q[0], f"t = {result.t[0]:.6g} s (initial)", (), None)]
+    """(time, q, title, hit joints, [(joint, normal)], end-stop joints) for the initial state, the
+    impacts (the first ones and the last, _MAX_PANELS in all) and, without impacts or when the run
+    stopped after its last impact, the final state."""
+    panels = [(float(result.t[0]), result.q[0], f"t = {result.t[0]:.6g} s (initial)", (), None, ())]
     t_end = float(result.t[-1])
     last = result.impacts[-1].time if result.impacts else -np.inf
     final = not result.impacts or (result.status != "finished" and t_end > last + 1e-9 * max(1.0, abs(t_end)))
@@ -656,12 +988,12 @@ def _panels(result):
         i = int(np.searchsorted(result.t, rec.time, side="left"))
         i = min(i, len(result.t) - 1)
         q = result.q[i]
-        normals = [(int(j), np.asarray(rec.normals)[c]) for c, j in enumerate(rec.joints)]
-        panels.append((rec.time, q, f"impact {k}: t = {rec.time:.6f} s, {_joint_list(rec.joints)}",
-                       tuple(int(j) for j in rec.joints), normals))
+        normals, stops = _split_contacts(rec)
+        panels.append((rec.time, q, f"impact {k}: t = {rec.time:.6f} s, {_contacts_text(result, rec)}",
+                       tuple(j for j, _ in normals), normals, tuple(stops)))
     if final:
         end = "final" if result.status == "finished" else f"stopped: {result.status}"
-        panels.append((t_end, result.q[-1], f"t = {t_end:.6g} s ({end})", (), None))
+        panels.append((t_end, result.q[-1], f"t = {t_end:.6g} s ({end})", (), None, ()))
     return panels
 
 
@@ -740,10 +1072,10 @@ def _draw_walls_3d(ax, walls, lo, hi):
                                                      alpha=0.35, edgecolor="0.3", lw=0.8))
 
 
-def _draw_chain_3d(ax, model, q, n_points, hit=(), normals=None, labels=True, floor=None, arrow=0.25):
+def _draw_chain_3d(ax, model, q, n_points, hit=(), normals=None, labels=True, floor=None, arrow=0.25, stops=()):
+    _draw_links(lambda P, **st: ax.plot(*_to3(P), **st), model, q, n_points)
     pts = link_points(model, q, n_points)
     for i in range(pts.shape[0]):
-        ax.plot(*_to3(pts[i]), lw=2.4, color=_link_colour(i), label=f"link {i + 1}")
         if floor is not None:
             # Shadow on the floor X2 = floor: shows where the chain is in depth.
             sh = pts[i].copy()
@@ -756,6 +1088,8 @@ def _draw_chain_3d(ax, model, q, n_points, hit=(), normals=None, labels=True, fl
             ax.plot(*_to3(p[None, :]), "*", ms=13, color="red", mec="darkred", ls="none")
         if labels:
             ax.text(*_to3(p), f"  $O_{{{j}}}$", fontsize=8)
+    for i in stops:
+        ax.plot(*_to3(_stop_point(model, q, i)[None, :]), **_STOP_MARKER)
     if normals is not None:
         for j, n in normals:
             p = O[j - 1]
@@ -804,7 +1138,7 @@ def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
     n = len(panels)
     ncols = n if n <= 3 else (2 if n == 4 else (3 if n <= 9 else 4))
     nrows = int(np.ceil(n / ncols))
-    all_pts = np.concatenate([link_points(model, p[1], n_points).reshape(-1, 3) for p in panels])
+    all_pts = np.concatenate([_scene_points(model, p[1], n_points) for p in panels])
     walls = "; ".join(describe(w) for w in result.walls) or "no walls"
     drawn = [p[2].split(":")[0].split()[1] for p in panels if p[2].startswith("impact")]
     n_imp = len(result.impacts)
@@ -812,6 +1146,9 @@ def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
     title = _title(result, f"configurations at the impacts ({walls}{shown})", case_name,
                    width_in=(3.7 if planar else (5.0 if ncols > 1 else 6.0)) * ncols)
     note = ("red star: impacting joint; red arrow: wall normal into the free region"
+            + ("; red diamond: a prismatic joint at an end stop" if any(p[5] for p in panels) else "")
+            + ("; thin line on the host: the part of a link behind its guide"
+               if "Pb" in model.joint_kinds else "")
             + ("" if planar else "; grey: shadow on the floor; X2 vertical, camera along the least joint motion"))
     if planar:
         if own:
@@ -820,9 +1157,9 @@ def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
         else:
             axes, fig = given, given[0].figure
         extent = _scene_extent_2d(result, all_pts)
-        for a, (t, q, text, hit, normals) in zip(axes, panels):
+        for a, (t, q, text, hit, normals, stops) in zip(axes, panels):
             _draw_walls_2d(a, result.walls, extent)
-            _draw_chain_2d(a, model, q, n_points, hit, normals, arrow=0.12 * (extent[1] - extent[0]))
+            _draw_chain_2d(a, model, q, n_points, hit, normals, arrow=0.12 * (extent[1] - extent[0]), stops=stops)
             a.set_xlim(extent[0], extent[1])
             a.set_ylim(extent[2], extent[3])
             a.set_aspect("equal")
@@ -848,9 +1185,10 @@ def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
             axes = [fig.add_subplot(nrows, ncols, k + 1, projection="3d") for k in range(n)]
         else:
             axes, fig = given, given[0].figure
-        for a, (t, q, text, hit, normals) in zip(axes, panels):
+        for a, (t, q, text, hit, normals, stops) in zip(axes, panels):
             _draw_walls_3d(a, result.walls, lo, hi)
-            _draw_chain_3d(a, model, q, n_points, hit, normals, floor=lo[1], arrow=0.12 * (hi[0] - lo[0]))
+            _draw_chain_3d(a, model, q, n_points, hit, normals, floor=lo[1], arrow=0.12 * (hi[0] - lo[0]),
+                           stops=stops)
             _setup_3d(a, lo, hi, view, zoom=0.92 if own else 1.0)
             if own:  # inside the panel's box: the panels touch
                 a.text2D(0.5, 0.99, text, transform=a.transAxes, ha="center", va="top", fontsize=9)
@@ -872,7 +1210,7 @@ def plot_trajectory(result, case_name=None, n_points: int = 41, ax=None):
     model = result.model
     P = result.joint_positions()
     ends = [result.q[0], result.q[-1]]
-    all_pts = np.concatenate([P.reshape(-1, 3)] + [link_points(model, q, n_points).reshape(-1, 3) for q in ends])
+    all_pts = np.concatenate([P.reshape(-1, 3)] + [_scene_points(model, q, n_points) for q in ends])
     planar = is_planar(result)
     own = ax is None
     if not own:
@@ -880,14 +1218,21 @@ def plot_trajectory(result, case_name=None, n_points: int = 41, ax=None):
         if not planar and ax.name != "3d":
             raise ValueError("plot_trajectory: this run moves in 3D; pass axes made with projection='3d'")
     end = "final state" if result.status == "finished" else f"state when it stopped ({result.status})"
-    what = (f"joint paths, t = {result.t[0]:.6g} ... {result.t[-1]:.6g} s "
-            f"(coloured chain: {end}; grey: at t0; red stars: impacts)")
-    title = _title(result, what, case_name, width_in=7.4)
-    impact_points = []
+    impact_points, stop_points = [], []
     for rec in result.impacts:
-        O = transforms(model, result.q[min(np.searchsorted(result.t, rec.time), len(result.t) - 1)])[:, :3, 3]
-        impact_points += [O[j - 1] for j in rec.joints]
+        q = _sample_at(result, rec.time)
+        hits, stops = _split_contacts(rec)
+        if hits:
+            O = transforms(model, q)[:, :3, 3]
+            impact_points += [O[j - 1] for j, _ in hits]
+        stop_points += [_stop_point(model, q, i) for i in stops]
     impact_points = np.array(impact_points).reshape(-1, 3)
+    stop_points = np.array(stop_points).reshape(-1, 3)
+    marks = "".join(["; red stars: impacts" if len(impact_points) else "",
+                     "; red diamonds: end stops" if len(stop_points) else ""])
+    what = (f"joint paths, t = {result.t[0]:.6g} ... {result.t[-1]:.6g} s "
+            f"(coloured chain: {end}; grey: at t0{marks})")
+    title = _title(result, what, case_name, width_in=7.4)
     if planar:
         if own:
             fig = _figure((7.4, 6.4 + 0.2 * title.count("\n")))
@@ -898,13 +1243,15 @@ def plot_trajectory(result, case_name=None, n_points: int = 41, ax=None):
         for j in range(P.shape[1]):
             ax.plot(P[:, j, 0], P[:, j, 1], lw=0.9, color=_joint_colour(j), label=f"path of $O_{{{j + 1}}}$",
                     zorder=2)
-        pts0 = link_points(model, ends[0], n_points)
-        for i in range(pts0.shape[0]):
-            ax.plot(pts0[i, :, 0], pts0[i, :, 1], lw=2.0, color="0.6", zorder=3,
-                    label="chain at $t_0$" if i == 0 else None)
+        _draw_links(lambda Q, **st: ax.plot(Q[:, 0], Q[:, 1], solid_capstyle="round", **st), model, ends[0],
+                    n_points, lw=2.0, colour="0.6", label=False, zorder=2.5)
+        ax.plot([], [], lw=2.0, color="0.6", label="chain at $t_0$")
         _draw_chain_2d(ax, model, ends[1], n_points, labels=True)
-        ax.plot(impact_points[:, 0], impact_points[:, 1], "*", ms=10, color="red", mec="darkred", zorder=5,
-                ls="none", label="impacts")
+        if len(impact_points):
+            ax.plot(impact_points[:, 0], impact_points[:, 1], "*", ms=10, color="red", mec="darkred", zorder=5,
+                    ls="none", label="impacts")
+        if len(stop_points):
+            ax.plot(stop_points[:, 0], stop_points[:, 1], zorder=5, label="end-stop impacts", **_STOP_MARKER)
         ax.set_xlim(extent[0], extent[1])
         ax.set_ylim(extent[2], extent[3])
         ax.set_aspect("equal")
@@ -920,10 +1267,14 @@ def plot_trajectory(result, case_name=None, n_points: int = 41, ax=None):
         _draw_walls_3d(ax, result.walls, lo, hi)
         for j in range(P.shape[1]):
             ax.plot(*_to3(P[:, j]), lw=0.9, color=_joint_colour(j), label=f"path of $O_{{{j + 1}}}$")
-        for i, seg in enumerate(link_points(model, ends[0], n_points)):
-            ax.plot(*_to3(seg), lw=2.0, color="0.6", label="chain at $t_0$" if i == 0 else None)
+        _draw_links(lambda Q, **st: ax.plot(*_to3(Q), **st), model, ends[0], n_points, lw=2.0, colour="0.6",
+                    label=False)
+        ax.plot([], [], [], lw=2.0, color="0.6", label="chain at $t_0$")
         _draw_chain_3d(ax, model, ends[1], n_points, floor=lo[1])
-        ax.plot(*_to3(impact_points), "*", ms=10, color="red", mec="darkred", ls="none", label="impacts")
+        if len(impact_points):
+            ax.plot(*_to3(impact_points), "*", ms=10, color="red", mec="darkred", ls="none", label="impacts")
+        if len(stop_points):
+            ax.plot(*_to3(stop_points), label="end-stop impacts", **_STOP_MARKER)
         _setup_3d(ax, lo, hi, _run_camera(result, all_pts), zoom=1.1 if own else 1.0)
         ax.legend(fontsize=7, loc="upper left")
     if own:
@@ -952,7 +1303,7 @@ def plot_result(result, kinds=None, case_name=None, n_points: int = 41) -> dict:
 
     Returns
     -------
-    dict {key: matplotlib Figure}; "modes" is absent for a chain of rigid links. The
+    dict {key: matplotlib Figure}; "modes" and "deflection" are absent for a chain of rigid links. The
     figures are not registered with pyplot: nothing needs closing.
     """
     kinds = FIGURES if kinds is None else tuple(kinds)
@@ -969,9 +1320,10 @@ def plot_result(result, kinds=None, case_name=None, n_points: int = 41) -> dict:
 
 def plot_one(result, which: str, ax=None, case_name=None, n_points: int = 41):
     """One figure of FIGURES by name, or drawn into ``ax`` (see each plot_* function); returns the Figure
-    (None for "modes" of a chain of rigid links)."""
+    (None for "modes" and "deflection" of a chain of rigid links)."""
     makers = {
-        "angles": plot_angles, "modes": plot_modes, "joint_positions": plot_joint_positions,
+        "angles": plot_angles, "modes": plot_modes, "deflection": plot_deflection,
+        "joint_positions": plot_joint_positions,
         "joint_velocities": plot_joint_velocities, "energy": plot_energy,
     }
     if which in makers:
@@ -1027,7 +1379,8 @@ def animate(result, path, fps: int = 20, speed: float = 0.25, n_points: int = 41
     imp_t = result.impact_times
     flash = max(3.0 * (t1 - t0) / n_frames, 1e-12)  # an impacting joint stays red for ~3 frames
     planar = is_planar(result)
-    all_pts = np.concatenate([link_points(model, result.q[i], n_points).reshape(-1, 3) for i in rows[:: max(1, n_frames // 40)]])
+    all_pts = np.concatenate([_scene_points(model, result.q[i], n_points) for i in rows[:: max(1, n_frames // 40)]])
+    marks0 = _prismatic_marks(model, result.q[0])
     title = (case_name + ": " if case_name else "")
     status = _status_line(result, width=70)
     if planar:
@@ -1038,8 +1391,11 @@ def animate(result, path, fps: int = 20, speed: float = 0.25, n_points: int = 41
         _draw_walls_2d(ax, result.walls, extent)
         lines = [ax.plot([], [], lw=2.4, color=_link_colour(i), solid_capstyle="round", label=f"link {i + 1}")[0]
                  for i in range(model.n_links)]
+        rears = [ax.plot([], [], lw=1.1, color=_link_colour(i), zorder=3)[0] for i in range(model.n_links)]
+        symbols = [ax.plot([], [], **_MARK_STYLE[kind][1])[0] for kind, _, _ in marks0]
         joints, = ax.plot([], [], "o", ms=4, color="k")
         stars, = ax.plot([], [], "*", ms=14, color="red", mec="darkred", ls="none")
+        diamonds, = ax.plot([], [], **_STOP_MARKER)
         ax.set_xlim(extent[0], extent[1])
         ax.set_ylim(extent[2], extent[3])
         ax.set_aspect("equal")
@@ -1055,43 +1411,53 @@ def animate(result, path, fps: int = 20, speed: float = 0.25, n_points: int = 41
         _setup_3d(ax, lo, hi, _run_camera(result, all_pts), zoom=0.95)
         lines = [ax.plot([], [], [], lw=2.4, color=_link_colour(i), label=f"link {i + 1}")[0]
                  for i in range(model.n_links)]
+        rears = [ax.plot([], [], [], lw=1.1, color=_link_colour(i))[0] for i in range(model.n_links)]
+        symbols = [ax.plot([], [], [], **_MARK_STYLE[kind][1])[0] for kind, _, _ in marks0]
         shadows = [ax.plot([], [], [], lw=1.6, color="0.5", alpha=0.6)[0] for _ in range(model.n_links)]
         floor = lo[1]
         joints, = ax.plot([], [], [], "o", ms=4, color="k", ls="none")
         stars, = ax.plot([], [], [], "*", ms=14, color="red", mec="darkred", ls="none")
+        diamonds, = ax.plot([], [], [], **_STOP_MARKER)
     label = ax.set_title("", fontsize=9)
     if planar:
         fig.tight_layout()
     else:
         fig.subplots_adjust(left=0.0, right=1.0, bottom=0.02, top=0.9)
 
+    def put(artist, P):
+        P = np.asarray(P, dtype=float).reshape(-1, 3)
+        if planar:
+            artist.set_data(P[:, 0], P[:, 1])
+        else:
+            artist.set_data_3d(*_to3(P))
+
     def draw(f):
         q = result.q[rows[f]]
-        pts = link_points(model, q, n_points)
+        parts = _link_parts(model, q, n_points)
         O = transforms(model, q)[:, :3, 3]
         recent = [rec for rec in result.impacts if 0.0 <= times[f] - rec.time < flash]
-        hit = sorted({j for rec in recent for j in rec.joints})
-        H = O[[j - 1 for j in hit]] if hit else np.zeros((0, 3))
-        if planar:
-            for ln, p in zip(lines, pts):
-                ln.set_data(p[:, 0], p[:, 1])
-            joints.set_data(O[:, 0], O[:, 1])
-            stars.set_data(H[:, 0], H[:, 1])
-        else:
-            for ln, sh, p in zip(lines, shadows, pts):
-                ln.set_data_3d(*_to3(p))
+        hit = sorted({j for rec in recent for j, _ in _split_contacts(rec)[0]})
+        stopped = sorted({i for rec in recent for i in _split_contacts(rec)[1]})
+        for ln, rear, (main, back) in zip(lines, rears, parts):
+            put(ln, main)
+            put(rear, back if back is not None else np.zeros((0, 3)))
+        for sym, (_, _, P) in zip(symbols, _prismatic_marks(model, q)):
+            put(sym, P)
+        put(joints, O)
+        put(stars, O[[j - 1 for j in hit]] if hit else np.zeros((0, 3)))
+        put(diamonds, [_stop_point(model, q, i) for i in stopped])
+        if not planar:
+            for sh, p in zip(shadows, link_points(model, q, n_points)):
                 p = p.copy()
                 p[:, 1] = floor
                 sh.set_data_3d(*_to3(p))
-            joints.set_data_3d(*_to3(O))
-            stars.set_data_3d(*_to3(H))
         n_imp = int(np.count_nonzero(imp_t <= times[f]))
         text = f"{title}t = {times[f]:.3f} s   impacts so far: {n_imp}"
         if status and f == n_frames - 1:
             text += "\n" + "\n".join(textwrap.wrap(status, 70))
         label.set_text(text)
         label.set_color("darkred" if status and f == n_frames - 1 else "black")
-        return [*lines, joints, stars, label]
+        return [*lines, *rears, *symbols, joints, stars, diamonds, label]
 
     anim = FuncAnimation(fig, draw, frames=n_frames, blit=False)
     path = Path(path)

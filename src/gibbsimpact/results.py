@@ -26,7 +26,8 @@ class ImpactRecord(NamedTuple):
 
     time : float [s]
     joints : tuple of int, length k, 1-based joint numbers (O_1 ... O_(n+1))
-    wall : tuple of int, length k, index of each contact's wall in Result.walls
+    wall : tuple of int, length k, index of each contact's wall in Result.walls;
+        -1 for an end-stop impact of a prismatic joint (joints then holds the joint number i)
     normals : (k, 3) unit wall normals into the free region
     impulses : (k,) normal impulses Lambda [N s], >= 0
     v_before, v_after : (k,) normal velocities n.J qdot [m/s]
@@ -164,9 +165,9 @@ class Result:
              kinds=None):
         """Draw figures (matplotlib); one Figure for a name, {name: Figure} otherwise.
 
-        which : a name from gibbsimpact.plotting.FIGURES ("angles", "modes", "joint_positions",
-            "joint_velocities", "energy", "configurations", "trajectory") -> that Figure
-            (None for "modes" of a rigid chain); a list of names, or None for all, -> {name: Figure}.
+        which : a name from gibbsimpact.plotting.FIGURES ("angles", "modes", "deflection",
+            "joint_positions", "joint_velocities", "energy", "configurations", "trajectory") -> that Figure
+            (None for "modes" and "deflection" of a rigid chain); a list of names, or None for all, -> {name: Figure}.
         ax : with a single ``which``, a matplotlib Axes (or a sequence of them) to draw into
             instead of a new figure; the Figure holding it is returned. What one or several
             Axes receive is documented by each gibbsimpact.plotting.plot_* function.
