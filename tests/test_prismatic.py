@@ -285,3 +285,22 @@ def test_damped_sliding_link_balance_closes():
     assert W_damp[-1] < 0 and np.all(np.diff(W_damp) <= 1e-15)
     balance = np.abs(E.total - E.total[0] - W_in - W_damp).max() / (_energy_scale(E) + np.abs(W_in).max())
     assert balance <= 1e-9, balance
+
+
+def test_result_files_keep_prismatic_joints_and_end_stops(tmp_path):
+    # result.npz rebuilds the same model (joint parameters, planar base); impacts.csv marks end stops.
+    from gibbsimpact.io import load_result, model_from_dict, model_to_dict, read_csv, save_result, to_csv
+
+    model, q0, qd0, res = _limit_run(joint_limit="impact", joint_restitution=0.5)
+    assert any(r.wall == (-1,) for r in res.impacts)
+    back = load_result(save_result(res, tmp_path / "result.npz"))
+    assert back.model.chain.joints == model.chain.joints
+    np.testing.assert_array_equal(back.q, res.q)
+    q = res.q[-1]
+    np.testing.assert_array_equal(back.model.mass_matrix(q), model.mass_matrix(q))
+    rows = read_csv(to_csv(res, tmp_path)["impacts"])
+    assert "end stop of joint 2" in list(rows["wall_description"])
+    planar = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 5.0, elements=2), gi.Link(0.6, 0.5, 2.0, elements=1)],
+                               joints=[gi.Revolute(), _pa(range=(0.1, 0.9))], base="planar"))
+    again = model_from_dict(model_to_dict(planar))
+    assert again.chain.base == "planar" and again.chain.joints == planar.chain.joints
