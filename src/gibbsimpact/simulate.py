@@ -14,15 +14,26 @@ A run alternates two stages until t_end or a stop:
 
 Event-loop rules (each one has a test in tests/test_simulate.py):
 
-* Simultaneous contacts: all candidates with g <= 2 contact_tol at the event
-  time enter one impulse problem.
-* Restart: a candidate with g <= 2 contact_tol at the start of a phase (the
+* Simultaneous contacts: all candidates within the *contact band* g <= b at
+  the event time enter one impulse problem, where the band follows the
+  integration error (:func:`contact_band`):
+
+      b = max(2 contact_tol, L_q (atol + rtol max|q|))
+
+  L_q = 1 + 2 sum l_i [m per unit of q] bounds |dg/dq|, and atol + rtol |q|
+  is the error the solver allows each coordinate in one step, so L_q (...) is
+  the uncertainty of a gap at a located event. Two contacts whose gaps close
+  within it are one impact: at rtol = 1e-6 the published simultaneous O1+O3
+  impact of case 1 stays one impact (the other gap is 7e-9 m when the first
+  closes), instead of splitting into two. At the default tolerances (rtol
+  1e-10, atol 1e-12) b = 2 contact_tol for every chain shorter than ~8 m.
+* Restart: a candidate with g <= b at the start of a phase (the
   contact band) is watched by two events instead of g = 0: ``g = min(g_start,
   0) - sink_depth`` with sink_depth = max(1e-6 contact_tol, 64 eps (1 + max|p|))
   (direction -1: it sinks, which is handled as an impact; measured from the
   gap at the phase start so the event function starts positive, above
   round-off, even right after a sink) and
-  ``g - 3 contact_tol`` (direction +1: it has left the band; the phase ends
+  ``g - 1.5 b`` (direction +1: it has left the band; the phase ends
   and the normal event is re-armed). So an impact never re-fires at its own
   time and a point cannot slip through the wall unnoticed. Gaps at every
   accepted step and in-step sample are checked; a gap below -penetration_tol
@@ -37,7 +48,7 @@ Event-loop rules (each one has a test in tests/test_simulate.py):
   (a) a contact whose rebounds no longer leave the contact band: zeno_count
       consecutive impacts of one (joint, wall) pair without its "leave"
       event in between. Its rebound height v+^2 / (2 a_n) is then below
-      3 contact_tol (a few nanometres): the impacts have become resting or
+      1.5 b (a few nanometres at the default tolerances): the impacts have become resting or
       sliding contact. This rule follows the decay of the rebound velocity,
       so it holds for any interval between the impacts: a geometric
       accumulation (e < 1) reaches it once its bounces are nanometres high,
@@ -240,15 +251,23 @@ class _Contacts:
         return g, nrm, Jac
 
 
-def _impact_stage(model, contacts, e_wall, t, q, qd, contact_tol, grazing_velocity, sink_pair):
+def contact_band(contact_tol: float, lipschitz: float, rtol: float, atol: float, q: np.ndarray) -> float:
+    """The contact band b [m] at q (N,): gaps within it belong to one impact (module docstring).
+
+    b = max(2 contact_tol, L_q (atol + rtol max|q|)), L_q [m per unit of q] a bound on |dg/dq|.
+    """
+    return max(2.0 * contact_tol, lipschitz * (atol + rtol * float(np.abs(q).max(initial=0.0))))
+
+
+def _impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink_pair):
     """The impact at (t, q, qd), if there is one.
 
-    Returns (record or None, near (W, J) bool: the pairs in the contact band g <= 2 contact_tol).
+    Returns (record or None, near (W, J) bool: the pairs in the contact band g <= band [m]).
     """
     g, nrm, Jac = contacts.full(q)
     # Candidates: every pair within the contact band (a pair caught by its "sink"
     # event sits just below its phase-start gap).
-    near = g <= 2.0 * contact_tol
+    near = g <= band
     if not np.any(near):
         return None, near
     pairs = np.argwhere(near)  # (k, 2): wall, joint
@@ -275,7 +294,7 @@ def _impact_stage(model, contacts, e_wall, t, q, qd, contact_tol, grazing_veloci
     return rec, near
 
 
-def _phase_events(near, g_start, contact_tol, sink_depth):
+def _phase_events(near, g_start, band, sink_depth):
     """EventSpec of one phase and the kind of each event ("hit", "sink", "leave").
 
     near : (W, J) pairs in the contact band at the phase start; g_start : (W, J) their gaps [m].
@@ -288,7 +307,7 @@ def _phase_events(near, g_start, contact_tol, sink_depth):
             # solver step that falls back is still a sign change (never tunnels).
             rows.append((w_i, j, sink_depth - min(float(g_start[w_i, j]), 0.0), -1.0))
             kinds.append(("sink", w_i, j))
-            rows.append((w_i, j, -3.0 * contact_tol, 1.0))
+            rows.append((w_i, j, -1.5 * band, 1.0))
             kinds.append(("leave", w_i, j))
         else:
             rows.append((w_i, j, 0.0, -1.0))
@@ -300,8 +319,8 @@ def _phase_events(near, g_start, contact_tol, sink_depth):
 class _Accumulation:
     """Detects an accumulation of impacts (rules (a) and (b) of the module docstring)."""
 
-    def __init__(self, shape, zeno_count, zeno_interval, contact_tol):
-        self.count, self.interval, self.tol = zeno_count, zeno_interval, contact_tol
+    def __init__(self, shape, zeno_count, zeno_interval, band):
+        self.count, self.interval, self.band = zeno_count, zeno_interval, band
         self.streak = np.zeros(shape, dtype=int)  # consecutive in-band impacts per (wall, joint)
         self.times: list[float] = []
 
@@ -322,7 +341,7 @@ class _Accumulation:
         d = np.diff(times)
         if np.max(self.streak) >= k:
             w_i, j = np.unravel_index(int(np.argmax(self.streak)), self.streak.shape)
-            why = (f"joint O{j + 1} stayed within {3 * self.tol:.3g} m of wall {w_i + 1} through {k} consecutive "
+            why = (f"joint O{j + 1} stayed within {1.5 * self.band:.3g} m of wall {w_i + 1} through {k} consecutive "
                    "impacts (its rebounds no longer leave the contact band)")
         elif d.size >= k and np.all(d[-k:] < self.interval):
             why = f"{k} consecutive impacts less than {self.interval:g} s apart"
@@ -531,7 +550,8 @@ def simulate(
     output_dt : float [s] or None; None stores every accepted step, a float
         stores uniform samples from the dense output (plus every impact's both sides)
     max_step : float [s], the solver's maximal step
-    contact_tol : float [m], gap within which joints belong to one impact
+    contact_tol : float [m], gap within which joints belong to one impact: the contact band is
+        max(2 contact_tol, L_q (atol + rtol max|q|)), L_q = 1 + 2 sum l_i (module docstring)
     grazing_velocity : float [m/s], an event with v_n >= -grazing_velocity is no impact
     penetration_tol : float [m], a gap below -penetration_tol between events stops the run
     zeno_interval : float [s] — with zeno_count, the accumulation criteria
@@ -638,7 +658,8 @@ def simulate(
     # |dg/dq| <= 1 + 2 sum l: a translation moves a joint 1:1, a rotation by at most its lever arm.
     lipschitz = 1.0 + 2.0 * sum(ld.length for ld in model.link_data)
     recorder = _Recorder(model, t0, q0, qdot0)
-    accumulation = _Accumulation((len(walls), model.n_joints), int(zeno_count), zeno_interval, contact_tol)
+    band = contact_band(contact_tol, lipschitz, rtol, atol, q0)
+    accumulation = _Accumulation((len(walls), model.n_joints), int(zeno_count), zeno_interval, band)
     status, message = STATUS_FINISHED, f"reached t_end = {t_end:g} s"
     t, y, phase = t0, np.concatenate((q0, qdot0, np.zeros(2 if driven else 0))), 0
     near = np.zeros((len(walls), model.n_joints), dtype=bool)
@@ -655,7 +676,8 @@ def simulate(
                 if pending_impact and walls:
                     q, qd = y[:N], y[N:2 * N]
                     in_band_before = near
-                    rec, near = _impact_stage(model, contacts, e_wall, t, q, qd, contact_tol, grazing_velocity,
+                    band = accumulation.band = contact_band(contact_tol, lipschitz, rtol, atol, q)
+                    rec, near = _impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity,
                                               sink_pair)
                     if rec is not None:
                         y = np.concatenate((q, rec.qdot_after, y[2 * N:]))
@@ -677,7 +699,7 @@ def simulate(
                 # Stage 2: flight until the first event or t_end.
                 g_start = contacts.gaps(y[:N])
                 sink_depth = max(1e-6 * contact_tol, 64 * np.finfo(float).eps * (1.0 + float(np.abs(y[:3]).max())))
-                events, kinds = _phase_events(near, g_start, contact_tol, sink_depth)
+                events, kinds = _phase_events(near, g_start, band, sink_depth)
                 if stops is not None:
                     events, kinds = stops.events(events, kinds, y[:N], contact_tol, sink_depth)
                 try:
