@@ -304,3 +304,26 @@ def test_result_files_keep_prismatic_joints_and_end_stops(tmp_path):
                                joints=[gi.Revolute(), _pa(range=(0.1, 0.9))], base="planar"))
     again = model_from_dict(model_to_dict(planar))
     assert again.chain.base == "planar" and again.chain.joints == planar.chain.joints
+
+
+def test_host_tip_of_a_carriage_is_a_contact_point():
+    # The tip of a host link carrying a Pa carriage is not a frame origin; it is contact point
+    # O_(n+2). Released over a floor, link 1's free tip must strike it (a new user's run had
+    # it pass 0.5 m through the floor while only the carriage centre was watched).
+    host = gi.Link(1.0, 1.0, 25.0, elements=2)
+    arm = gi.Link(0.3, 0.5, 8.0, elements=1)
+    model = gi.Model(gi.Chain([host, arm], joints=[gi.Revolute(), _pa(angle=np.pi / 2, range=(0.1, 0.9))],
+                              base=gi.FixedBase((0.0, 0.5), 0.0)))
+    assert model.n_joints == 4 and model.contact_point_names[3] == "tip of link 1"
+    q0 = model.state(d_2=0.3)
+    P = model.joint_positions(q0)
+    np.testing.assert_allclose(P[3], [1.0, 0.5, 0.0], atol=1e-14)
+    floor = gi.Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0))
+    res = gi.simulate(model, q0, np.zeros(model.n_dof), (0.0, 0.6), walls=[floor], restitution=1.0,
+                      rtol=1e-9, atol=1e-11, joint_limit="impact", joint_restitution=1.0)
+    wall_hits = [r for r in res.impacts if r.wall != (-1,)]
+    assert wall_hits and wall_hits[0].joints == (4,), [r.joints for r in res.impacts]
+    rec = wall_hits[0]
+    assert rec.v_after[0] == pytest.approx(-rec.v_before[0], rel=1e-9)
+    tips = np.array([model.joint_positions(q)[3] for q in res.q])
+    assert tips[:, 1].min() >= -1e-6

@@ -652,7 +652,7 @@ def _simulate_and_write(path, case, args, overrides, out, progress, say) -> int:
     E = result.energy()
     say(f"status: {result.status} ({result.message})")
     for k, rec in enumerate(result.impacts[:20], start=1):
-        joints = "+".join(f"O{j}" for j in rec.joints)
+        joints = "+".join(f"end stop of joint {j}" if w < 0 else f"O{j}" for j, w in zip(rec.joints, rec.wall))
         say(f"  impact {k}: t = {rec.time:.6f} s  {joints}")
     if len(result.impacts) > 20:
         say(f"  ... {len(result.impacts)} impacts in all (impacts.csv)")

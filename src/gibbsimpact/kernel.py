@@ -92,7 +92,8 @@ import time
 import numpy as np
 
 # -- data layout --------------------------------------------------------------
-# idat: [n, N, free, 0, 0, 0, 0, 0] + per coordinate (N rows of _CI ints)
+# idat: [n, N, base kind, X, 0, 0, 0, 0] + per coordinate (N rows of _CI ints)
+#       (X: extra contact points, the tips of host links whose child joint is prismatic)
 #       + per link (n rows of _LI ints)
 _H = 8
 _CI = 6  # kind, axis, first frame, own link (-1), local index, first frame of a second twist (-1)
@@ -134,6 +135,7 @@ def pack(model):
     base_kind = BASE_FIXED if not free else (BASE_PLANAR if model.chain.base == "planar" else BASE_FREE)
     idat = np.zeros(_H + _CI * N + _LI * n, dtype=np.int64)
     idat[0], idat[1], idat[2] = n, N, base_kind
+    idat[3] = sum(1 for i, jt in enumerate(model.chain.joints) if i > 0 and jt.kind != "R")
     ci = idat[_H:_H + _CI * N].reshape(N, _CI)
     li = idat[_H + _CI * N:].reshape(n, _LI) if n else np.zeros((0, _LI), dtype=np.int64)
     ci[:, 3] = -1
@@ -1353,8 +1355,9 @@ SECTIONS = ("status", "ydot", "M", "h", "dV", "energy", "momentum", "points", "j
 _S_STATUS, _S_YDOT, _S_M, _S_H, _S_DV, _S_EN, _S_MO, _S_PTS, _S_JAC, _S_FR = range(10)
 
 
-def layout(n, N, K, job):
-    """Start offsets (11,) of the sections of ``kernel``'s output (SECTIONS), then its length."""
+def layout(n, N, K, job, npts):
+    """Start offsets (11,) of the sections of ``kernel``'s output (SECTIONS), then its length;
+    npts contact points (n + 1 frame origins and the extra tips)."""
     hv = (job & JOB_H) != 0
     off = np.zeros(11, dtype=np.int64)
     off[_S_STATUS + 1] = 3
@@ -1364,8 +1367,8 @@ def layout(n, N, K, job):
     off[_S_DV + 1] = N if hv else 0
     off[_S_EN + 1] = 3 * K if job & JOB_ENERGY else 0
     off[_S_MO + 1] = 9 * K if job & JOB_MOMENTUM else 0
-    off[_S_PTS + 1] = 3 * (n + 1) * K if job & JOB_POINTS else 0
-    off[_S_JAC + 1] = 3 * (n + 1) * N * K if job & JOB_JACOBIANS else 0
+    off[_S_PTS + 1] = 3 * npts * K if job & JOB_POINTS else 0
+    off[_S_JAC + 1] = 3 * npts * N * K if job & JOB_JACOBIANS else 0
     off[_S_FR + 1] = 48 * (n + 1) * K if job & JOB_FRAMES else 0
     for i in range(10):  # sizes -> offsets
         off[i + 1] += off[i]
@@ -1377,7 +1380,7 @@ def kernel(fdat, idat, qs, qds, Q, job):
 
     qs, qds: K states q and qdot one after the other, (K N,) each; Q: applied
     forces (N,) (with JOB_SOLVE, for the first state); job: a bit mask of JOB_*. Returns one float64
-    array laid out as ``layout(n, N, K, job)``:
+    array laid out as ``layout(n, N, K, job, n + 1 + X)``:
 
     * status (3,): Cholesky status of M (0 solved; 1 not positive definite;
       2 pivots spread beyond 1e7) and its smallest and largest pivot;
@@ -1386,9 +1389,11 @@ def kernel(fdat, idat, qs, qds, Q, job):
       (not copied out otherwise: the right-hand side of an ODE needs ydot only);
     * JOB_M: M (N N,) row-major; JOB_H: h (N,), dV/dq (N,)  (the first state);
     * JOB_ENERGY: (K 3,) kinetic, gravity, strain [J]; JOB_MOMENTUM: (K 9,) as in
-      _link_observables (L, H0, first moment); JOB_POINTS: joint points O_1 .. O_(n+1) (K (n+1) 3,) [m];
-      JOB_JACOBIANS: dO_j/dq (K (n+1) 3 N,), dO_j/dq_c = (S_c O_j)[:3] when
-      f_c <= j, else 0; JOB_FRAMES: T, Tdot, Tddot0 (K 3 (n+1) 16,).
+      _link_observables (L, H0, first moment); JOB_POINTS: contact points (K P 3,) [m], P = n + 1 + X:
+      the frame origins O_1 .. O_(n+1), then the tip of every host link whose child joint is
+      prismatic (not a frame origin); JOB_JACOBIANS: dO_j/dq (K P 3 N,), dO_j/dq_c = (S_c O_j)[:3]
+      when f_c <= j, else 0 (a tip of link h: f_c <= h, and R_h end_t_k for h's own delta_k);
+      JOB_FRAMES: T, Tdot, Tddot0 (K 3 (n+1) 16,).
 
     One entry point, because numba links and optimises every entry point with
     all the code it calls: one entry compiles in about half the time of two.
@@ -1396,7 +1401,8 @@ def kernel(fdat, idat, qs, qds, Q, job):
     n = idat[0]
     N = idat[1]
     K = qs.shape[0] // N
-    L = layout(n, N, K, job)
+    npts = n + 1 + idat[3]
+    L = layout(n, N, K, job, npts)
     out = np.zeros(L[10])
     q = np.zeros(N)
     qd = np.zeros(N)
@@ -1461,7 +1467,7 @@ def kernel(fdat, idat, qs, qds, Q, job):
                     out[o + a] = part[3 + a]
         for j in range(n + 1):
             if job & JOB_POINTS:
-                o = L[_S_PTS] + 3 * ((n + 1) * k + j)
+                o = L[_S_PTS] + 3 * (npts * k + j)
                 for a in range(3):
                     out[o + a] = B[TS + j, a, 3]
             if job & JOB_FRAMES:
@@ -1472,7 +1478,7 @@ def kernel(fdat, idat, qs, qds, Q, job):
                         out[o + 16 + 4 * a + b] = B[TDS + j, a, b]
                         out[o + 32 + 4 * a + b] = B[TDDS + j, a, b]
             if job & JOB_JACOBIANS:
-                o = L[_S_JAC] + 3 * N * ((n + 1) * k + j)
+                o = L[_S_JAC] + 3 * N * (npts * k + j)
                 for c in range(N):
                     if idat[_H + _CI * c + 2] <= j:
                         f2 = idat[_H + _CI * c + 5]
@@ -1485,7 +1491,56 @@ def kernel(fdat, idat, qs, qds, Q, job):
                                 for b in range(3):
                                     s += B[SS + N + c, a, b] * B[TS + j, b, 3]
                             out[o + N * a + c] = s
+        if job & (JOB_POINTS | JOB_JACOBIANS):
+            _extra_points(fdat, idat, q, B, TS, SS, out, L[_S_PTS], L[_S_JAC], job, npts, k)
     return out
+
+
+def _extra_points(fdat, idat, q, B, ts, ss, out, o_pts, o_jac, job, npts, k):
+    """The tips of host links h whose child joint is prismatic (contact points n + 1 ..):
+    p = T_h (l_h e_x + sum end_t_k delta_k, 1),  dp/dq_c = (S_c p)[:3] for f_c <= h,
+    R_h end_t_k for h's own delta_k (formulation.md 10: E_h is not on the chain's path)."""
+    n = idat[0]
+    N = idat[1]
+    x = n + 1
+    for i in range(1, n):
+        if idat[_H + _CI * N + _LI * i + 5] == JOINT_R:
+            continue
+        h = i - 1
+        hb = _H + _CI * N + _LI * h
+        m = idat[hb]
+        d0 = idat[hb + 1]
+        off = idat[hb + 3]
+        o_t = off + 21 + 2 * m + 2 * m * m
+        t0 = fdat[off + 20]
+        t1 = 0.0
+        t2 = 0.0
+        for c in range(m):
+            t0 += fdat[o_t + 3 * c] * q[d0 + c]
+            t1 += fdat[o_t + 3 * c + 1] * q[d0 + c]
+            t2 += fdat[o_t + 3 * c + 2] * q[d0 + c]
+        p0 = B[ts + h, 0, 0] * t0 + B[ts + h, 0, 1] * t1 + B[ts + h, 0, 2] * t2 + B[ts + h, 0, 3]
+        p1 = B[ts + h, 1, 0] * t0 + B[ts + h, 1, 1] * t1 + B[ts + h, 1, 2] * t2 + B[ts + h, 1, 3]
+        p2 = B[ts + h, 2, 0] * t0 + B[ts + h, 2, 1] * t1 + B[ts + h, 2, 2] * t2 + B[ts + h, 2, 3]
+        if job & JOB_POINTS:
+            o = o_pts + 3 * (npts * k + x)
+            out[o] = p0
+            out[o + 1] = p1
+            out[o + 2] = p2
+        if job & JOB_JACOBIANS:
+            o = o_jac + 3 * N * (npts * k + x)
+            for c in range(N):
+                if idat[_H + _CI * c + 2] <= h:
+                    for a in range(3):
+                        out[o + N * a + c] = (B[ss + c, a, 3] + B[ss + c, a, 0] * p0 + B[ss + c, a, 1] * p1
+                                              + B[ss + c, a, 2] * p2)
+            for c in range(m):
+                for a in range(3):
+                    s = 0.0
+                    for b in range(3):
+                        s += B[ts + h, a, b] * fdat[o_t + 3 * c + b]
+                    out[o + N * a + d0 + c] = s
+        x += 1
 
 
 # -- compilation ----------------------------------------------------------------------
@@ -1497,7 +1552,7 @@ def kernel(fdat, idat, qs, qds, Q, job):
 _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_skew", "_skew3",
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
             "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
-            "_sd_stride", "_own", "_link_body", "_tr_sps", "_e_sy", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
+            "_sd_stride", "_own", "_link_body", "_tr_sps", "_e_sy", "_extra_points", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"

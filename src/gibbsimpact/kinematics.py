@@ -56,7 +56,7 @@ def run_kernel(model, st, job: int, Q: np.ndarray | None = None) -> np.ndarray:
 
 def section(model, out: np.ndarray, K: int, job: int, name: str) -> np.ndarray:
     """The flat section ``name`` (kernel.SECTIONS) of a kernel output."""
-    off = _k.layout(model.n_links, model.n_dof, K, job)
+    off = _k.layout(model.n_links, model.n_dof, K, job, model.n_joints)
     i = _k.SECTIONS.index(name)
     return out[off[i]:off[i + 1]]
 
@@ -155,22 +155,26 @@ def transforms(model, q: np.ndarray) -> np.ndarray:
 
 
 def joint_positions(model, q: np.ndarray) -> np.ndarray:
-    """Joint points O_1 ... O_(n+1) in the inertial frame, shape (n+1, 3) [m]."""
+    """Contact points O_1 ... O_P in the inertial frame, shape (P, 3) [m], P = model.n_joints.
+
+    O_1 ... O_(n+1) are the frame origins (the joints and the last tip); with prismatic
+    joints the tips of their host links follow (Model.n_joints).
+    """
     out = run_kernel(model, states(q), _k.JOB_POINTS)
-    return out[3:].reshape(model.n_links + 1, 3)
+    return out[3:].reshape(model.n_joints, 3)
 
 
 def joint_positions_batch(model, qs: np.ndarray) -> np.ndarray:
-    """Joint points of the states qs (K, N): shape (K, n+1, 3) [m]."""
+    """Contact points of the states qs (K, N): shape (K, P, 3) [m]."""
     qs = np.asarray(qs, dtype=float)
     out = run_kernel(model, states(qs), _k.JOB_POINTS)
-    return out[3:].reshape(qs.shape[0], model.n_links + 1, 3)
+    return out[3:].reshape(qs.shape[0], model.n_joints, 3)
 
 
 def joint_positions_and_jacobians(model, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """O_1 ... O_(n+1), shape (n+1, 3) [m], and d O_j / d q, shape (n+1, 3, N), from one recursion."""
+    """O_1 ... O_P, shape (P, 3) [m], and d O_j / d q, shape (P, 3, N), from one recursion."""
     job = _k.JOB_POINTS | _k.JOB_JACOBIANS
-    n1, N = model.n_links + 1, model.n_dof
+    n1, N = model.n_joints, model.n_dof
     out = run_kernel(model, states(q), job)
     return out[3:3 + 3 * n1].reshape(n1, 3), out[3 + 3 * n1:].reshape(n1, 3, N)
 
@@ -181,7 +185,7 @@ def joint_velocities_batch(model, qs: np.ndarray, qdots: np.ndarray, chunk: int 
     One kernel call per ``chunk`` states (the Jacobians of a chunk are (chunk, n+1, 3, N)).
     """
     qs, qdots = np.asarray(qs, dtype=float), np.asarray(qdots, dtype=float)
-    n1, N = model.n_links + 1, model.n_dof
+    n1, N = model.n_joints, model.n_dof
     out = np.empty((qs.shape[0], n1, 3))
     for a in range(0, qs.shape[0], chunk):
         b = min(a + chunk, qs.shape[0])

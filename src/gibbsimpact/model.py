@@ -200,6 +200,9 @@ class FixedBase:
 
 
 def _joint_range(kind: str, value) -> tuple[float, float]:
+    if value is None:
+        raise ValueError(f"{kind} needs range=(d_min, d_max) in metres: the joint's travel (joint limits "
+                         "are events of the simulation)")
     try:
         lo, hi = (float(v) for v in value)
     except (TypeError, ValueError):
@@ -243,7 +246,7 @@ class SlidingPrismatic:
 
     angle: float = 0.0
     half_length: float = 0.0
-    range: tuple = (0.0, 1.0)
+    range: tuple | None = None
     kind = "Pa"
 
     def __post_init__(self):
@@ -278,7 +281,7 @@ class FixedPrismatic:
     """
 
     angle: float = 0.0
-    range: tuple = (0.0, 1.0)
+    range: tuple | None = None
     kind = "Pb"
 
     def __post_init__(self):
@@ -381,17 +384,17 @@ def _check_joints(links, joints, base):
     """The rules of formulation.md sections 8, 10.2, 10.3 and 13 for prismatic joints."""
     prismatic = [k for k, j in enumerate(joints) if j.kind != "R"]
     if base == "planar" and joints[0].kind != "R":
-        raise ValueError(f"Chain joints[0]={joints[0]!r}: on a planar free base (base='planar') joint 1 "
+        raise ValueError(f"Chain joints[0] (joint 1)={joints[0]!r}: on a planar free base (base='planar') joint 1 "
                          "must be gi.Revolute(); its theta_1 is the floating orientation")
     if not prismatic and base != "planar":
         return
     if base == "free":
         raise ValueError(
-            f"Chain joints[{prismatic[0]}]={joints[prismatic[0]]!r}: prismatic joints are planar "
+            f"Chain joints[{prismatic[0]}] (joint {prismatic[0] + 1})={joints[prismatic[0]]!r}: prismatic joints are planar "
             "(formulation.md section 8); use base='planar' for a floating chain or gi.FixedBase(...)")
     for k, lk in enumerate(links):
         if lk.elements and lk.element_directions != ("y",) or any(md.direction != "y" for md in lk.modes):
-            raise ValueError(f"Chain links[{k}] bends out of plane; a planar chain (prismatic joints or "
+            raise ValueError(f"Chain links[{k}] (link {k + 1}) bends out of plane; a planar chain (prismatic joints or "
                              "base='planar') allows in-plane bending only: element_directions=('y',), y-modes")
     for k in prismatic:
         jt = joints[k]
@@ -400,13 +403,13 @@ def _check_joints(links, joints, base):
             lk = links[k]
             if lk.modes:
                 raise ValueError(
-                    f"Chain links[{k}] slides through a FixedPrismatic guide and has assumed modes; a Pb link "
+                    f"Chain links[{k}] (link {k + 1}) slides through a FixedPrismatic guide and has assumed modes; a Pb link "
                     "is discretised by stretching finite elements: give it elements=n_e (or none: rigid)")
             if callable(lk.mass_per_length) or any(callable(e) for e in lk.EI):
-                raise ValueError(f"Chain links[{k}] slides through a FixedPrismatic guide: its mass_per_length "
+                raise ValueError(f"Chain links[{k}] (link {k + 1}) slides through a FixedPrismatic guide: its mass_per_length "
                                  "and EI must be constants (a prismatic member has one cross-section)")
             if hi > lk.length + 1e-12:
-                raise ValueError(f"Chain joints[{k}] FixedPrismatic range={jt.range!r}: d_max must be <= the "
+                raise ValueError(f"Chain joints[{k}] (joint {k + 1}) FixedPrismatic range={jt.range!r}: d_max must be <= the "
                                  f"link's length {lk.length:g} m (d is the protruding length)")
             continue
         if k == 0:
@@ -415,16 +418,16 @@ def _check_joints(links, joints, base):
         c = jt.half_length
         if host.modes:
             raise ValueError(
-                f"Chain joints[{k}] SlidingPrismatic on links[{k - 1}], which has assumed modes: a carriage "
+                f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic on links[{k - 1}] (link {k}), which has assumed modes: a carriage "
                 "host must be a finite-element link (elements=n_e) or rigid")
         if host.elements and c <= 0:
             raise ValueError(
-                f"Chain joints[{k}] SlidingPrismatic half_length={c!r} on a finite-element host: give c > 0. "
+                f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic half_length={c!r} on a finite-element host: give c > 0. "
                 "A point slider follows the host's slope v'(d), whose derivative v'' jumps at every element "
                 "node, so M(q) would jump there and energy would not be conserved (formulation.md 10.2)")
         if lo < c - 1e-12 or hi > host.length - c + 1e-12:
             raise ValueError(
-                f"Chain joints[{k}] SlidingPrismatic range={jt.range!r}: the carriage must stay on the host, "
+                f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic range={jt.range!r}: the carriage must stay on the host, "
                 f"c <= d_min < d_max <= l_host - c = {host.length - c:g} m (c = {c:g} m)")
 
 
@@ -741,8 +744,21 @@ class Model:
 
     @property
     def n_joints(self) -> int:
-        """Number of joint points O_1 ... O_(n+1)."""
-        return self._chain.n_links + 1
+        """Number P of contact points O_1 ... O_P (wall contact candidates).
+
+        O_1 ... O_(n+1): the frame origins (each joint, the last link's tip; for a Pa
+        link the carriage centre, for a Pb link its rear end). Then, in joint order,
+        the tip of every host link whose child joint i >= 2 is prismatic: that tip is
+        not a frame origin (a carriage rides along the host; a guide sits at its tip).
+        """
+        return self._chain.n_links + 1 + sum(1 for i, j in enumerate(self._chain.joints) if i > 0 and j.kind != "R")
+
+    @property
+    def contact_point_names(self) -> tuple:
+        """A label per contact point (P,): 'O1' ... and 'tip of link i' for the extra tips."""
+        names = [f"O{j}" for j in range(1, self._chain.n_links + 2)]
+        names += [f"tip of link {i}" for i, j in enumerate(self._chain.joints) if i > 0 and j.kind != "R"]
+        return tuple(names)
 
     def check_state(self, q, qdot=None, name_q: str = "q", name_qdot: str = "qdot"):
         """Validate and return ``q`` (and ``qdot``) as float arrays of shape (N,)."""

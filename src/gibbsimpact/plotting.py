@@ -42,7 +42,7 @@ import textwrap
 
 import numpy as np
 
-from .kinematics import transforms
+from .kinematics import joint_positions, transforms
 from .model import link_deflection
 from .walls import Circle, Plane, Sphere, describe
 
@@ -944,7 +944,8 @@ def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, ar
     _draw_links(lambda P, **st: ax.plot(P[:, 0], P[:, 1], solid_capstyle="round", **st), model, q, n_points,
                 zorder=3)
     T = transforms(model, np.asarray(q, dtype=float))
-    O = T[:, :3, 3]
+    # Contact points: the frame origins, then the tips of hosts of prismatic joints (Model.n_joints).
+    O = np.vstack((T[:, :3, 3], joint_positions(model, np.asarray(q, dtype=float))[T.shape[0]:]))
     ax.plot(O[:, 0], O[:, 1], "o", ms=4, color="k", zorder=4)
     for j, p in enumerate(O, start=1):
         if j in hit:
@@ -1081,7 +1082,8 @@ def _draw_chain_3d(ax, model, q, n_points, hit=(), normals=None, labels=True, fl
             sh = pts[i].copy()
             sh[:, 1] = floor
             ax.plot(*_to3(sh), lw=1.6, color="0.5", alpha=0.6)
-    O = transforms(model, np.asarray(q, dtype=float))[:, :3, 3]
+    T = transforms(model, np.asarray(q, dtype=float))
+    O = np.vstack((T[:, :3, 3], joint_positions(model, np.asarray(q, dtype=float))[T.shape[0]:]))
     ax.plot(*_to3(O), "o", ms=4, color="k", ls="none")
     for j, p in enumerate(O, start=1):
         if j in hit:

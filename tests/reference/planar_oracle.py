@@ -570,10 +570,15 @@ class PlanarChain:
         return {k: r[k] for k in ("kinetic", "gravity", "strain", "total")}
 
     def joint_positions(self, q):
-        """Origins of T_1 .. T_n and of the tip T_n E_n, shape (n+1, 3), z = 0."""
+        """Contact points, shape (n+1+X, 3), z = 0: the origins of T_1 .. T_n and of the tip
+        T_n E_n, then the tip T_(i-1) E_(i-1) of every host link i-1 whose child joint i >= 2
+        is prismatic (the package's definition of its contact points)."""
         q = np.asarray(q, dtype=float)
         joint, nodes = self._jets(q, np.zeros((1, self.n_dof)))
         frames = self._frames(joint, nodes, 1)
+        for i, lk in enumerate(self.links):
+            if i > 0 and lk["joint"] != "R":
+                frames.append(self._end(frames[i - 1], i - 1, joint, nodes, 1))
         o = np.array([complex(F[0].v) for F in frames])
         return np.stack([o.real, o.imag, np.zeros_like(o.real)], axis=1)
 
