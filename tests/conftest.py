@@ -49,3 +49,30 @@ def random_state(model, rng, angle=0.8, delta=0.05, speed=1.0):
 @pytest.fixture
 def rng():
     return np.random.default_rng(20261122)
+
+
+# A case file of a rigid rod hanging from a guide at the base origin (Pb, joint 1): d_1'' = g,
+# so from d_1 = 0.2 m at rest it reaches d_max = 0.5 m at t = sqrt(2 * 0.3 / 9.81) = 0.24731 s
+# (tests/test_case.py, tests/test_cli.py).
+PB_DROP_CASE = """
+gravity_m_per_s2 = [0.0, -9.81, 0.0]
+
+[base]
+type = "fixed"
+angle_deg = -90.0
+
+[[links]]
+length_m = 0.6
+mass_per_length_kg_per_m = 1.0
+EI_N_m2 = 1.0
+
+[links.joint]
+type = "Pb"
+range_m = [0.1, 0.5]
+
+[initial.coordinates]
+d_1_m = 0.2
+
+[time]
+t_end_s = 0.4
+"""

@@ -11,6 +11,7 @@ import pytest
 
 import gibbsimpact as gi
 from gibbsimpact.case import RANGES, CaseError, _Reader, case_from_dict
+from conftest import PB_DROP_CASE
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 
@@ -739,28 +740,7 @@ def test_fe_slopes_take_angle_units(tmp_path):
 
 # A rigid rod hanging from a guide at the base origin (Pb, joint 1): d_1'' = g, so from
 # d_1 = 0.2 m at rest it reaches d_max = 0.5 m at t = sqrt(2 * 0.3 / 9.81) = 0.24731 s.
-DROP = """
-gravity_m_per_s2 = [0.0, -9.81, 0.0]
-
-[base]
-type = "fixed"
-angle_deg = -90.0
-
-[[links]]
-length_m = 0.6
-mass_per_length_kg_per_m = 1.0
-EI_N_m2 = 1.0
-
-[links.joint]
-type = "Pb"
-range_m = [0.1, 0.5]
-
-[initial.coordinates]
-d_1_m = 0.2
-
-[time]
-t_end_s = 0.4
-"""
+DROP = PB_DROP_CASE
 
 # An R-Pb chain and an R-Pa chain on a fixed base, finite-element links: the joint tables
 # are appended to the second [[links]] table.

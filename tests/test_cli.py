@@ -20,6 +20,7 @@ from gibbsimpact import cli
 from gibbsimpact import io as gio
 from gibbsimpact import load_result
 from gibbsimpact.plotting import FIGURES
+from conftest import PB_DROP_CASE
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 
@@ -532,29 +533,7 @@ def test_sigterm_during_a_run_in_process_exit_130(tmp_path, capsys, monkeypatch)
 
 # A rigid rod hanging from a guide at the base origin (Pb): it slides out under gravity and
 # reaches d_max = 0.5 m at t = sqrt(2 * 0.3 / 9.81) = 0.2473 s; joint_limit = "stop" ends the run there.
-PB_DROP = """
-name = "pb_drop"
-gravity_m_per_s2 = [0.0, -9.81, 0.0]
-
-[base]
-type = "fixed"
-angle_deg = -90.0
-
-[[links]]
-length_m = 0.6
-mass_per_length_kg_per_m = 1.0
-EI_N_m2 = 1.0
-
-[links.joint]
-type = "Pb"
-range_m = [0.1, 0.5]
-
-[initial.coordinates]
-d_1_m = 0.2
-
-[time]
-t_end_s = 0.4
-
+PB_DROP = 'name = "pb_drop"\n' + PB_DROP_CASE + """
 [solver]
 rtol = 1e-10
 atol = 1e-12

@@ -7,13 +7,14 @@ frames); correctness is anchored by the independent sympy oracle in
 checks that what numba compiles is that same source:
 
 1. compiled == uncompiled: a subprocess with ``NUMBA_DISABLE_JIT=1`` runs the
-   kernel source as plain Python on seven chains (planar and spatial, rigid,
-   modal and finite-element, free and fixed base, 1 to 16 links; two random
-   states each, built from one seed) and saves every public quantity; this
-   process computes them compiled. Each must agree to 1e-13 relative,
-   max|a - b| / max|a| per quantity. Measured (numba 0.68, x86-64): all 301
-   arrays bit-identical, qddot of the modal 8-link chain (cond M ~ 3e7)
-   included: numba does not contract or reorder floating-point operations
+   kernel source as plain Python on nine chains (planar and spatial, rigid,
+   modal and finite-element, free, planar and fixed base, 1 to 16 links, R, Pa
+   and Pb joints, a carriage on a sliding link; two random states each, built
+   from one seed) and saves every public quantity (387 arrays); this process
+   computes them compiled. Each must agree to 1e-13 relative,
+   max|a - b| / max|a| per quantity. Measured (numba 0.68, x86-64) on the
+   first seven chains: all 301 arrays bit-identical, qddot of the modal 8-link
+   chain (cond M ~ 3e7) included: numba does not contract or reorder floating-point operations
    without fastmath, and calls the same libm.
 2. no recompiles: after varied use the entry point has exactly one
    signature, and other argument types raise TypeError instead of compiling.
@@ -97,6 +98,23 @@ def _modal_eight():
     return gi.Model(gi.Chain([gi.Link(0.5, 1.0, 5.0, modes=modes)] * 8))
 
 
+def _prismatic_planar():
+    """R, Pa, Pb on a planar floating base, two elements per link (N = 17): carriage twists,
+    a sliding link's own moments, the host tips as extra contact points."""
+    links = [gi.Link(1.0, 1.0, 10.0, elements=2), gi.Link(0.7, 0.5, 4.0, elements=2), gi.Link(0.5, 0.4, 3.0, elements=2)]
+    joints = [gi.Revolute(), gi.SlidingPrismatic(angle=0.4, half_length=0.05, range=(0.1, 0.9)),
+              gi.FixedPrismatic(angle=-0.3, range=(0.15, 0.5))]
+    return gi.Model(gi.Chain(links, joints=joints, base="planar"), gravity=(0.0, -9.81, 0.0))
+
+
+def _carriage_on_sliding_link():
+    """A Pa carriage on a flexible Pb link, fixed base (N = 10): the second twist."""
+    links = [gi.Link(1.0, 1.0, 10.0, elements=2), gi.Link(0.5, 0.5, 4.0, elements=2)]
+    joints = [gi.FixedPrismatic(angle=0.5, range=(0.6, 1.0)), gi.SlidingPrismatic(angle=0.3, half_length=0.05,
+                                                                                   range=(0.1, 0.9))]
+    return gi.Model(gi.Chain(links, joints=joints, base=gi.FixedBase((0.1, 0.2), 0.3)), gravity=(0.0, -9.81, 0.0))
+
+
 CHAINS = {
     "rigid_rod": _rod,
     "planar_two_link": two_link_circle_model,  # the published chain: one clamped-clamped y mode per link
@@ -105,16 +123,28 @@ CHAINS = {
     "fe_free_spatial": _fe_free_spatial,
     "rigid_16": _rigid_sixteen,
     "modal_8x2": _modal_eight,
+    "prismatic_planar": _prismatic_planar,
+    "carriage_on_sliding_link": _carriage_on_sliding_link,
 }
 
 ALL_OBSERVABLES = _k.JOB_ENERGY | _k.JOB_MOMENTUM | _k.JOB_POINTS | _k.JOB_JACOBIANS | _k.JOB_FRAMES
+
+
+def _state(model, rng):
+    """A random (q, qdot) with the prismatic variables inside their ranges."""
+    q, qd = random_state(model, rng)
+    for i, jt in enumerate(model.chain.joints):
+        if jt.kind != "R":
+            lo, hi = jt.range
+            q[model.theta_index[i]] = lo + (hi - lo) * rng.uniform(0.4, 0.6)
+    return q, qd
 
 
 def _states(model, rng):
     """N_STATES random (q, qdot) and applied forces Q."""
     out = []
     for _ in range(N_STATES):
-        q, qd = random_state(model, rng)
+        q, qd = _state(model, rng)
         out.append((q, qd, rng.normal(size=model.n_dof)))
     return out
 
@@ -392,7 +422,7 @@ def test_mass_matrix_gives_the_kinetic_energy(chain):
     model = CHAINS[chain]()
     rng = np.random.default_rng(11)
     for _ in range(N_STATES):
-        q, qd = random_state(model, rng)
+        q, qd = _state(model, rng)
         T_M = 0.5 * qd @ dy.mass_matrix(model, q) @ qd
         T_E = dy.energy(model, q, qd).kinetic
         assert abs(T_M - T_E) <= RTOL * abs(T_E), (T_M, T_E)

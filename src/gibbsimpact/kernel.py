@@ -536,6 +536,13 @@ def _apply_local(B, w, kG, vel, kTn):
     _copy4(B, kTn, w)
 
 
+def _joint_field(fdat, idat, link, k):
+    """Entry k of link ``link``'s _F_JOINT values: 0 gamma [rad], 1 c [m], 2 n_e, 3 mu [kg/m], 4 EI [N m^2]."""
+    base = _H + _CI * idat[1] + _LI * link
+    m = idat[base]
+    return fdat[idat[base + 3] + 21 + 8 * m + 2 * m * m + k]
+
+
 def _hermite_at(ne, length, x, out):
     """The (up to) four global Hermite functions of an n_e-element link that are non-zero at
     abscissa x [m] (formulation.md 9.1): out[r] = (local index k, psi_k, psi_k', psi_k'')
@@ -581,9 +588,8 @@ def _host_shapes(fdat, idat, link, q, x, out):
     """
     N = idat[1]
     hb = _H + _CI * N + _LI * link
-    mh = idat[hb]
     hoff = idat[hb + 3]
-    ne = int(fdat[hoff + 23 + 8 * mh + 2 * mh * mh])
+    ne = int(_joint_field(fdat, idat, link, 2))
     hl = fdat[hoff + 20]
     if idat[hb + 5] != JOINT_PB:
         _hermite_at(ne, hl, x, out)
@@ -629,12 +635,9 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
              theta0dd = sum_uv phibar_uv udot vdot + 2 sum_u udot sum a_k,u deltadot_k (vbar0dd alike)
     """
     N = idat[1]
-    base = _H + _CI * N + _LI * link
-    jd = idat[base + 2]
-    off = idat[base + 3]
-    mown = idat[base]
-    gamma = fdat[off + 21 + 8 * mown + 2 * mown * mown]
-    c = fdat[off + 22 + 8 * mown + 2 * mown * mown]
+    jd = idat[_H + _CI * N + _LI * link + 2]
+    gamma = _joint_field(fdat, idat, link, 0)
+    c = _joint_field(fdat, idat, link, 1)
     d = q[jd]
     dd = qd[jd]
     kG = w + 3
@@ -758,10 +761,8 @@ def _pb_step(fdat, idat, link, q, qd, vel, B, w, ss):
     N = idat[1]
     base = _H + _CI * N + _LI * link
     jd = idat[base + 2]
-    off = idat[base + 3]
-    mown = idat[base]
-    gamma = fdat[off + 21 + 8 * mown + 2 * mown * mown]
-    l = fdat[off + 20]
+    gamma = _joint_field(fdat, idat, link, 0)
+    l = fdat[idat[base + 3] + 20]
     _rot_step(B, w, w + 3, 2, gamma, 0.0, vel)
     _zero4(B, ss + jd)
     for a in range(3):
@@ -1551,7 +1552,7 @@ def _extra_points(fdat, idat, q, B, ts, ss, out, o_pts, o_jac, job, npts, k):
 # their callers use; called from Python they run uncompiled.
 _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_skew", "_skew3",
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
-            "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
+            "_joint_field", "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
             "_sd_stride", "_own", "_link_body", "_tr_sps", "_e_sy", "_extra_points", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
