@@ -327,3 +327,18 @@ def test_host_tip_of_a_carriage_is_a_contact_point():
     assert rec.v_after[0] == pytest.approx(-rec.v_before[0], rel=1e-9)
     tips = np.array([model.joint_positions(q)[3] for q in res.q])
     assert tips[:, 1].min() >= -1e-6
+
+
+def test_planar_base_gives_no_gimbal_warning_and_no_symbolic_equations():
+    # q[4] of a planar-base chain is not theta_0: no gimbal-lock warning from it; the symbolic
+    # route refuses prismatic and planar chains instead of deriving the wrong equations.
+    from gibbsimpact.validity import check_state
+
+    host = gi.Link(1.0, 1.0, 10.0, elements=2)
+    model = gi.Model(gi.Chain([host, gi.Link(0.6, 0.5, 4.0, elements=1)], joints=[gi.Revolute(), _pb()],
+                              base="planar"))
+    q0 = model.state(d_2=0.3, delta_1_1=0.0)
+    q0[4] = np.pi / 2  # delta_1_1 here
+    assert not any("theta_0" in m for m in check_state(model, q0, np.zeros(model.n_dof)))
+    with pytest.raises(NotImplementedError, match="prismatic joints and the planar floating base"):
+        gi.derive_equations(model)

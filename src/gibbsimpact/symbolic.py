@@ -675,6 +675,12 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
 
     if not isinstance(model, Model):
         raise ValueError(f"derive_equations model={model!r} must be a gibbsimpact.Model")
+    if model.chain.base == "planar" or any(k != "R" for k in model.joint_kinds):
+        # The symbolic recursion builds revolute joints behind a spatial free or a fixed base only.
+        raise NotImplementedError(
+            "derive_equations: prismatic joints and the planar floating base are not derived symbolically yet "
+            f"(this model has joints {'-'.join(model.joint_kinds)}, base {model.chain.base!r}); the numeric "
+            "kernel simulates them, and tests/reference/planar_oracle.py is an independent derivation")
     import sympy as sp
     from sympy.core.parameters import distribute
 

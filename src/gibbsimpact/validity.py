@@ -106,7 +106,7 @@ def check_state(model, q0, qdot0, walls=()) -> list[str]:
             f"of the state (kinetic {float(E.kinetic):.4g} J + max(|gravity| {abs(float(E.gravity)):.4g} J, "
             f"m g L {weight_scale:.4g} J)), beyond the limit of {STRAIN_ENERGY_FACTOR:g} times: the initial "
             "deflections dominate everything else")
-    if model.free_base:
+    if model.chain.base == "free":  # (the spatial base: theta_0 = q[4])
         d = _gimbal_distance(q0[4])
         if d < GIMBAL_MARGIN:
             msgs.append(
@@ -135,7 +135,7 @@ def check_stop(model, result) -> list[str]:
     The stop is then due to the singular rotation sequence Rx Ry Rz of the free base
     (gimbal lock), not to the mechanics.
     """
-    if not model.free_base or result.status != "failed" or len(result.t) == 0:
+    if model.chain.base != "free" or result.status != "failed" or len(result.t) == 0:
         return []
     theta_0 = float(result.q[-1, 4])
     d = _gimbal_distance(theta_0)
