@@ -353,8 +353,8 @@ class _Accumulation:
             # Intervals that do not shrink: the contact is closed (resting or sliding) since then.
             t_acc, ratio = float(times[-d.size - 1] if times.size > d.size else times[0]), ratio
         return (f"accumulation of impacts: {why}; last interval {d[-1]:.3g} s, interval ratio {ratio:.3g}; "
-                f"estimated accumulation time {t_acc:.9g} s. Resting contact is not modelled yet; "
-                "results up to here are kept")
+                f"estimated accumulation time {t_acc:.9g} s: resting contact from t = {t_acc:.9g} s, which is not "
+                "modelled yet; results up to here are kept")
 
 
 class _Chunk(NamedTuple):
