@@ -509,8 +509,8 @@ def test_sigterm_during_a_run_in_process_exit_130(tmp_path, capsys, monkeypatch)
     from gibbsimpact.case import Case
 
     gsim = importlib.import_module("gibbsimpact.simulate")
-    clock = gsim._Clock
-    monkeypatch.setattr(gsim, "_Clock", lambda progress: clock(progress, every=0.0))  # report at every RHS
+    clock = gsim.Clock
+    monkeypatch.setattr(gsim, "Clock", lambda progress: clock(progress, every=0.0))  # report at every RHS
     real = Case.simulate
 
     def terminated(self, progress=None, **kw):

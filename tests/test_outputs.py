@@ -114,8 +114,8 @@ def test_interrupt_keeps_the_phase_under_way(monkeypatch, output_dt):
     # The first impact of this case is at 0.540052 s: stopping at 0.3 s is inside the first flight phase.
     case = gi.load_case(CASES / "sphere_single_link.toml")
     full = case.simulate(t_end=0.6, output_dt=output_dt)
-    clock = gsim._Clock
-    monkeypatch.setattr(gsim, "_Clock", lambda progress: clock(progress, every=0.0))  # report at every RHS
+    clock = gsim.Clock
+    monkeypatch.setattr(gsim, "Clock", lambda progress: clock(progress, every=0.0))  # report at every RHS
     res = case.simulate(t_end=0.6, output_dt=output_dt, progress=interrupt_after(0.3))
     assert res.status == "interrupted" and not res.success
     assert res.message.startswith("stopped by KeyboardInterrupt (Ctrl-C) at t = ")
@@ -129,8 +129,8 @@ def test_interrupt_keeps_the_phase_under_way(monkeypatch, output_dt):
 
 def test_interrupt_of_a_driven_run_keeps_the_work(monkeypatch):
     case = gi.load_case(CASES / "fixed_base_fe_arm.toml")
-    clock = gsim._Clock
-    monkeypatch.setattr(gsim, "_Clock", lambda progress: clock(progress, every=0.0))
+    clock = gsim.Clock
+    monkeypatch.setattr(gsim, "Clock", lambda progress: clock(progress, every=0.0))
     res = case.simulate(t_end=0.2, progress=interrupt_after(0.05))
     assert res.status == "interrupted" and 0.04 < res.t[-1] < 0.2
     assert_consistent(res)
@@ -141,7 +141,7 @@ def test_interrupt_between_phases_keeps_impacts_and_samples(monkeypatch):
     # A KeyboardInterrupt in the impact stage (after one impact), and one while a finished phase is recorded.
     case = gi.load_case(CASES / "sphere_single_link.toml")
     full = case.simulate(t_end=0.7)
-    real_stage = gsim._impact_stage
+    real_stage = gsim.impact_stage
     calls = []
 
     def stage(*a, **kw):
@@ -150,14 +150,16 @@ def test_interrupt_between_phases_keeps_impacts_and_samples(monkeypatch):
             raise KeyboardInterrupt
         return real_stage(*a, **kw)
 
-    monkeypatch.setattr(gsim, "_impact_stage", stage)
+    monkeypatch.setattr(gsim, "impact_stage", stage)
     res = case.simulate(t_end=0.7)
     assert res.status == "interrupted" and len(res.impacts) == 1
     assert res.t[-1] == full.impacts[1].time and np.array_equal(res.t, full.t[:res.t.size])
     assert_consistent(res)
-    monkeypatch.setattr(gsim, "_impact_stage", real_stage)
+    monkeypatch.setattr(gsim, "impact_stage", real_stage)
 
-    real_energies = gsim.energies
+    import gibbsimpact.recorder as grec  # the recorder's stage evaluates the energies of a phase
+
+    real_energies = grec.energies
     n = []
 
     def energies(*a, **kw):
@@ -166,7 +168,7 @@ def test_interrupt_between_phases_keeps_impacts_and_samples(monkeypatch):
             raise KeyboardInterrupt
         return real_energies(*a, **kw)
 
-    monkeypatch.setattr(gsim, "energies", energies)
+    monkeypatch.setattr(grec, "energies", energies)
     res = case.simulate(t_end=0.7)
     assert res.status == "interrupted" and len(res.impacts) == 1
     assert res.t[-1] == full.impacts[1].time  # the phase was kept although its recording was interrupted

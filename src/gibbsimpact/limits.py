@@ -24,6 +24,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .dynamics import energy, mass_matrix
+from .flight import EventSpec
+from .impact import solve_impulses
+from .results import ImpactRecord
+
 #: Status of a run stopped at a joint limit.
 STATUS_JOINT_LIMIT = "joint_limit"
 JOINT_LIMIT_MODES = ("stop", "impact")
@@ -81,3 +86,77 @@ def check_initial(limits, q0, tol: float = 0.0) -> None:
     if bad:
         raise ValueError("initial state q0 is outside a joint range: " + "; ".join(bad)
                          + ". Start inside the range given to gi.SlidingPrismatic / gi.FixedPrismatic")
+
+
+class EndStops:
+    """The joint limits as row W of the gap matrix, their events and end-stop impacts (gibbsimpact.limits)."""
+
+    def __init__(self, limits, n_walls, n_joints):
+        self.limits, self.W, self.J = limits, n_walls, n_joints
+        self.cols = max(n_joints, len(limits))
+        self.n = np.array([lim.n for lim in limits])  # (L, N)
+        self.offset = np.array([lim.offset for lim in limits])
+        self.near = np.zeros(len(limits), dtype=bool)  # limits in their contact band (after an end-stop impact)
+        self.streak = np.zeros(len(limits), dtype=int)
+        self.times: list[float] = []
+
+    def _full(self, g_walls, qs):
+        """(K, W + 1, cols): wall gaps, then the limit gaps; +inf pads unused entries."""
+        K = qs.shape[0]
+        G = np.full((K, self.W + 1, self.cols), np.inf)
+        G[:, :self.W, :self.J] = g_walls.reshape(K, self.W, self.J)
+        G[:, self.W, :len(self.limits)] = qs @ self.n.T + self.offset
+        return G
+
+    def wrap(self, gaps):
+        return lambda q: self._full(gaps(q), q[None, :])[0]
+
+    def wrap_batch(self, gaps_batch):
+        return lambda qs: self._full(gaps_batch(qs), qs)
+
+    def events(self, events, kinds, q, contact_tol, sink_depth):
+        """Append one event per limit (or its sink / leave pair when it is in the band) to the wall events."""
+        g = limit_gaps(self.limits, q)
+        self.near &= g <= 2.0 * contact_tol
+        rows, kinds = [tuple(r) for r in zip(events.wall, events.joint, events.offset, events.direction)], list(kinds)
+        for k, gk in enumerate(g):
+            if self.near[k]:
+                rows.append((self.W, k, sink_depth - min(float(gk), 0.0), -1.0))
+                kinds.append(("sink", self.W, k))
+                rows.append((self.W, k, -3.0 * contact_tol, 1.0))
+                kinds.append(("leave", self.W, k))
+            else:
+                rows.append((self.W, k, 0.0, -1.0))
+                kinds.append(("hit", self.W, k))
+        a = np.array(rows, dtype=float).reshape(-1, 4)
+        return EventSpec(a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]), kinds
+
+    def impact(self, model, t, q, qd, k, e_stop, grazing_velocity, sinking):
+        """End-stop impact of limit k (Newton's law with W = n), or None when it does not approach."""
+        n = self.limits[k].n
+        # consecutive impacts of this stop without a "leave" event in between
+        self.streak[k] = self.streak[k] + 1 if self.near[k] else 1
+        self.near[k] = True
+        v = float(n @ qd)
+        if not (v < -grazing_velocity or (sinking and v < 0)):
+            return None
+        sol = solve_impulses(mass_matrix(model, q), n[:, None], qd, np.array([e_stop]))
+        return ImpactRecord(
+            time=t, joints=(self.limits[k].joint,), wall=(-1,), normals=np.zeros((1, 3)),
+            impulses=sol.impulses, v_before=sol.v_before, v_after=sol.v_after, restitution=np.array([e_stop]),
+            qdot_before=qd.copy(), qdot_after=sol.qdot_after.copy(),
+            energy_before=energy(model, q, qd), energy_after=energy(model, q, sol.qdot_after),
+            rounds=len(sol.rounds),
+        )
+
+    def accumulation(self, t, k, count, interval):
+        """Stop message when the joint has come to rest at end stop k: ``count`` impacts of
+        limit k in a row without its "leave" event in between (rule (a) of the module
+        docstring), or ``count`` impacts in a row less than ``interval`` apart (rule (b))."""
+        self.times.append(t)
+        dts = np.diff(self.times[-(count + 1):])
+        if self.streak[k] < count and not (dts.size >= count and np.all(dts < interval)):
+            return None
+        return (f"joint {self.limits[k].joint} came to rest at its end stop ({self.limits[k].name}) at "
+                f"t = {t:.9g} s: {count} end-stop impacts without leaving the stop; resting contact "
+                "at an end stop is not modelled: results up to here are kept")

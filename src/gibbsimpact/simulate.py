@@ -1,5 +1,15 @@
 """The one module that owns the integrate - detect - impact loop (formulation.md section 7).
 
+``simulate`` is a driver over named stages, one module each:
+
+* :mod:`gibbsimpact.flight` — a flight phase (scipy's stepping, events seen inside steps);
+* :mod:`gibbsimpact.contacts` — gaps of the (wall, contact point) pairs, the contact band,
+  the impact stage and the events of a phase;
+* :mod:`gibbsimpact.limits` — joint limits of prismatic joints: their events and end-stop impacts;
+* :mod:`gibbsimpact.accumulation` — the accumulation monitor (status "zeno");
+* :mod:`gibbsimpact.recorder` — samples, impacts and the flight-phase energy balance;
+* :mod:`gibbsimpact.progress` — the progress callback or bar.
+
 A run alternates two stages until t_end or a stop:
 
 * **flight** (:func:`gibbsimpact.flight.integrate_phase`): scipy's ODE solver
@@ -7,7 +17,7 @@ A run alternates two stages until t_end or a stop:
   ``g_w(O_j(q(t)))``, direction -1, located at step ends *and inside steps*
   (a dip of a gap between two accepted steps is found from the dense output,
   see flight.py);
-* **impact** (:func:`_impact_stage`): every joint within the contact band
+* **impact** (:func:`impact_stage`): every joint within the contact band
   ``g <= 2 contact_tol`` at the event time is a contact of one impact; the
   impulses come from :func:`gibbsimpact.impact.solve_impulses` (rounds of
   Newton's law, never raising the kinetic energy).
@@ -43,7 +53,7 @@ Event-loop rules (each one has a test in tests/test_simulate.py):
   caught by its sink event is still stopped if v_n < 0.)
 * Stall guard: 100 consecutive events without progress in time stop the run
   with status "failed" instead of hanging.
-* Accumulation of impacts (:class:`_Accumulation`), status "zeno", results
+* Accumulation of impacts (:class:`Accumulation`), status "zeno", results
   so far kept, two rules:
   (a) a contact whose rebounds no longer leave the contact band: zeno_count
       consecutive impacts of one (joint, wall) pair without its "leave"
@@ -67,25 +77,25 @@ Event-loop rules (each one has a test in tests/test_simulate.py):
 from __future__ import annotations
 
 import time
-from contextlib import contextmanager
 from numbers import Real
-from typing import NamedTuple
 
 import numpy as np
 
-from .dynamics import Energy, SingularMassMatrixError, energies, energy, forward_dynamics, mass_matrix
-from .flight import SOLVERS, EventSpec, integrate_phase
+from .accumulation import Accumulation
+from .contacts import Contacts, contact_band, impact_stage, phase_events
+from .dynamics import SingularMassMatrixError, forward_dynamics, mass_matrix
+from .flight import SOLVERS, integrate_phase
 from .forces import damping_depends_on_q, damping_matrix, generalized_force
-from .impact import solve_impulses
-from .kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
-from .limits import JOINT_LIMIT_MODES, STATUS_JOINT_LIMIT, check_initial, joint_limits, limit_gaps
+from .kinematics import joint_positions
+from .limits import JOINT_LIMIT_MODES, STATUS_JOINT_LIMIT, EndStops, check_initial, joint_limits
+from .progress import Clock, progress_reporter
+from .recorder import Recorder
 from .results import (
     STATUS_FAILED,
     STATUS_FINISHED,
     STATUS_MAX_IMPACTS,
     STATUS_PENETRATION,
     STATUS_ZENO,
-    ImpactRecord,
     Result,
 )
 from .validity import warn_result, warn_state
@@ -136,379 +146,6 @@ def _check_inside(model, q, walls, contact_tol):
             )
     if bad:
         raise ValueError("initial state q0 puts a joint outside a wall: " + "; ".join(bad) + ". Move the chain inside.")
-
-
-def _accumulation_time(times, intervals):
-    """Estimate of the accumulation time of a run of impacts, and the ratio used.
-
-    times : (k,) impact times [s]; intervals : (k,) the interval ending at each.
-    Geometric extrapolation t_inf = t_j + d_j r / (1 - r) from the most geometric
-    pair (smallest r = d_j / d_(j-1)): the latest intervals can be limited by the
-    contact band and tend to a constant.
-    """
-    d = np.asarray(intervals, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratios = d[1:] / d[:-1]
-    ok = np.isfinite(ratios) & (ratios > 0) & (ratios < 1)
-    if not np.any(ok):
-        return float(times[-1]), float("nan")
-    j = int(np.argmin(np.where(ok, ratios, np.inf)))
-    r = float(ratios[j])
-    return float(times[j + 1] + d[j + 1] * r / (1 - r)), r
-
-
-class _Clock:
-    """Calls progress(t, n_impacts) at most every `every` seconds of wall time (5 times a second)."""
-
-    def __init__(self, progress, every=0.2):
-        self.progress, self.every, self.last, self.n_impacts = progress, every, time.monotonic(), 0
-
-    def tick(self, t):
-        if self.progress is not None:
-            now = time.monotonic()
-            if now - self.last >= self.every:
-                self.last = now
-                self.progress(float(t), self.n_impacts)
-
-
-class _ProgressBar:
-    """``progress=True``: a tqdm bar over simulated time t - t0 [s] on stderr, fed by _Clock.
-
-    tqdm is imported here, when a bar is asked for. The solver calls the
-    right-hand side at trial times that can step back, so the bar only moves forward.
-    """
-
-    def __init__(self, t0: float, t_end: float):
-        from tqdm.auto import tqdm
-
-        self.t0 = t0
-        self.bar = tqdm(total=t_end - t0, desc="simulate", unit="s", leave=True,
-                        bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g} / {total:.4g} s "
-                                   "[{elapsed}<{remaining}{postfix}]")
-        self.bar.set_postfix_str("impacts: 0", refresh=False)
-
-    def __call__(self, t: float, n_impacts: int):
-        self.bar.set_postfix_str(f"impacts: {n_impacts}", refresh=False)
-        step = min(t - self.t0, self.bar.total) - self.bar.n
-        if step > 0:
-            self.bar.update(step)
-        else:
-            self.bar.refresh()
-
-    def close(self):
-        self.bar.close()
-
-
-@contextmanager
-def _progress_reporter(progress, t0: float, t_end: float):
-    """The callable progress(t, n_impacts) for simulate's ``progress`` argument, or None; closes a bar at the end.
-
-    progress : None or False (nothing), True (a tqdm bar on stderr), or a callable.
-    """
-    if progress is None or progress is False:
-        yield None
-    elif progress is True:
-        bar = _ProgressBar(t0, t_end)
-        try:
-            yield bar
-        finally:
-            bar.close()
-    elif callable(progress):
-        yield progress
-    else:
-        raise ValueError(f"simulate progress={progress!r} must be None, True (a progress bar on stderr) "
-                         "or a callable progress(t, n_impacts)")
-
-
-class _Contacts:
-    """Gaps, normals and Jacobians of every (wall, joint) pair: g (W, J) [m], n (W, J, 3), J (J, 3, N)."""
-
-    def __init__(self, model, walls):
-        self.model, self.walls = model, walls
-        self.N, self.n_joints = model.n_dof, model.n_joints
-        self._key, self._g = None, None
-
-    def gaps(self, q: np.ndarray) -> np.ndarray:
-        """g (W, J) [m]; cached per q (every event function of a step sees the same q)."""
-        key = q.tobytes()
-        if key != self._key:
-            p = joint_positions(self.model, q)
-            self._g = np.array([w.gap(p) for w in self.walls]).reshape(len(self.walls), self.n_joints)
-            self._key = key
-        return self._g
-
-    def gaps_batch(self, qs: np.ndarray) -> np.ndarray:
-        """g (K, W, J) [m] of the states qs (K, N): one kernel call for all of them."""
-        if not self.walls:
-            return np.zeros((len(qs), 0, self.n_joints))
-        P = joint_positions_batch(self.model, qs)  # (K, J, 3)
-        return np.stack([w.gap(P) for w in self.walls], axis=1).reshape(len(qs), len(self.walls), self.n_joints)
-
-    def full(self, q: np.ndarray):
-        p, Jac = joint_positions_and_jacobians(self.model, q)
-        g = np.array([w.gap(p) for w in self.walls]).reshape(len(self.walls), self.n_joints)
-        nrm = np.array([w.normal(p) for w in self.walls]).reshape(len(self.walls), self.n_joints, 3)
-        return g, nrm, Jac
-
-
-def contact_band(contact_tol: float, lipschitz: float, rtol: float, atol: float, q: np.ndarray) -> float:
-    """The contact band b [m] at q (N,): gaps within it belong to one impact (module docstring).
-
-    b = max(2 contact_tol, L_q (atol + rtol max|q|)), L_q [m per unit of q] a bound on |dg/dq|.
-    """
-    return max(2.0 * contact_tol, lipschitz * (atol + rtol * float(np.abs(q).max(initial=0.0))))
-
-
-def _impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink_pair):
-    """The impact at (t, q, qd), if there is one.
-
-    Returns (record or None, near (W, J) bool: the pairs in the contact band g <= band [m]).
-    """
-    g, nrm, Jac = contacts.full(q)
-    # Candidates: every pair within the contact band (a pair caught by its "sink"
-    # event sits just below its phase-start gap).
-    near = g <= band
-    if not np.any(near):
-        return None, near
-    pairs = np.argwhere(near)  # (k, 2): wall, joint
-    normals = nrm[pairs[:, 0], pairs[:, 1]]
-    Wmat = np.einsum("kc,kcn->nk", normals, Jac[pairs[:, 1]])
-    v_before = Wmat.T @ qd
-    # An impact: some candidate approaches faster than grazing, or the pair whose
-    # "sink" event fired is still approaching (it must be stopped).
-    sinking = sink_pair is not None and np.any(
-        (pairs[:, 0] == sink_pair[0]) & (pairs[:, 1] == sink_pair[1]) & (v_before < 0)
-    )
-    if not (np.any(v_before < -grazing_velocity) or sinking):
-        return None, near
-    M = mass_matrix(model, q)
-    e_k = e_wall[pairs[:, 0]]
-    sol = solve_impulses(M, Wmat, qd, e_k)
-    rec = ImpactRecord(
-        time=t, joints=tuple(int(j) + 1 for j in pairs[:, 1]), wall=tuple(int(w) for w in pairs[:, 0]),
-        normals=normals, impulses=sol.impulses, v_before=sol.v_before, v_after=sol.v_after,
-        restitution=e_k, qdot_before=qd.copy(), qdot_after=sol.qdot_after.copy(),
-        energy_before=energy(model, q, qd), energy_after=energy(model, q, sol.qdot_after),
-        rounds=len(sol.rounds),
-    )
-    return rec, near
-
-
-def _phase_events(near, g_start, band, sink_depth):
-    """EventSpec of one phase and the kind of each event ("hit", "sink", "leave").
-
-    near : (W, J) pairs in the contact band at the phase start; g_start : (W, J) their gaps [m].
-    """
-    rows, kinds = [], []
-    for w_i, j in np.ndindex(near.shape):
-        if near[w_i, j]:
-            # Sink level min(g_start, 0) - sink_depth: the event function starts at
-            # sink_depth > 0 (above the gap's round-off), so a bounce lower than one
-            # solver step that falls back is still a sign change (never tunnels).
-            rows.append((w_i, j, sink_depth - min(float(g_start[w_i, j]), 0.0), -1.0))
-            kinds.append(("sink", w_i, j))
-            rows.append((w_i, j, -1.5 * band, 1.0))
-            kinds.append(("leave", w_i, j))
-        else:
-            rows.append((w_i, j, 0.0, -1.0))
-            kinds.append(("hit", w_i, j))
-    a = np.array(rows, dtype=float).reshape(-1, 4)
-    return EventSpec(a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]), kinds
-
-
-class _Accumulation:
-    """Detects an accumulation of impacts (rules (a) and (b) of the module docstring)."""
-
-    def __init__(self, shape, zeno_count, zeno_interval, band):
-        self.count, self.interval, self.band = zeno_count, zeno_interval, band
-        self.streak = np.zeros(shape, dtype=int)  # consecutive in-band impacts per (wall, joint)
-        self.times: list[float] = []
-
-    def left_band(self, w_i, j):
-        self.streak[w_i, j] = 0
-
-    def add(self, rec, in_band_before) -> str | None:
-        """Register an impact; in_band_before (W, J): pairs that stayed in the band since the last impact.
-
-        Returns the stop message, or None.
-        """
-        self.times.append(rec.time)
-        for w_i, j, lam in zip(rec.wall, rec.joints, rec.impulses):
-            if lam > 0:
-                self.streak[w_i, j - 1] = self.streak[w_i, j - 1] + 1 if in_band_before[w_i, j - 1] else 0
-        k = self.count
-        times = np.array(self.times[-(k + 1):])
-        d = np.diff(times)
-        if np.max(self.streak) >= k:
-            w_i, j = np.unravel_index(int(np.argmax(self.streak)), self.streak.shape)
-            why = (f"joint O{j + 1} stayed within {1.5 * self.band:.3g} m of wall {w_i + 1} through {k} consecutive "
-                   "impacts (its rebounds no longer leave the contact band)")
-        elif d.size >= k and np.all(d[-k:] < self.interval):
-            why = f"{k} consecutive impacts less than {self.interval:g} s apart"
-        else:
-            return None
-        d = d[-k:]
-        t_acc, ratio = _accumulation_time(times[-d.size:], d)
-        if not ratio < 0.9:
-            # Intervals that do not shrink: the contact is closed (resting or sliding) since then.
-            t_acc, ratio = float(times[-d.size - 1] if times.size > d.size else times[0]), ratio
-        return (f"accumulation of impacts: {why}; last interval {d[-1]:.3g} s, interval ratio {ratio:.3g}; "
-                f"estimated accumulation time {t_acc:.9g} s: resting contact from t = {t_acc:.9g} s, which is not "
-                "modelled yet; results up to here are kept")
-
-
-class _Chunk(NamedTuple):
-    """Samples recorded at once: an impact (one sample, its record) or a flight phase (k samples)."""
-
-    t: np.ndarray  # (k,) [s]
-    q: np.ndarray  # (k, N)
-    qdot: np.ndarray  # (k, N)
-    phase: np.ndarray  # (k,) int
-    work: np.ndarray  # (k, 2) [J]
-    energy: Energy  # each field (k,) [J]
-    error: float  # energy balance error of these samples (relative)
-    impact: ImpactRecord | None
-
-
-def _one(E: Energy) -> Energy:
-    """Energy of one state as arrays of one sample."""
-    return Energy(*(np.array([float(v)]) for v in E))
-
-
-class _Recorder:
-    """Stored samples (t, q, qdot, phase, work), their energies, the impacts, and the flight-phase energy balance.
-
-    work : (K, 2) [J] the work of the inputs and of the damping since t0 (zeros
-    for an undriven, undamped run). In a flight phase E(t) - E(start) equals
-    W(t) - W(start) up to the integration error, which is what energy_error measures.
-
-    Everything is kept as a list of _Chunk, each added by one ``list.append``:
-    a KeyboardInterrupt anywhere leaves whole chunks only, so the Result built
-    from them after an interrupt is consistent (every sample with its energy,
-    every impact with the sample after it).
-    """
-
-    def __init__(self, model, t0, q0, qdot0):
-        self.model = model
-        # Energy of every stored sample: needed for the flight-phase drift, then handed
-        # to the Result so res.energy() does not evaluate M at every sample again.
-        self.chunks = [_Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, 2)),
-                              _one(energy(model, q0, qdot0)), 0.0, None)]
-        self.n_impacts = 0
-
-    def impact(self, rec, q, phase):
-        last = self.chunks[-1]
-        self.chunks.append(_Chunk(np.array([rec.time]), q[None, :].copy(), rec.qdot_after[None, :].copy(),
-                                  np.array([phase]), last.work[-1:].copy(), _one(rec.energy_after), 0.0, rec))
-        self.n_impacts += 1
-
-    def flight(self, T, Y, phase):
-        """Samples T (K,), Y (K, 2N [+ 2]) of a flight phase that started at the last stored sample."""
-        N = self.model.n_dof
-        last = self.chunks[-1]
-        E_start = Energy(*(float(a[-1]) for a in last.energy))
-        W_start = last.work[-1].sum()
-        W = Y[:, 2 * N:2 * N + 2] if Y.shape[1] > 2 * N else np.zeros((T.size, 2))
-        scale = max(abs(E_start.total), abs(E_start.kinetic) + abs(E_start.gravity) + abs(E_start.strain),
-                    float(np.max(np.abs(W.sum(axis=1) - W_start), initial=0.0)), 1e-300)
-        # All samples in one kernel call; the balance E(t) - E(0) - W(t) per sample.
-        E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
-        err = float(np.abs(E.total - E_start.total - (W.sum(axis=1) - W_start)).max() / scale) if T.size else 0.0
-        self.chunks.append(_Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None))
-
-    def ends_with(self, T) -> bool:
-        """Whether the last chunk holds the samples T (the same array)."""
-        return self.chunks[-1].t is T
-
-    @property
-    def energy_error(self) -> float:
-        return max(c.error for c in self.chunks)
-
-    @property
-    def impacts(self) -> list:
-        return [c.impact for c in self.chunks if c.impact is not None]
-
-    def arrays(self):
-        """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2), Energy of (K,) arrays."""
-        cs = self.chunks
-        cat = np.concatenate
-        return (cat([c.t for c in cs]), cat([c.q for c in cs]), cat([c.qdot for c in cs]),
-                cat([c.phase for c in cs]), cat([c.work for c in cs]),
-                Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)))
-
-
-class _EndStops:
-    """The joint limits as row W of the gap matrix, their events and end-stop impacts (gibbsimpact.limits)."""
-
-    def __init__(self, limits, n_walls, n_joints):
-        self.limits, self.W, self.J = limits, n_walls, n_joints
-        self.cols = max(n_joints, len(limits))
-        self.n = np.array([lim.n for lim in limits])  # (L, N)
-        self.offset = np.array([lim.offset for lim in limits])
-        self.near = np.zeros(len(limits), dtype=bool)  # limits in their contact band (after an end-stop impact)
-        self.streak = np.zeros(len(limits), dtype=int)
-        self.times: list[float] = []
-
-    def _full(self, g_walls, qs):
-        """(K, W + 1, cols): wall gaps, then the limit gaps; +inf pads unused entries."""
-        K = qs.shape[0]
-        G = np.full((K, self.W + 1, self.cols), np.inf)
-        G[:, :self.W, :self.J] = g_walls.reshape(K, self.W, self.J)
-        G[:, self.W, :len(self.limits)] = qs @ self.n.T + self.offset
-        return G
-
-    def wrap(self, gaps):
-        return lambda q: self._full(gaps(q), q[None, :])[0]
-
-    def wrap_batch(self, gaps_batch):
-        return lambda qs: self._full(gaps_batch(qs), qs)
-
-    def events(self, events, kinds, q, contact_tol, sink_depth):
-        """Append one event per limit (or its sink / leave pair when it is in the band) to the wall events."""
-        g = limit_gaps(self.limits, q)
-        self.near &= g <= 2.0 * contact_tol
-        rows, kinds = [tuple(r) for r in zip(events.wall, events.joint, events.offset, events.direction)], list(kinds)
-        for k, gk in enumerate(g):
-            if self.near[k]:
-                rows.append((self.W, k, sink_depth - min(float(gk), 0.0), -1.0))
-                kinds.append(("sink", self.W, k))
-                rows.append((self.W, k, -3.0 * contact_tol, 1.0))
-                kinds.append(("leave", self.W, k))
-            else:
-                rows.append((self.W, k, 0.0, -1.0))
-                kinds.append(("hit", self.W, k))
-        a = np.array(rows, dtype=float).reshape(-1, 4)
-        return EventSpec(a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]), kinds
-
-    def impact(self, model, t, q, qd, k, e_stop, grazing_velocity, sinking):
-        """End-stop impact of limit k (Newton's law with W = n), or None when it does not approach."""
-        n = self.limits[k].n
-        # consecutive impacts of this stop without a "leave" event in between
-        self.streak[k] = self.streak[k] + 1 if self.near[k] else 1
-        self.near[k] = True
-        v = float(n @ qd)
-        if not (v < -grazing_velocity or (sinking and v < 0)):
-            return None
-        sol = solve_impulses(mass_matrix(model, q), n[:, None], qd, np.array([e_stop]))
-        return ImpactRecord(
-            time=t, joints=(self.limits[k].joint,), wall=(-1,), normals=np.zeros((1, 3)),
-            impulses=sol.impulses, v_before=sol.v_before, v_after=sol.v_after, restitution=np.array([e_stop]),
-            qdot_before=qd.copy(), qdot_after=sol.qdot_after.copy(),
-            energy_before=energy(model, q, qd), energy_after=energy(model, q, sol.qdot_after),
-            rounds=len(sol.rounds),
-        )
-
-    def accumulation(self, t, k, count, interval):
-        """Stop message when the joint has come to rest at end stop k: ``count`` impacts of
-        limit k in a row without its "leave" event in between (rule (a) of the module
-        docstring), or ``count`` impacts in a row less than ``interval`` apart (rule (b))."""
-        self.times.append(t)
-        dts = np.diff(self.times[-(count + 1):])
-        if self.streak[k] < count and not (dts.size >= count and np.all(dts < interval)):
-            return None
-        return (f"joint {self.limits[k].joint} came to rest at its end stop ({self.limits[k].name}) at "
-                f"t = {t:.9g} s: {count} end-stop impacts without leaving the stop; resting contact "
-                "at an end stop is not modelled: results up to here are kept")
 
 
 def simulate(
@@ -649,17 +286,17 @@ def simulate(
             singular["message"] = f"at t = {t:.9g} s: {exc}"
             return np.full(y.shape, np.nan)
 
-    contacts = _Contacts(model, walls)
+    contacts = Contacts(model, walls)
     # Joint limits, when the chain has prismatic joints: one more row of the gap matrix (row W).
     gap_matrix, gap_batch = contacts.gaps, contacts.gaps_batch
-    stops = _EndStops(limits, len(walls), model.n_joints) if limits else None
+    stops = EndStops(limits, len(walls), model.n_joints) if limits else None
     if stops is not None:
         gap_matrix, gap_batch = stops.wrap(contacts.gaps), stops.wrap_batch(contacts.gaps_batch)
     # |dg/dq| <= 1 + 2 sum l: a translation moves a joint 1:1, a rotation by at most its lever arm.
     lipschitz = 1.0 + 2.0 * sum(ld.length for ld in model.link_data)
-    recorder = _Recorder(model, t0, q0, qdot0)
+    recorder = Recorder(model, t0, q0, qdot0)
     band = contact_band(contact_tol, lipschitz, rtol, atol, q0)
-    accumulation = _Accumulation((len(walls), model.n_joints), int(zeno_count), zeno_interval, band)
+    accumulation = Accumulation((len(walls), model.n_joints), int(zeno_count), zeno_interval, band)
     status, message = STATUS_FINISHED, f"reached t_end = {t_end:g} s"
     t, y, phase = t0, np.concatenate((q0, qdot0, np.zeros(2 if driven else 0))), 0
     near = np.zeros((len(walls), model.n_joints), dtype=bool)
@@ -668,8 +305,8 @@ def simulate(
     stalled = 0  # consecutive phases that made no progress in time
     flown = None  # outcome of the last flight phase until its samples are recorded
 
-    with _progress_reporter(progress, t0, t_end) as report:
-        clock = _Clock(report)
+    with progress_reporter(progress, t0, t_end) as report:
+        clock = Clock(report)
         try:
             while True:
                 # Stage 1: impact, when the last phase ended at an event (or at the start).
@@ -677,7 +314,7 @@ def simulate(
                     q, qd = y[:N], y[N:2 * N]
                     in_band_before = near
                     band = accumulation.band = contact_band(contact_tol, lipschitz, rtol, atol, q)
-                    rec, near = _impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity,
+                    rec, near = impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity,
                                               sink_pair)
                     if rec is not None:
                         y = np.concatenate((q, rec.qdot_after, y[2 * N:]))
@@ -699,7 +336,7 @@ def simulate(
                 # Stage 2: flight until the first event or t_end.
                 g_start = contacts.gaps(y[:N])
                 sink_depth = max(1e-6 * contact_tol, 64 * np.finfo(float).eps * (1.0 + float(np.abs(y[:3]).max())))
-                events, kinds = _phase_events(near, g_start, band, sink_depth)
+                events, kinds = phase_events(near, g_start, band, sink_depth)
                 if stops is not None:
                     events, kinds = stops.events(events, kinds, y[:N], contact_tol, sink_depth)
                 try:

@@ -1,0 +1,90 @@
+"""The samples and impacts of a simulation, recorded chunk by chunk, with the flight-phase energy balance."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .dynamics import Energy, energies, energy
+from .results import ImpactRecord
+
+
+class Chunk(NamedTuple):
+    """Samples recorded at once: an impact (one sample, its record) or a flight phase (k samples)."""
+
+    t: np.ndarray  # (k,) [s]
+    q: np.ndarray  # (k, N)
+    qdot: np.ndarray  # (k, N)
+    phase: np.ndarray  # (k,) int
+    work: np.ndarray  # (k, 2) [J]
+    energy: Energy  # each field (k,) [J]
+    error: float  # energy balance error of these samples (relative)
+    impact: ImpactRecord | None
+
+
+def one_sample(E: Energy) -> Energy:
+    """Energy of one state as arrays of one sample."""
+    return Energy(*(np.array([float(v)]) for v in E))
+
+
+class Recorder:
+    """Stored samples (t, q, qdot, phase, work), their energies, the impacts, and the flight-phase energy balance.
+
+    work : (K, 2) [J] the work of the inputs and of the damping since t0 (zeros
+    for an undriven, undamped run). In a flight phase E(t) - E(start) equals
+    W(t) - W(start) up to the integration error, which is what energy_error measures.
+
+    Everything is kept as a list of Chunk, each added by one ``list.append``:
+    a KeyboardInterrupt anywhere leaves whole chunks only, so the Result built
+    from them after an interrupt is consistent (every sample with its energy,
+    every impact with the sample after it).
+    """
+
+    def __init__(self, model, t0, q0, qdot0):
+        self.model = model
+        # Energy of every stored sample: needed for the flight-phase drift, then handed
+        # to the Result so res.energy() does not evaluate M at every sample again.
+        self.chunks = [Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, 2)),
+                              one_sample(energy(model, q0, qdot0)), 0.0, None)]
+        self.n_impacts = 0
+
+    def impact(self, rec, q, phase):
+        last = self.chunks[-1]
+        self.chunks.append(Chunk(np.array([rec.time]), q[None, :].copy(), rec.qdot_after[None, :].copy(),
+                                  np.array([phase]), last.work[-1:].copy(), one_sample(rec.energy_after), 0.0, rec))
+        self.n_impacts += 1
+
+    def flight(self, T, Y, phase):
+        """Samples T (K,), Y (K, 2N [+ 2]) of a flight phase that started at the last stored sample."""
+        N = self.model.n_dof
+        last = self.chunks[-1]
+        E_start = Energy(*(float(a[-1]) for a in last.energy))
+        W_start = last.work[-1].sum()
+        W = Y[:, 2 * N:2 * N + 2] if Y.shape[1] > 2 * N else np.zeros((T.size, 2))
+        scale = max(abs(E_start.total), abs(E_start.kinetic) + abs(E_start.gravity) + abs(E_start.strain),
+                    float(np.max(np.abs(W.sum(axis=1) - W_start), initial=0.0)), 1e-300)
+        # All samples in one kernel call; the balance E(t) - E(0) - W(t) per sample.
+        E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
+        err = float(np.abs(E.total - E_start.total - (W.sum(axis=1) - W_start)).max() / scale) if T.size else 0.0
+        self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None))
+
+    def ends_with(self, T) -> bool:
+        """Whether the last chunk holds the samples T (the same array)."""
+        return self.chunks[-1].t is T
+
+    @property
+    def energy_error(self) -> float:
+        return max(c.error for c in self.chunks)
+
+    @property
+    def impacts(self) -> list:
+        return [c.impact for c in self.chunks if c.impact is not None]
+
+    def arrays(self):
+        """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2), Energy of (K,) arrays."""
+        cs = self.chunks
+        cat = np.concatenate
+        return (cat([c.t for c in cs]), cat([c.q for c in cs]), cat([c.qdot for c in cs]),
+                cat([c.phase for c in cs]), cat([c.work for c in cs]),
+                Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)))
