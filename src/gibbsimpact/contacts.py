@@ -89,18 +89,20 @@ def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink
     return rec, near
 
 
-def phase_events(near, g_start, band, sink_depth):
+def phase_events(near, g_start, band, sink_depth, row0=0):
     """EventSpec of one phase and the kind of each event ("hit", "sink", "leave").
 
-    near : (W, J) pairs in the contact band at the phase start; g_start : (W, J) their gaps [m].
+    near : (W, J) pairs in the contact band at the phase start; g_start : (W, J) their gaps [m];
+    row0 : the gap-matrix row of near's first row (the joint limits sit below the walls).
     """
     rows, kinds = [], []
-    for w_i, j in np.ndindex(near.shape):
-        if near[w_i, j]:
+    for w, j in np.ndindex(near.shape):
+        w_i = w + row0
+        if near[w, j]:
             # Sink level min(g_start, 0) - sink_depth: the event function starts at
             # sink_depth > 0 (above the gap's round-off), so a bounce lower than one
             # solver step that falls back is still a sign change (never tunnels).
-            rows.append((w_i, j, sink_depth - min(float(g_start[w_i, j]), 0.0), -1.0))
+            rows.append((w_i, j, sink_depth - min(float(g_start[w, j]), 0.0), -1.0))
             kinds.append(("sink", w_i, j))
             rows.append((w_i, j, -1.5 * band, 1.0))
             kinds.append(("leave", w_i, j))

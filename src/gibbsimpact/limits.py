@@ -115,21 +115,15 @@ class EndStops:
         return lambda qs: self._full(gaps_batch(qs), qs)
 
     def events(self, events, kinds, q, contact_tol, sink_depth):
-        """Append one event per limit (or its sink / leave pair when it is in the band) to the wall events."""
+        """Append the limits' events (gibbsimpact.contacts.phase_events on row W, band 2 contact_tol)
+        to the wall events."""
+        from .contacts import phase_events
+
         g = limit_gaps(self.limits, q)
-        self.near &= g <= 2.0 * contact_tol
-        rows, kinds = [tuple(r) for r in zip(events.wall, events.joint, events.offset, events.direction)], list(kinds)
-        for k, gk in enumerate(g):
-            if self.near[k]:
-                rows.append((self.W, k, sink_depth - min(float(gk), 0.0), -1.0))
-                kinds.append(("sink", self.W, k))
-                rows.append((self.W, k, -3.0 * contact_tol, 1.0))
-                kinds.append(("leave", self.W, k))
-            else:
-                rows.append((self.W, k, 0.0, -1.0))
-                kinds.append(("hit", self.W, k))
-        a = np.array(rows, dtype=float).reshape(-1, 4)
-        return EventSpec(a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]), kinds
+        band = 2.0 * contact_tol
+        self.near &= g <= band
+        lim, lim_kinds = phase_events(self.near[None, :], g[None, :], band, sink_depth, row0=self.W)
+        return EventSpec(*(np.concatenate((a, b)) for a, b in zip(events, lim))), list(kinds) + lim_kinds
 
     def impact(self, model, t, q, qd, k, e_stop, grazing_velocity, sinking):
         """End-stop impact of limit k (Newton's law with W = n), or None when it does not approach."""
