@@ -725,31 +725,25 @@ def tip_deflections(model, qs) -> list:
     [(link i (0-based), "v" | "w", x [m], values (K,) [m])], v along the link frame's y axis, w
     along z (w only for a link that bends in z), at x = l_i.
 
-    The value is link_deflection(model, q, i, x) at every state: for a link with fixed
-    shapes it is linear in the link's coordinates (one evaluation per coordinate); for a link in
-    a FixedPrismatic guide, whose elements stretch with d, it is v(l) = sum_k d^(a_k) N_k(1)
-    delta_k, the stretching elements at their tip (model.link_deflection). A direction whose
-    shapes all vanish at the tip (clamped-clamped modes) is taken at mid-span, x = l_i / 2.
+    The value is link_deflection(model, q, i, x) at every state, linear in the link's own
+    coordinates at the tip (one evaluation per coordinate). For a link in a FixedPrismatic guide
+    the stretching elements' tip value sum_k d^(a_k) N_k(1) delta_k does not depend on d (it is
+    the last node's deflection), so the basis is evaluated at d = l_i. A direction whose shapes
+    all vanish at the tip (clamped-clamped modes) is taken at mid-span, x = l_i / 2.
     """
-    from .elements import hermite_shape
-
     qs = np.atleast_2d(np.asarray(qs, dtype=float))
     out = []
     for i, lk in enumerate(model.chain.links):
         idx = np.asarray(model.delta_index[i], dtype=int)
         if idx.size == 0:
             continue
-        if model.chain.joints[i].kind == "Pb":
-            N1 = hermite_shape(lk.elements, 1.0, np.array([1.0]))[:, 0]  # (2 n_e,) at the tip, xi = 1
-            a = np.tile([0.0, 1.0], lk.elements)
-            d = qs[:, model.theta_index[i]]
-            out.append((i, "v", lk.length, (d[:, None] ** a * qs[:, idx]) @ N1))
-            continue
         x = np.array([lk.length, 0.5 * lk.length])
         basis = np.zeros((2, idx.size, 2))  # [tip | mid-span, coordinate, v | w]
         for c, k in enumerate(idx):
             e = np.zeros(model.n_dof)
             e[k] = 1.0
+            if model.chain.joints[i].kind == "Pb":
+                e[model.theta_index[i]] = lk.length  # any protruding length: the tip value is d-free
             basis[:, c] = np.column_stack(link_deflection(model, e, i, x))
         dirs = {model.bending_directions[k] for k in idx}
         for comp, name in ((0, "v"), (1, "w")):
