@@ -25,8 +25,8 @@ from conftest import PB_DROP_CASE
 CASES = Path(__file__).resolve().parents[1] / "cases"
 
 # A rigid link dropped flat on a plane with e = 0.5: the bounce intervals halve,
-# so with zeno_interval_s = 0.05 and zeno_count = 3 the run stops (status zeno)
-# after the 4th impact, at t ~ 0.124 s.
+# so with zeno_interval_s = 0.05, zeno_count = 3 and accumulation = "stop" the run
+# stops (status zeno) after the 4th impact, at t ~ 0.124 s.
 ZENO = """
 name = "zeno_drop"
 gravity_m_per_s2 = [0.0, -9.81, 0.0]
@@ -55,6 +55,7 @@ rtol = 1e-8
 atol = 1e-10
 zeno_interval_s = 0.05
 zeno_count = 3
+accumulation = "stop"
 """
 
 

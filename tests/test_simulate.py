@@ -206,6 +206,7 @@ def test_grazing_is_not_an_impact():
 def test_accumulation_of_impacts_stops_with_status():
     # Flat rod dropped from h with e = 0.5: impacts accumulate at
     # t_inf = t1 + 2 e v1 / (g (1 - e)),  v1 = sqrt(2 g h).
+    # accumulation="stop": the detector's own result (the default goes on resting, below).
     e, h = 0.5, 0.1
     model = rigid_rod(gravity=(0.0, -G, 0.0))
     v1 = np.sqrt(2 * G * h)
@@ -213,7 +214,8 @@ def test_accumulation_of_impacts_stops_with_status():
     errors = {}
     for tol in (1e-9, 1e-12):
         res = gi.simulate(model, model.state(X2=h), np.zeros(6), (0.0, 2.0),
-                          walls=[gi.Plane((0, 0, 0), (0, 1, 0))], restitution=e, contact_tol=tol)
+                          walls=[gi.Plane((0, 0, 0), (0, 1, 0))], restitution=e, contact_tol=tol,
+                          accumulation="stop")
         assert res.status == "zeno"
         assert "accumulation" in res.message
         est = float(res.message.split("estimated accumulation time ")[1].split(" s")[0])
@@ -230,6 +232,27 @@ def test_accumulation_of_impacts_stops_with_status():
     # bounces become as small as the sink depth (~1e-14 m).
     assert errors[1e-9] < 1e-6
     assert errors[1e-12] < 1e-6
+
+
+def test_accumulation_of_impacts_ends_in_resting_contact():
+    # The same drop with the default accumulation="rest": at the accumulation the rod
+    # settles on the plane and lies there with m g / 2 on each end until t_end.
+    e, h = 0.5, 0.1
+    model = rigid_rod(gravity=(0.0, -G, 0.0))
+    v1 = np.sqrt(2 * G * h)
+    t_inf = np.sqrt(2 * h / G) + 2 * e * v1 / (G * (1 - e))
+    res = gi.simulate(model, model.state(X2=h), np.zeros(6), (0.0, 2.0), walls=[gi.Plane((0, 0, 0), (0, 1, 0))],
+                      restitution=e)
+    assert res.status == "finished", res.message
+    assert res.t[-1] == 2.0
+    assert res.impacts[-1].time == pytest.approx(t_inf, abs=2e-6)
+    m = model.total_mass
+    np.testing.assert_allclose(res.contact_forces[-1, 0], [m * G / 2] * 2, rtol=1e-12)
+    assert res.resting_time == pytest.approx(2.0 - t_inf, abs=2e-6)
+    assert np.abs(res.joint_positions()[:, :, 1]).min() >= 0.0 or res.joint_positions()[:, :, 1].min() > -1e-9
+    # No force before the accumulation, both ends loaded after it.
+    assert np.all(res.contact_forces[res.t < res.impacts[0].time] == 0.0)
+    assert np.all(res.contact_forces[res.t > t_inf + 1e-5] > 0.0)
 
 
 def test_sphere_no_gravity_conserves_angular_momentum_and_energy():
@@ -298,7 +321,8 @@ def test_low_bounces_after_a_sink_do_not_tunnel():
     e, h = 0.5, 0.01
     model = rigid_rod(1.0, 1.0, gravity=(0.0, -G, 0.0))
     res = gi.simulate(model, model.state(X1=-0.5, X2=h), np.zeros(6), (0.0, 1.0),
-                      walls=[gi.Plane((0, 0, 0), (0, 1, 0))], restitution=e, rtol=1e-8, atol=1e-10)
+                      walls=[gi.Plane((0, 0, 0), (0, 1, 0))], restitution=e, rtol=1e-8, atol=1e-10,
+                      accumulation="stop")
     assert res.status == "zeno", res.message
     assert res.joint_positions()[:, :, 1].min() > -1e-7
     v1 = np.sqrt(2 * G * h)
@@ -316,7 +340,7 @@ def test_plastic_slide_along_a_circle_stops_in_bounded_time():
     rod = gi.Model(gi.Chain([gi.Link(0.5, 1.0, 20.0, rotary_inertia=(5e-5, 0, 0))]), gravity=(0, 0, 0))
     q0 = rod.state(X2=-1.0 + 1e-12, theta_1=np.pi / 3)
     qd0 = rod.state(X1=0.15)
-    res = gi.simulate(rod, q0, qd0, (0.0, 0.5), walls=[gi.Circle(1.0)], restitution=0.0)
+    res = gi.simulate(rod, q0, qd0, (0.0, 0.5), walls=[gi.Circle(1.0)], restitution=0.0, accumulation="stop")
     assert res.status == "zeno", res.message
     assert "joint O1 stayed within" in res.message and "wall 1" in res.message
     assert 10 <= len(res.impacts) <= 11
@@ -327,6 +351,24 @@ def test_plastic_slide_along_a_circle_stops_in_bounded_time():
     est = float(res.message.split("estimated accumulation time ")[1].split(" s")[0])
     assert est == pytest.approx(res.impacts[0].time, abs=2e-6)
     check_newton_law(res)
+
+
+def test_plastic_slide_along_a_circle_goes_on_in_resting_contact():
+    # The slide above with the default accumulation="rest": after the first plastic
+    # impact O1 stays on the circle. Without gravity and friction the rod turns with
+    # constant kinetic energy; the wall force holds O1 on its circular path.
+    rod = gi.Model(gi.Chain([gi.Link(0.5, 1.0, 20.0, rotary_inertia=(5e-5, 0, 0))]), gravity=(0, 0, 0))
+    q0 = rod.state(X2=-1.0 + 1e-12, theta_1=np.pi / 3)
+    qd0 = rod.state(X1=0.15)
+    res = gi.simulate(rod, q0, qd0, (0.0, 0.5), walls=[gi.Circle(1.0)], restitution=0.0)
+    assert res.status == "finished", res.message
+    assert len(res.impacts) <= 1
+    r = np.hypot(res.q[:, 0], res.q[:, 1])
+    assert np.max(np.abs(r - 1.0)) <= 1e-9  # O1 = (X1, X2) on the circle at every sample
+    after = res.t > 1e-4
+    assert np.all(res.contact_forces[after, 0, 0] > 0.0)
+    E = res.energy().kinetic[after]
+    assert np.max(np.abs(E - E[0])) <= 1e-9 * E[0]
 
 
 def test_wall_restitution_overrides_global():

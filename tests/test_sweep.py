@@ -78,8 +78,10 @@ def test_serial_table_columns_rows_and_files(serial):
     assert len(rows) == 12 and res.n_run == 12 and res.n_skipped == 0
     assert [(float(r["restitution"]), int(r["initial.coordinates.theta_1_deg"])) for r in rows] == [
         (e, th) for e in GRID["restitution"] for th in GRID["initial.coordinates.theta_1_deg"]]
-    assert res.status_counts() == {"zeno": 1, "finished": 11} and not res.all_finished
-    assert rows[0]["status"] == "zeno" and "accumulation" in rows[0]["message"]
+    # e = 0.5 at -36 deg: an accumulation at O1, then resting contact to t_end (status "zeno"
+    # before resting contact existed).
+    assert res.status_counts() == {"finished": 12} and res.all_finished
+    assert gi.load_result(res.out / rows[0]["result"]).resting_time > 0.0
     assert len({r["run_id"] for r in rows}) == 12
     # The runs differ, and the flight before the first impact does not depend on e.
     assert len({(r["n_impacts"], r["energy_error"]) for r in rows}) > 6

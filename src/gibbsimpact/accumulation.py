@@ -31,9 +31,22 @@ class Accumulation:
         self.count, self.interval, self.band = zeno_count, zeno_interval, band
         self.streak = np.zeros(shape, dtype=int)  # consecutive in-band impacts per (wall, joint)
         self.times: list[float] = []
+        self.pairs: list[tuple] = []  # (walls, joints) that took an impulse, per impact
 
     def left_band(self, w_i, j):
         self.streak[w_i, j] = 0
+
+    def reset(self):
+        """Forget the impacts so far (the accumulation was resolved into resting contact)."""
+        self.streak[:] = 0
+        self.times, self.pairs = [], []
+
+    def recent_pairs(self) -> np.ndarray:
+        """(W, J) bool: the pairs that took an impulse in the last zeno_count impacts."""
+        mask = np.zeros(self.streak.shape, dtype=bool)
+        for walls, joints in self.pairs[-self.count:]:
+            mask[list(walls), [j - 1 for j in joints]] = True
+        return mask
 
     def add(self, rec, in_band_before) -> str | None:
         """Register an impact; in_band_before (W, J): pairs that stayed in the band since the last impact.
@@ -41,6 +54,8 @@ class Accumulation:
         Returns the stop message, or None.
         """
         self.times.append(rec.time)
+        took = [(w, j) for w, j, lam in zip(rec.wall, rec.joints, rec.impulses) if lam > 0]
+        self.pairs.append((tuple(w for w, _ in took), tuple(j for _, j in took)))
         for w_i, j, lam in zip(rec.wall, rec.joints, rec.impulses):
             if lam > 0:
                 self.streak[w_i, j - 1] = self.streak[w_i, j - 1] + 1 if in_band_before[w_i, j - 1] else 0
@@ -61,5 +76,4 @@ class Accumulation:
             # Intervals that do not shrink: the contact is closed (resting or sliding) since then.
             t_acc, ratio = float(times[-d.size - 1] if times.size > d.size else times[0]), ratio
         return (f"accumulation of impacts: {why}; last interval {d[-1]:.3g} s, interval ratio {ratio:.3g}; "
-                f"estimated accumulation time {t_acc:.9g} s: resting contact from t = {t_acc:.9g} s, which is not "
-                "modelled yet; results up to here are kept")
+                f"estimated accumulation time {t_acc:.9g} s: resting contact from t = {t_acc:.9g} s")

@@ -174,10 +174,12 @@ SOLVER_KEYS = {
     "max_impacts": ("max_impacts", "number", "impact budget"),
     "joint_limit": ("joint_limit", "str", "at the end of a prismatic joint's range: 'stop' the run or 'impact'"),
     "joint_restitution": ("joint_restitution", "number", "coefficient of restitution of the end-stop impacts"),
+    "accumulation": ("accumulation", "str", "after an accumulation of impacts: 'rest' (resting contact) or 'stop'"),
 }
 #: [solver] string keys with a fixed set of values (and what each means).
 _SOLVER_CHOICES = {
     "joint_limit": {"stop": "end the run with status joint_limit", "impact": "an end-stop impact"},
+    "accumulation": {"rest": "go on in resting contact", "stop": "end the run with status zeno"},
 }
 #: Keyword of Case.simulate that overrides a case-file key -> that key's path.
 OVERRIDE_KEYS = {"t_end": "time.t_end_s", **{kw: f"solver.{key}" for key, (kw, _, _) in SOLVER_KEYS.items()}}

@@ -41,7 +41,7 @@ EXIT_CODES = """exit codes:
 with several case files the worst code counts (130, 1, 2, 3, 0: worst first)"""
 
 #: Files ``gibbsimpact run`` may write into its output folder, besides <figure>.png for
-#: every name in plotting.FIGURES. Before writing, a run removes those of them that are
+#: every name in plotting.FIGURES and OPTIONAL_FIGURES. Before writing, a run removes those of them that are
 #: there (an earlier run's), and nothing else.
 OUTPUT_FILES = ("timeseries.csv", "impacts.csv", "contact_forces.csv", "summary.json", "result.npz",
                 "animation.gif")
@@ -405,9 +405,9 @@ def cmd_equations(args) -> int:
 
 def output_names() -> tuple:
     """Every file name ``gibbsimpact run`` may write into an output folder."""
-    from .plotting import FIGURES
+    from .plotting import FIGURES, OPTIONAL_FIGURES
 
-    return OUTPUT_FILES + tuple(f"{k}.png" for k in FIGURES)
+    return OUTPUT_FILES + tuple(f"{k}.png" for k in FIGURES + OPTIONAL_FIGURES)
 
 
 def clear_outputs(out: Path) -> list:

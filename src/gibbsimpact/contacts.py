@@ -54,9 +54,10 @@ def contact_band(contact_tol: float, lipschitz: float, rtol: float, atol: float,
     return max(2.0 * contact_tol, lipschitz * (atol + rtol * float(np.abs(q).max(initial=0.0))))
 
 
-def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink_pair):
+def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink_pair, resting=None):
     """The impact at (t, q, qd), if there is one.
 
+    resting : None or (W, J) bool, the pairs in resting contact: they take e = 0 (gibbsimpact.resting).
     Returns (record or None, near (W, J) bool: the pairs in the contact band g <= band [m]).
     """
     g, nrm, Jac = contacts.full(q)
@@ -78,6 +79,8 @@ def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink
         return None, near
     M = mass_matrix(model, q)
     e_k = e_wall[pairs[:, 0]]
+    if resting is not None:
+        e_k = np.where(resting[pairs[:, 0], pairs[:, 1]], 0.0, e_k)
     sol = solve_impulses(M, Wmat, qd, e_k)
     rec = ImpactRecord(
         time=t, joints=tuple(int(j) + 1 for j in pairs[:, 1]), wall=tuple(int(w) for w in pairs[:, 0]),
@@ -89,15 +92,18 @@ def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink
     return rec, near
 
 
-def phase_events(near, g_start, band, sink_depth, row0=0):
+def phase_events(near, g_start, band, sink_depth, row0=0, skip=None):
     """EventSpec of one phase and the kind of each event ("hit", "sink", "leave").
 
     near : (W, J) pairs in the contact band at the phase start; g_start : (W, J) their gaps [m];
-    row0 : the gap-matrix row of near's first row (the joint limits sit below the walls).
+    row0 : the gap-matrix row of near's first row (the joint limits sit below the walls);
+    skip : None or (W, J) bool, pairs without these events (resting pairs: see resting.drift_events).
     """
     rows, kinds = [], []
     for w, j in np.ndindex(near.shape):
         w_i = w + row0
+        if skip is not None and skip[w, j]:
+            continue
         if near[w, j]:
             # Sink level min(g_start, 0) - sink_depth: the event function starts at
             # sink_depth > 0 (above the gap's round-off), so a bounce lower than one
@@ -110,4 +116,10 @@ def phase_events(near, g_start, band, sink_depth, row0=0):
             rows.append((w_i, j, 0.0, -1.0))
             kinds.append(("hit", w_i, j))
     a = np.array(rows, dtype=float).reshape(-1, 4)
-    return EventSpec(a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3]), kinds
+    return event_spec(a), kinds
+
+
+def event_spec(a) -> EventSpec:
+    """EventSpec from rows (wall row, joint, offset, direction) (K, 4)."""
+    a = np.asarray(a, dtype=float).reshape(-1, 4)
+    return EventSpec(a[:, 0].astype(int), a[:, 1].astype(int), a[:, 2], a[:, 3])

@@ -6,6 +6,8 @@ Files (docs/case-format.md, "Output files"):
   velocity by name with its unit, the joint positions, the energies.
 * ``impacts.csv``: one row per contact (an impact with k simultaneous
   contacts gives k rows sharing its ``impact`` number).
+* ``contact_forces.csv`` (when some pair rested): one row per sample: t, phase, and the
+  normal force [N] of every (wall, contact point) pair in resting contact (0 elsewhere).
 * ``summary.json``: versions, settings, impacts, energies, status.
 * ``result.npz``: everything in a :class:`~gibbsimpact.results.Result`
   (trajectory, every field of every impact, status, settings, counters, the
@@ -177,17 +179,41 @@ def write_impacts_csv(result: Result, path) -> Path:
     return path
 
 
-def to_csv(result: Result, directory) -> dict:
-    """Write ``timeseries.csv`` and ``impacts.csv`` into ``directory`` (created if needed).
+def contact_force_columns(result: Result) -> list[str]:
+    """Column names F_w<wall>_<point>_N of contact_forces.csv (walls and points from 1)."""
+    names = result.model.contact_point_names
+    return [f"F_w{w + 1}_{names[j]}_N" for w in range(len(result.walls)) for j in range(len(names))]
 
-    Returns {"timeseries": Path, "impacts": Path}.
+
+def write_contact_forces_csv(result: Result, path) -> Path:
+    """Write t, phase and the resting-contact force of every (wall, contact point) pair, one row per sample."""
+    path = Path(path)
+    K = len(result.t)
+    F = result.contact_forces
+    F = np.zeros((K, len(result.walls) * result.model.n_joints)) if F is None else np.asarray(F).reshape(K, -1)
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["t_s", "phase"] + contact_force_columns(result))
+        for k in range(K):
+            w.writerow([_fmt(result.t[k]), str(int(result.phase[k]))] + [_fmt(v) for v in F[k]])
+    return path
+
+
+def to_csv(result: Result, directory) -> dict:
+    """Write ``timeseries.csv``, ``impacts.csv`` and (when some pair rested) ``contact_forces.csv`` into
+    ``directory`` (created if needed).
+
+    Returns {"timeseries": Path, "impacts": Path[, "contact_forces": Path]}.
     """
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
-    return {
+    out = {
         "timeseries": write_timeseries_csv(result, d / "timeseries.csv"),
         "impacts": write_impacts_csv(result, d / "impacts.csv"),
     }
+    if result.contact_forces is not None and np.any(result.contact_forces):
+        out["contact_forces"] = write_contact_forces_csv(result, d / "contact_forces.csv")
+    return out
 
 
 def read_csv(path) -> dict:
@@ -290,6 +316,12 @@ def summary(result: Result, case=None) -> dict:
     d["energy_initial_J"] = {k: float(getattr(E, k)[0]) for k in Energy._fields}
     d["energy_final_J"] = {k: float(getattr(E, k)[-1]) for k in Energy._fields}
     d["max_relative_energy_error"] = _json_safe(result.energy_error)
+    d["resting_time_s"] = float(result.resting_time)
+    F = result.contact_forces
+    if F is not None and F.size and np.any(F[-1]):
+        names = model.contact_point_names
+        d["final_contact_forces_N"] = {f"{names[j]} on wall {w + 1}": float(F[-1, w, j])
+                                       for w, j in np.argwhere(F[-1] != 0.0)}
     d["wall_time_s"] = float(result.wall_time)
     d["nfev"] = int(result.nfev)
     d["n_steps"] = int(result.n_steps)
@@ -488,6 +520,8 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
     }
     if result.work is not None:
         arrays["work"] = np.asarray(result.work, dtype=float)
+    if result.contact_forces is not None:
+        arrays["contact_forces"] = np.asarray(result.contact_forces, dtype=float)
     meta = {
         "format": "gibbsimpact.Result",
         "format_version": FORMAT_VERSION,
@@ -502,6 +536,7 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         "n_examined": int(result.n_examined),
         "wall_time": _tag(float(result.wall_time)),
         "energy_error": _tag(float(result.energy_error)),
+        "resting_time": _tag(float(result.resting_time)),
         "metadata": _tag(metadata or {}),
     }
     arrays["meta"] = np.array(json.dumps(meta))
@@ -553,7 +588,8 @@ def load_result(path, with_metadata: bool = False):
         status=meta["status"], message=meta["message"], settings=_untag(meta["settings"]),
         nfev=int(meta["nfev"]), n_steps=int(meta["n_steps"]), n_examined=int(meta.get("n_examined", 0)),
         wall_time=float(_untag(meta["wall_time"])), energy_error=float(_untag(meta["energy_error"])),
-        work=a.get("work"),
+        work=a.get("work"), contact_forces=a.get("contact_forces"),
+        resting_time=float(_untag(meta.get("resting_time", 0.0))),
     )
     if with_metadata:
         return res, _untag(meta.get("metadata", {}))

@@ -47,7 +47,8 @@ from .model import link_deflection
 from .walls import Circle, Plane, Sphere, describe
 
 __all__ = [
-    "FIGURES", "animate", "camera", "is_planar", "link_points", "plot_angles", "plot_configurations",
+    "FIGURES", "OPTIONAL_FIGURES", "animate", "camera", "is_planar", "link_points", "plot_angles", "plot_configurations",
+    "plot_contact_forces",
     "plot_deflection", "plot_energy", "plot_joint_positions", "plot_joint_velocities", "plot_modes", "plot_one",
     "plot_result", "plot_trajectory", "save_figures", "tip_deflections",
 ]
@@ -55,6 +56,8 @@ __all__ = [
 #: Figure keys of plot_result, in drawing order; each is saved as <key>.png.
 FIGURES = ("angles", "modes", "deflection", "joint_positions", "joint_velocities", "energy", "configurations",
            "trajectory")
+#: Figures drawn (and saved) besides FIGURES only when the run has what they show.
+OPTIONAL_FIGURES = ("contact_forces",)  # a run with resting contact
 
 _PLANAR_TOL = 1e-9  # m or rad: out-of-plane motion below this counts as planar
 
@@ -802,6 +805,34 @@ def plot_deflection(result, case_name=None, ax=None):
     return fig
 
 
+def plot_contact_forces(result, case_name=None, ax=None):
+    """Normal force [N] of every (wall, contact point) pair that was ever in resting contact
+    (Result.contact_forces), against time; None when no pair rested.
+
+    ax : None (a new figure) or one Axes.
+    """
+    F = result.contact_forces
+    if F is None or not np.any(F):
+        return None
+    own = ax is None
+    if own:
+        fig = _figure((9.5, 4.2))
+        axes = [fig.subplots(1, 1)]
+    else:
+        axes = _given_axes(ax, 1, "plot_contact_forces")
+        fig = axes[0].figure
+    names = result.model.contact_point_names
+    c = 0
+    for w, j in np.argwhere(np.any(F != 0.0, axis=0)):
+        axes[0].plot(result.t, F[:, w, j], label=f"{names[j]} on wall {w + 1}", **_style(c, _joint_colour(int(j))))
+        c += 1
+    axes[0].set_ylabel("contact force [N]")
+    _legend(axes[0], outside=own)
+    what = "normal force of each wall on each contact point in resting contact (0 in flight; impacts are impulses)"
+    _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
+    return fig
+
+
 def _joint_components(result, values, what, unit, case_name, ax):
     dims = 2 if is_planar(result) else 3
     own = ax is None
@@ -1293,19 +1324,20 @@ def plot_result(result, kinds=None, case_name=None, n_points: int = 41) -> dict:
     Parameters
     ----------
     result : Result
-    kinds : iterable of keys from FIGURES, default all
+    kinds : iterable of keys from FIGURES or OPTIONAL_FIGURES, default all
     case_name : str, prefixed to the titles
     n_points : sample points per link in configuration drawings
 
     Returns
     -------
-    dict {key: matplotlib Figure}; "modes" and "deflection" are absent for a chain of rigid links. The
+    dict {key: matplotlib Figure}; "modes" and "deflection" are absent for a chain of rigid links,
+    "contact_forces" for a run without resting contact. The
     figures are not registered with pyplot: nothing needs closing.
     """
-    kinds = FIGURES if kinds is None else tuple(kinds)
-    unknown = [k for k in kinds if k not in FIGURES]
+    kinds = FIGURES + OPTIONAL_FIGURES if kinds is None else tuple(kinds)
+    unknown = [k for k in kinds if k not in FIGURES + OPTIONAL_FIGURES]
     if unknown:
-        raise ValueError(f"unknown figure(s) {', '.join(unknown)}; choose from {', '.join(FIGURES)}")
+        raise ValueError(f"unknown figure(s) {', '.join(unknown)}; choose from {', '.join(FIGURES + OPTIONAL_FIGURES)}")
     figs = {}
     for k in kinds:
         fig = plot_one(result, k, case_name=case_name, n_points=n_points)
@@ -1316,11 +1348,12 @@ def plot_result(result, kinds=None, case_name=None, n_points: int = 41) -> dict:
 
 def plot_one(result, which: str, ax=None, case_name=None, n_points: int = 41):
     """One figure of FIGURES by name, or drawn into ``ax`` (see each plot_* function); returns the Figure
-    (None for "modes" and "deflection" of a chain of rigid links)."""
+    (None for "modes" and "deflection" of a chain of rigid links, "contact_forces" without resting contact)."""
     makers = {
         "angles": plot_angles, "modes": plot_modes, "deflection": plot_deflection,
         "joint_positions": plot_joint_positions,
         "joint_velocities": plot_joint_velocities, "energy": plot_energy,
+        "contact_forces": plot_contact_forces,
     }
     if which in makers:
         return makers[which](result, case_name, ax=ax)
@@ -1328,7 +1361,7 @@ def plot_one(result, which: str, ax=None, case_name=None, n_points: int = 41):
         return plot_configurations(result, case_name, n_points, ax=ax)
     if which == "trajectory":
         return plot_trajectory(result, case_name, n_points, ax=ax)
-    raise ValueError(f"unknown figure {which!r}; choose from {', '.join(FIGURES)}")
+    raise ValueError(f"unknown figure {which!r}; choose from {', '.join(FIGURES + OPTIONAL_FIGURES)}")
 
 
 def save_figures(figures: dict, directory, dpi: int = 120, close: bool = True) -> dict:

@@ -21,6 +21,7 @@ class Chunk(NamedTuple):
     energy: Energy  # each field (k,) [J]
     error: float  # energy balance error of these samples (relative)
     impact: ImpactRecord | None
+    forces: np.ndarray | None = None  # (k, W, P) [N] resting-contact forces; None: all zero
 
 
 def one_sample(E: Energy) -> Energy:
@@ -41,8 +42,9 @@ class Recorder:
     every impact with the sample after it).
     """
 
-    def __init__(self, model, t0, q0, qdot0):
+    def __init__(self, model, t0, q0, qdot0, n_walls=0):
         self.model = model
+        self.force_shape = (n_walls, model.n_joints)
         # Energy of every stored sample: needed for the flight-phase drift, then handed
         # to the Result so res.energy() does not evaluate M at every sample again.
         self.chunks = [Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, 2)),
@@ -55,8 +57,11 @@ class Recorder:
                                   np.array([phase]), last.work[-1:].copy(), one_sample(rec.energy_after), 0.0, rec))
         self.n_impacts += 1
 
-    def flight(self, T, Y, phase):
-        """Samples T (K,), Y (K, 2N [+ 2]) of a flight phase that started at the last stored sample."""
+    def flight(self, T, Y, phase, forces=None):
+        """Samples T (K,), Y (K, 2N [+ 2]) of a flight phase that started at the last stored sample.
+
+        forces : None or (K, W, P) [N], the resting-contact forces at the samples.
+        """
         N = self.model.n_dof
         last = self.chunks[-1]
         E_start = Energy(*(float(a[-1]) for a in last.energy))
@@ -67,7 +72,20 @@ class Recorder:
         # All samples in one kernel call; the balance E(t) - E(0) - W(t) per sample.
         E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
         err = float(np.abs(E.total - E_start.total - (W.sum(axis=1) - W_start)).max() / scale) if T.size else 0.0
-        self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None))
+        self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces))
+
+    def mode(self, t, q, qdot, phase, forces):
+        """After a contact-mode decision at t: its contact forces (W, P) [N] on the last sample, or a
+        new sample when the projection (gibbsimpact.resting) moved the state (q, qdot) (N,)."""
+        last = self.chunks[-1]
+        if np.array_equal(last.q[-1], q) and np.array_equal(last.qdot[-1], qdot):
+            F = np.zeros((last.t.size,) + self.force_shape) if last.forces is None else last.forces.copy()
+            F[-1] = forces
+            self.chunks[-1] = last._replace(forces=F)
+            return
+        self.chunks.append(Chunk(np.array([t]), q[None, :].copy(), qdot[None, :].copy(), np.array([phase]),
+                                  last.work[-1:].copy(), one_sample(energy(self.model, q, qdot)), 0.0, None,
+                                  forces[None].copy()))
 
     def ends_with(self, T) -> bool:
         """Whether the last chunk holds the samples T (the same array)."""
@@ -82,9 +100,11 @@ class Recorder:
         return [c.impact for c in self.chunks if c.impact is not None]
 
     def arrays(self):
-        """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2), Energy of (K,) arrays."""
+        """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2), Energy of (K,) arrays,
+        contact forces (K, W, P) [N]."""
         cs = self.chunks
         cat = np.concatenate
+        F = cat([np.zeros((c.t.size,) + self.force_shape) if c.forces is None else c.forces for c in cs])
         return (cat([c.t for c in cs]), cat([c.q for c in cs]), cat([c.qdot for c in cs]),
                 cat([c.phase for c in cs]), cat([c.work for c in cs]),
-                Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)))
+                Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)), F)

@@ -78,6 +78,10 @@ class Result:
         W = 0 without inputs and damping (then it is the energy drift)
     work : (K, 2) [J] or None: work of the inputs and of the structural damping
         since t_span[0] at every sample (None for an undriven, undamped run)
+    contact_forces : (K, W, P) [N] or None: the normal force of wall w on contact point
+        O_(j+1) at every sample while the pair is in resting contact (gibbsimpact.resting),
+        0 elsewhere (impulses of impacts are in ``impacts``); None for results of older files
+    resting_time : float [s], the simulated time spent with at least one pair in resting contact
     """
 
     model: object
@@ -96,6 +100,8 @@ class Result:
     wall_time: float = 0.0
     energy_error: float = float("nan")
     work: np.ndarray | None = None
+    contact_forces: np.ndarray | None = None
+    resting_time: float = 0.0
     _energy_cache: Energy | None = field(default=None, repr=False)
 
     def __repr__(self) -> str:
@@ -165,9 +171,11 @@ class Result:
              kinds=None):
         """Draw figures (matplotlib); one Figure for a name, {name: Figure} otherwise.
 
-        which : a name from gibbsimpact.plotting.FIGURES ("angles", "modes", "deflection",
-            "joint_positions", "joint_velocities", "energy", "configurations", "trajectory") -> that Figure
-            (None for "modes" and "deflection" of a rigid chain); a list of names, or None for all, -> {name: Figure}.
+        which : a name from gibbsimpact.plotting.FIGURES or OPTIONAL_FIGURES ("angles", "modes",
+            "deflection", "joint_positions", "joint_velocities", "energy", "contact_forces",
+            "configurations", "trajectory") -> that Figure (None for "modes" and "deflection" of a
+            rigid chain, "contact_forces" without resting contact); a list of names, or None for
+            all, -> {name: Figure}.
         ax : with a single ``which``, a matplotlib Axes (or a sequence of them) to draw into
             instead of a new figure; the Figure holding it is returned. What one or several
             Axes receive is documented by each gibbsimpact.plotting.plot_* function.

@@ -82,7 +82,7 @@ from numbers import Real
 import numpy as np
 
 from .accumulation import Accumulation
-from .contacts import Contacts, contact_band, impact_stage, phase_events
+from .contacts import Contacts, contact_band, event_spec, impact_stage, phase_events
 from .dynamics import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .flight import SOLVERS, integrate_phase
 from .forces import damping_depends_on_q, damping_matrix, generalized_force
@@ -90,6 +90,7 @@ from .kinematics import joint_positions
 from .limits import JOINT_LIMIT_MODES, STATUS_JOINT_LIMIT, EndStops, check_initial, joint_limits
 from .progress import Clock, progress_reporter
 from .recorder import Recorder
+from .resting import RestingContacts
 from .results import (
     STATUS_FAILED,
     STATUS_FINISHED,
@@ -170,6 +171,7 @@ def simulate(
     inputs=None,
     joint_limit: str = "stop",
     joint_restitution: float = 0.5,
+    accumulation: str = "rest",
     _in_step_check: bool = True,
 ) -> Result:
     """Simulate flight phases and impacts from (q0, qdot0) over t_span.
@@ -208,6 +210,11 @@ def simulate(
         "joint_limit" (results kept); "impact" applies an end-stop impact with
         ``joint_restitution`` (an ImpactRecord with wall -1) and goes on.
     joint_restitution : float in [0, 1], e_stop of the end-stop impacts (joint_limit="impact")
+    accumulation : "rest" (default) or "stop", what an accumulation of impacts (and a plastic
+        impact) leads to: "rest" goes on in resting contact (gibbsimpact.resting: contact forces
+        from an LCP, release events; Result.contact_forces); "stop" ends the run with status
+        "zeno" at the accumulation and never enters resting contact (the behaviour before
+        resting contact existed).
     _in_step_check : private; False turns off the search for gap dips inside steps
         (flight.py), leaving solve_ivp's sign test at step ends: for benchmarks and tests only.
 
@@ -239,6 +246,9 @@ def simulate(
                          "or 'impact' (an end-stop impact with joint_restitution)")
     if isinstance(joint_restitution, bool) or not isinstance(joint_restitution, Real) or not 0.0 <= joint_restitution <= 1.0:
         raise ValueError(f"simulate joint_restitution={joint_restitution!r} must be a number in [0, 1]")
+    if accumulation not in ("rest", "stop"):
+        raise ValueError(f"simulate accumulation={accumulation!r} must be 'rest' (go on in resting contact) "
+                         "or 'stop' (end the run with status 'zeno')")
     limits = joint_limits(model)
     check_initial(limits, q0)
     _check_inside(model, q0, walls, contact_tol)
@@ -262,21 +272,39 @@ def simulate(
         contact_tol=contact_tol, grazing_velocity=grazing_velocity, penetration_tol=penetration_tol,
         zeno_interval=zeno_interval, zeno_count=int(zeno_count), max_impacts=int(max_impacts),
         t_span=[t0, t_end], joint_limit=joint_limit, joint_restitution=float(joint_restitution),
+        accumulation=accumulation,
     )
-    counters = {"nfev": 0, "n_steps": 0, "n_examined": 0}
+    counters = {"nfev": 0, "n_steps": 0, "n_examined": 0, "resting_time": 0.0}
 
     singular = {"message": None}  # diagnosis of the last trial state with a singular M
+
+    def forces_in(t, q, qd):
+        """(Q_in, Q_damp) (N,) each, or None for an undriven, undamped run."""
+        if not driven:
+            return None
+        # (1) of forces.py: M qddot = Q_in + Q_damp - h - dV/dq, and the work rates qdot.Q.
+        Qi = Q_in(t, q, qd) if Q_in is not None else np.zeros(N)
+        Qd = -((damping_matrix(model, q) if C_varies else C_damp) @ qd) if damped else np.zeros(N)
+        return Qi, Qd
+
+    def applied(t, q, qd):
+        """Q (N,) of the equations of motion, or None (resting.py)."""
+        f = forces_in(t, q, qd)
+        return None if f is None else f[0] + f[1]
 
     def rhs(t, y):
         counters["nfev"] += 1
         clock.tick(t)
         q, qd = y[:N], y[N:2 * N]
         try:
+            if resting.any():
+                # A contact phase: equation (3) of resting.py.
+                f = forces_in(t, q, qd)
+                qdd = resting.acceleration(q, qd, None if f is None else f[0] + f[1])[0]
+                return np.concatenate((qd, qdd) if f is None else (qd, qdd, [qd @ f[0], qd @ f[1]]))
             if not driven:
                 return np.concatenate((qd, forward_dynamics(model, q, qd)))
-            # (1) of forces.py: M qddot = Q_in + Q_damp - h - dV/dq, and the work rates qdot.Q.
-            Qi = Q_in(t, q, qd) if Q_in is not None else np.zeros(N)
-            Qd = -((damping_matrix(model, q) if C_varies else C_damp) @ qd) if damped else np.zeros(N)
+            Qi, Qd = forces_in(t, q, qd)
             qdd = forward_dynamics(model, q, qd, Qi + Qd)
             return np.concatenate((qd, qdd, [qd @ Qi, qd @ Qd]))
         except SingularMassMatrixError as exc:
@@ -294,16 +322,40 @@ def simulate(
         gap_matrix, gap_batch = stops.wrap(contacts.gaps), stops.wrap_batch(contacts.gaps_batch)
     # |dg/dq| <= 1 + 2 sum l: a translation moves a joint 1:1, a rotation by at most its lever arm.
     lipschitz = 1.0 + 2.0 * sum(ld.length for ld in model.link_data)
-    recorder = Recorder(model, t0, q0, qdot0)
+    recorder = Recorder(model, t0, q0, qdot0, len(walls))
     band = contact_band(contact_tol, lipschitz, rtol, atol, q0)
-    accumulation = Accumulation((len(walls), model.n_joints), int(zeno_count), zeno_interval, band)
+    monitor = Accumulation((len(walls), model.n_joints), int(zeno_count), zeno_interval, band)
+    resting = RestingContacts(model, walls, contact_tol)
+    rest = accumulation == "rest" and bool(walls)
+    release = forced = None  # (W, J) masks for the next mode decision: a released pair, an accumulation
+    settled_at = None  # time of the last accumulation resolved into resting contact
     status, message = STATUS_FINISHED, f"reached t_end = {t_end:g} s"
     t, y, phase = t0, np.concatenate((q0, qdot0, np.zeros(2 if driven else 0))), 0
     near = np.zeros((len(walls), model.n_joints), dtype=bool)
     pending_impact = True  # check the initial state for an impact in progress
+    pending_mode = False  # decide the contact mode (resting.py) before the next flight phase
     sink_pair = None  # (wall, joint) whose sink event ended the last phase
     stalled = 0  # consecutive phases that made no progress in time
     flown = None  # outcome of the last flight phase until its samples are recorded
+
+    def mode_stage(t, y, phase):
+        """Contact-mode decision at (t, y) (resting.py); returns the (projected) state."""
+        q, qd = y[:N], y[N:2 * N]
+        g, nrm, Jac = contacts.full(q)
+        v = np.einsum("wjc,jcn,n->wj", nrm, Jac, qd)
+        cand = resting.candidates(g, v, band, grazing_velocity, release, forced)
+        if len(cand) == 0 and not resting.any():
+            return y
+        q, qd = resting.decide(q, qd, applied(t, q, qd), cand)
+        monitor.streak[resting.active] = 0
+        y = np.concatenate((q, qd, y[2 * N:]))
+        recorder.mode(t, q, qd, phase, resting.force_matrix(q, qd, applied(t, q, qd)))
+        return y
+
+    def contact_forces(T, Y):
+        """(K, W, P) [N] resting-contact forces at the samples of a contact phase."""
+        return np.stack([resting.force_matrix(yk[:N], yk[N:2 * N], applied(tk, yk[:N], yk[N:2 * N]))
+                         for tk, yk in zip(T, Y)])
 
     with progress_reporter(progress, t0, t_end) as report:
         clock = Clock(report)
@@ -313,37 +365,60 @@ def simulate(
                 if pending_impact and walls:
                     q, qd = y[:N], y[N:2 * N]
                     in_band_before = near
-                    band = accumulation.band = contact_band(contact_tol, lipschitz, rtol, atol, q)
+                    band = monitor.band = contact_band(contact_tol, lipschitz, rtol, atol, q)
                     rec, near = impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity,
-                                              sink_pair)
+                                              sink_pair, resting.active)
                     if rec is not None:
                         y = np.concatenate((q, rec.qdot_after, y[2 * N:]))
                         phase += 1
                         recorder.impact(rec, q, phase)
                         clock.n_impacts = recorder.n_impacts
-                        stop = accumulation.add(rec, in_band_before)
+                        stop = monitor.add(rec, in_band_before)
                         if stop is not None:
-                            status, message = STATUS_ZENO, stop
-                            break
+                            # An accumulation: resting contact of its pairs, unless that cannot be.
+                            forced = monitor.recent_pairs() & resting.restable[None, :]
+                            why = ("accumulation='stop'" if not rest else
+                                   "its contact points cannot rest (tips of prismatic hosts)" if not forced.any() else
+                                   "resting contact did not resolve it" if settled_at == t else None)
+                            if why is not None:
+                                status, message = STATUS_ZENO, f"{stop}; stopped ({why}); results up to here are kept"
+                                break
+                            settled_at = t
+                            monitor.reset()
                         if recorder.n_impacts >= max_impacts:
                             status = STATUS_MAX_IMPACTS
                             message = f"stopped after max_impacts = {max_impacts} impacts at t = {t:.9g} s"
                             break
+                    pending_mode = rest
                 pending_impact = False
+                # Stage 2: contact mode (resting.py), after an impact stage, a release or a drift event.
+                if pending_mode:
+                    y = mode_stage(t, y, phase)
+                    release = forced = None
+                    pending_mode = False
                 if t >= t_end:
                     break
 
-                # Stage 2: flight until the first event or t_end.
+                # Stage 3: flight until the first event or t_end.
                 g_start = contacts.gaps(y[:N])
                 sink_depth = max(1e-6 * contact_tol, 64 * np.finfo(float).eps * (1.0 + float(np.abs(y[:3]).max())))
-                events, kinds = phase_events(near, g_start, band, sink_depth)
+                events, kinds = phase_events(near, g_start, band, sink_depth, skip=resting.active)
+                extra = None
+                if resting.any():
+                    rows, drift_kinds = resting.drift_events()
+                    drift = event_spec(rows)
+                    events = type(events)(*(np.concatenate((a, b)) for a, b in zip(events, drift)))
+                    kinds = kinds + drift_kinds
                 if stops is not None:
                     events, kinds = stops.events(events, kinds, y[:N], contact_tol, sink_depth)
+                if resting.any():
+                    extra, release_kinds = resting.release_events(applied)
+                    kinds = kinds + release_kinds
                 try:
                     flown = out = integrate_phase(
                         rhs, t, y, t_end, events, gap_matrix, method=method, rtol=rtol, atol=atol,
                         max_step=max_step, output_dt=output_dt, t_origin=t0, lipschitz=lipschitz, slack=contact_tol,
-                        n_q=N, check_in_step=_in_step_check, gap_batch=gap_batch,
+                        n_q=N, check_in_step=_in_step_check, gap_batch=gap_batch, extra=extra,
                     )
                 except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
                     status, message = STATUS_FAILED, f"integration failed after t = {t:.9g} s: {exc}"
@@ -351,7 +426,8 @@ def simulate(
                 counters["n_steps"] += out.n_steps
                 counters["n_examined"] += out.n_examined
                 if out.sample_t.size:
-                    recorder.flight(out.sample_t, out.sample_y, phase)
+                    recorder.flight(out.sample_t, out.sample_y, phase,
+                                    contact_forces(out.sample_t, out.sample_y) if resting.any() else None)
                 flown = None
                 if out.interrupted is not None:
                     raise KeyboardInterrupt(out.interrupted)  # its samples are recorded: stop below
@@ -370,13 +446,28 @@ def simulate(
                         f"t = {t:.9g} s without an event firing; tighten rtol or set max_step"
                     )
                     break
+                if resting.any():
+                    counters["resting_time"] += out.t - t
                 t_prev, (t, y) = t, (out.t, out.y)
                 if not np.all(np.isfinite(y)):
                     status, message = STATUS_FAILED, f"state became non-finite at t = {t:.9g} s"
                     break
                 if out.event is None:
                     break
+                stalled = stalled + 1 if t - t_prev <= 1e-14 * max(1.0, abs(t)) else 0
+                if stalled >= 100:
+                    status = STATUS_FAILED
+                    message = f"event loop stalled at t = {t:.9g} s: 100 consecutive events without progress in time"
+                    break
                 kind, w_i, j = kinds[out.event]
+                if kind in ("release", "drift"):
+                    # A resting pair's force reached zero (it leaves the active set), or its drift
+                    # reached contact_tol (projection): decide the contact mode again.
+                    if kind == "release":
+                        release = np.zeros(resting.active.shape, dtype=bool)
+                        release[w_i, j] = True
+                    pending_mode = True
+                    continue
                 if w_i == len(walls):
                     # A joint limit (row W of the gap matrix).
                     if kind == "leave":
@@ -398,23 +489,15 @@ def simulate(
                             if stop is not None:
                                 status, message = STATUS_JOINT_LIMIT, stop
                                 break
-                    stalled = stalled + 1 if t - t_prev <= 1e-14 * max(1.0, abs(t)) else 0
-                    if stalled >= 100:
-                        status = STATUS_FAILED
-                        message = f"event loop stalled at t = {t:.9g} s: 100 consecutive events without progress in time"
-                        break
+                            # Resting pairs may have been pushed by the end-stop impulse.
+                            pending_impact = resting.any()
                     continue
                 sink_pair = (w_i, j) if kind == "sink" else None
                 if kind == "leave":
                     near[w_i, j] = False  # re-arm the normal event of this pair; no impact
-                    accumulation.left_band(w_i, j)
+                    monitor.left_band(w_i, j)
                 else:
                     pending_impact = True
-                stalled = stalled + 1 if t - t_prev <= 1e-14 * max(1.0, abs(t)) else 0
-                if stalled >= 100:
-                    status = STATUS_FAILED
-                    message = f"event loop stalled at t = {t:.9g} s: 100 consecutive events without progress in time"
-                    break
         except KeyboardInterrupt as exc:
             # Keep what was computed: the accepted steps of the phase under way, or a
             # finished phase whose samples were not recorded yet.
@@ -426,14 +509,15 @@ def simulate(
             message = (f"stopped by {str(exc) or 'KeyboardInterrupt (Ctrl-C)'} at t = {t_last:.9g} s of "
                        f"t_end = {t_end:g} s; the results up to there are kept")
 
-        t_all, q_all, qdot_all, phase_all, work_all, E_all = recorder.arrays()
+        t_all, q_all, qdot_all, phase_all, work_all, E_all, F_all = recorder.arrays()
         impacts = recorder.impacts
         res = Result(
             model=model, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all, impacts=impacts,
             status=status, message=message, settings=settings,
             nfev=counters["nfev"], n_steps=counters["n_steps"], n_examined=counters["n_examined"],
             wall_time=time.perf_counter() - started, energy_error=recorder.energy_error,
-            _energy_cache=E_all, work=work_all if driven else None,
+            _energy_cache=E_all, work=work_all if driven else None, contact_forces=F_all,
+            resting_time=counters["resting_time"],
         )
         if report is not None:
             try:

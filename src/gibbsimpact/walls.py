@@ -1,7 +1,10 @@
 """Walls: gap functions g(p) > 0 inside the admissible region (formulation.md section 5).
 
 Every wall has ``gap(p)`` and ``normal(p)`` for points p of shape (K, 3) [m];
-the unit normal n = grad g / |grad g| points into the admissible region.
+the unit normal n = grad g / |grad g| points into the admissible region. |grad g| = 1
+for all three, so the gap's second time derivative along a point's motion is
+
+    g'' = n . p'' + p'^T H_g p'      (``curvature(p, v)`` = v^T H_g v, resting contact)
 """
 
 from __future__ import annotations
@@ -71,6 +74,17 @@ class Circle:
         n[..., :2] = -np.divide(d, r, out=np.zeros_like(d), where=r > 0)
         return n
 
+    def curvature(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """v^T H_g v (K,) [m/s^2] for points p (K, 3) [m] moving at v (K, 3) [m/s], H_g the Hessian of g.
+
+        g = R - r, r = |d_12|:  H_g = -(I_2 - d^ d^T) / r  ->  v^T H_g v = -(|v_12|^2 - (d^ . v_12)^2) / r
+        """
+        d = p[..., :2] - np.asarray(self.center)
+        r = np.hypot(d[..., 0], d[..., 1])
+        vt = v[..., :2]
+        dv = np.sum(d * vt, axis=-1)
+        return -(np.sum(vt * vt, axis=-1) - dv * dv / (r * r)) / r
+
 
 @dataclass(frozen=True)
 class Sphere:
@@ -98,6 +112,16 @@ class Sphere:
         d = p - np.asarray(self.center)
         r = np.linalg.norm(d, axis=-1, keepdims=True)
         return -np.divide(d, r, out=np.zeros_like(d), where=r > 0)
+
+    def curvature(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """v^T H_g v (K,) [m/s^2] for points p (K, 3) [m] moving at v (K, 3) [m/s], H_g the Hessian of g.
+
+        g = R - |d|:  H_g = -(I - d^ d^T) / |d|  ->  v^T H_g v = -(|v|^2 - (d^ . v)^2) / |d|
+        """
+        d = p - np.asarray(self.center)
+        r = np.linalg.norm(d, axis=-1)
+        dv = np.sum(d * v, axis=-1)
+        return -(np.sum(v * v, axis=-1) - dv * dv / (r * r)) / r
 
 
 @dataclass(frozen=True)
@@ -128,6 +152,10 @@ class Plane:
     def normal(self, p: np.ndarray) -> np.ndarray:
         """Unit normal (constant) broadcast to p's shape (K, 3)."""
         return np.broadcast_to(np.asarray(self.normal_vector), p.shape).copy()
+
+    def curvature(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """v^T H_g v (K,) [m/s^2]: zero, g is linear in p."""
+        return np.zeros(np.shape(p)[:-1])
 
 
 WALL_TYPES = (Circle, Sphere, Plane)

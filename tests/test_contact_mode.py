@@ -1,0 +1,153 @@
+"""The pieces of resting contact (gibbsimpact.resting) against independent computations, and its outputs."""
+
+import json
+
+import numpy as np
+import pytest
+from conftest import single_link_sphere_model, single_link_sphere_state, two_link_circle_model, two_link_circle_state
+
+import gibbsimpact as gi
+from gibbsimpact import cli
+from gibbsimpact import io as gio
+from gibbsimpact.dynamics import forward_dynamics
+from gibbsimpact.kinematics import joint_positions
+from gibbsimpact.resting import RestingContacts, constraint_data
+
+G = 9.81
+
+
+def second_derivative(f, h):
+    """(f(h) - 2 f(0) + f(-h)) / h^2 with Richardson extrapolation (error O(h^4))."""
+    d = lambda s: (f(s) - 2 * f(0.0) + f(-s)) / (s * s)  # noqa: E731
+    return (4 * d(h / 2) - d(h)) / 3
+
+
+@pytest.mark.parametrize("wall", [gi.Circle(1.3, (0.2, -0.1)), gi.Sphere(1.1, (0.1, 0.2, -0.3)),
+                                  gi.Plane((0, -1, 0), (0.3, 1.0, 0.2))])
+def test_wall_curvature_is_the_second_derivative_of_the_gap(wall):
+    # g(p0 + v t) along a straight line: g''(0) = v^T H v exactly (no n . p'' term).
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        p0, v = rng.normal(size=3) * 0.3, rng.normal(size=3)
+        fd = second_derivative(lambda t: float(wall.gap((p0 + v * t)[None, :])[0]), 1e-3)
+        # abs: round-off of the differences, ~ 20 eps |g| / h^2 = 4e-9.
+        assert float(wall.curvature(p0[None, :], v[None, :])[0]) == pytest.approx(fd, rel=1e-7, abs=1e-7)
+
+
+@pytest.mark.parametrize("which", ["circle", "sphere"])
+def test_gap_acceleration_terms_match_differences_along_a_motion(which):
+    # gddot = W^T qddot + c along q(t) = q0 + qdot t + qddot t^2 / 2: the gap of each joint
+    # differenced twice in time, from joint positions and the wall's gap only.
+    if which == "circle":
+        model, wall = two_link_circle_model(), gi.Circle(1.0)
+        q0, _ = two_link_circle_state(model)
+    else:
+        model, wall = single_link_sphere_model(), gi.Sphere(1.0)
+        q0, _ = single_link_sphere_state(model)
+    rng = np.random.default_rng(7)
+    qd, qdd = rng.normal(size=model.n_dof), rng.normal(size=model.n_dof)
+    pairs = np.array([[0, j] for j in range(model.n_links + 1)])
+    d = constraint_data(model, [wall], q0, qd, None, pairs)
+    for a, (_, j) in enumerate(pairs):
+        gap = lambda t: float(wall.gap(joint_positions(model, q0 + qd * t + 0.5 * qdd * t * t)[j][None, :])[0])  # noqa: E731
+        assert d.W[:, a] @ qdd + d.c[a] == pytest.approx(second_derivative(gap, 2e-3), rel=1e-6, abs=1e-8)
+        dg = (gap(1e-6) - gap(-1e-6)) / 2e-6
+        assert d.v[a] == pytest.approx(dg, rel=1e-6, abs=1e-9)
+    # G = W^T M^-1 W and M^-1 f from the public dynamics.
+    M = model.mass_matrix(q0)
+    np.testing.assert_allclose(d.G, d.W.T @ np.linalg.solve(M, d.W), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(d.qdd_free, forward_dynamics(model, q0, qd), rtol=1e-12, atol=1e-12)
+
+
+def rod(l=1.0, mu=2.0):
+    link = gi.Link(l, mu, 20.0, modes=[], rotary_inertia=(1e-4, 5e-5, 5e-5))
+    return gi.Model(gi.Chain([link]), gravity=(0.0, -G, 0.0))
+
+
+def test_projection_never_raises_kinetic_energy_and_closes_the_gaps():
+    model = rod()
+    r = RestingContacts(model, [gi.Plane((0, 0, 0), (0, 1, 0))], 1e-9)
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        q = model.state(X2=rng.uniform(-1e-7, 1e-7), theta_1=rng.uniform(-1e-7, 1e-7))
+        qd = rng.normal(size=6)
+        q2, qd2 = r.project(q, qd, np.array([[0, 0], [0, 1]]))
+        assert np.max(np.abs(joint_positions(model, q2)[:, 1])) <= 1e-12
+        T = lambda a, b: 0.5 * b @ model.mass_matrix(a) @ b  # noqa: E731
+        assert T(q2, qd2) <= T(q, qd) * (1 + 1e-12)
+        J = model.joint_jacobians(q2)
+        assert np.max(np.abs(J[:, 1] @ qd2)) <= 1e-12 * (1 + np.abs(qd).max())
+
+
+def test_rod_lying_on_a_plane_rests_from_the_start():
+    # A rod of mass m at rest on a floor: lambda = m g / 2 at each end (statics), nothing moves.
+    model = rod(1.0, 2.0)
+    m = model.total_mass
+    res = gi.simulate(model, model.state(), np.zeros(6), (0.0, 0.5), walls=[gi.Plane((0, 0, 0), (0, 1, 0))])
+    assert res.status == "finished" and res.impacts == []
+    np.testing.assert_allclose(res.contact_forces[:, 0, :], m * G / 2, rtol=1e-12)
+    assert res.resting_time == pytest.approx(0.5, rel=1e-12)
+    assert np.max(np.abs(res.q)) <= 1e-12
+    # A rod tilted off the floor by an upward push leaves it: the force drops to 0 at once.
+    res = gi.simulate(model, model.state(), model.state(X2=0.5), (0.0, 0.05), walls=[gi.Plane((0, 0, 0), (0, 1, 0))])
+    assert res.status == "finished" and not np.any(res.contact_forces) and res.resting_time == 0.0
+
+
+def test_accumulation_argument_is_checked():
+    model = rod()
+    with pytest.raises(ValueError, match="accumulation='soon'.*'rest'.*'stop'"):
+        gi.simulate(model, model.state(X2=0.1), np.zeros(6), (0.0, 0.1), accumulation="soon")
+
+
+DROP = """
+name = "plastic_drop"
+gravity_m_per_s2 = [0.0, -9.81, 0.0]
+restitution = 0.0
+
+[[links]]
+length_m = 1.0
+mass_per_length_kg_per_m = 1.0
+EI_N_m2 = 20.0
+cross_section_radius_m = 0.01
+
+[[walls]]
+type = "plane"
+point_m = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+
+[initial.coordinates]
+X1_m = -0.5
+X2_m = 0.01
+
+[time]
+t_end_s = 0.2
+
+[output]
+plots = true
+"""
+
+
+def test_case_run_writes_contact_forces(tmp_path, capsys):
+    # A rigid link dropped flat with e = 0: one plastic impact, then resting contact with
+    # m g / 2 on each end (m = 1 kg) in contact_forces.csv, the summary and the figure.
+    case = tmp_path / "drop.toml"
+    case.write_text(DROP)
+    out = tmp_path / "o"
+    code = cli.main(["run", str(case), "--out", str(out), "-q"])
+    capsys.readouterr()
+    assert code == 0
+    cols = gio.read_csv(out / "contact_forces.csv")
+    assert list(cols)[:2] == ["t_s", "phase"] and set(list(cols)[2:]) == {"F_w1_O1_N", "F_w1_O2_N"}
+    t_hit = np.sqrt(2 * 0.01 / G)
+    after = cols["t_s"] > t_hit + 1e-9
+    np.testing.assert_allclose(cols["F_w1_O1_N"][after], G / 2, rtol=1e-10)
+    np.testing.assert_allclose(cols["F_w1_O2_N"][after], G / 2, rtol=1e-10)
+    assert np.all(cols["F_w1_O1_N"][cols["t_s"] < t_hit - 1e-9] == 0.0)
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "finished" and s["n_impacts"] == 1
+    assert s["resting_time_s"] == pytest.approx(0.2 - t_hit, abs=1e-9)
+    assert s["final_contact_forces_N"] == pytest.approx({"O1 on wall 1": G / 2, "O2 on wall 1": G / 2}, rel=1e-10)
+    assert (out / "contact_forces.png").stat().st_size > 5000
+    res = gi.load_result(out / "result.npz")
+    np.testing.assert_array_equal(res.contact_forces[:, 0, 0], cols["F_w1_O1_N"])
+    assert res.resting_time == pytest.approx(0.2 - t_hit, abs=1e-9)
