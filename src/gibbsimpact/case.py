@@ -101,6 +101,7 @@ RANGES = {
     "walls.point_m": Range(-1e6, 1e6, "m"),
     "walls.normal": Range(1e-6, 1e6, direction=True, why="it is normalised on load"),
     "walls.restitution": Range(0, 1, why="1 = elastic, 0 = plastic"),
+    "walls.friction": Range(0, 100, why="Coulomb's coefficient; 0 = frictionless"),
     **{f"inputs.{key}": rng for key, rng in {
         # {F}: N_m on an angle coordinate, N on a length coordinate (_INPUT_KEYS).
         "value_N_m": Range(-1e12, 1e12, "N m", why="far beyond any machine, far from overflow"),
@@ -295,18 +296,21 @@ _WALL_KEYS = {
         "radius_m": "radius R in m",
         "center_m": "centre (c1, c2) in m",
         "restitution": "coefficient of restitution of this wall",
+        "friction": "Coulomb friction coefficient of impacts on this wall (default 0)",
     },
     "sphere": {
         "type": "wall type",
         "radius_m": "radius R in m",
         "center_m": "centre (c1, c2, c3) in m",
         "restitution": "coefficient of restitution of this wall",
+        "friction": "Coulomb friction coefficient of impacts on this wall (default 0)",
     },
     "plane": {
         "type": "wall type",
         "point_m": "a point of the plane in m",
         "normal": "normal pointing into the free side (any length)",
         "restitution": "coefficient of restitution of this wall",
+        "friction": "Coulomb friction coefficient of impacts on this wall (default 0)",
     },
 }
 _INITIAL_KEYS = {
@@ -1043,19 +1047,20 @@ def _wall(r: _Reader, tbl, path: str):
         return _BAD
     r.table(tbl, path, _WALL_KEYS[kind])
     e = r.get(tbl, path, "restitution", "number", default=None)
+    mu = r.get(tbl, path, "friction", "number", default=0.0)
     if kind in ("circle", "sphere"):
         radius = r.get(tbl, path, "radius_m", "number", required=True, what="radius R in m")
         dim = 2 if kind == "circle" else 3
         center = r.get(tbl, path, "center_m", f"vector{dim}", default=[0.0] * dim)
-        if _BAD in (radius, center, e):
+        if _BAD in (radius, center, e, mu):
             return _BAD
         cls = Circle if kind == "circle" else Sphere
-        return cls(radius=radius, center=tuple(center), restitution=e)
+        return cls(radius=radius, center=tuple(center), restitution=e, friction=mu)
     point = r.get(tbl, path, "point_m", "vector3", default=[0.0, 0.0, 0.0])
     normal = r.get(tbl, path, "normal", "vector3", required=True, what="normal pointing into the free side")
-    if _BAD in (point, normal, e):
+    if _BAD in (point, normal, e, mu):
         return _BAD
-    return Plane(point=tuple(point), normal=tuple(normal), restitution=e)
+    return Plane(point=tuple(point), normal=tuple(normal), restitution=e, friction=mu)
 
 
 def _com_vector(r: _Reader, it: dict, key: str, base):

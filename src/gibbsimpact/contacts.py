@@ -10,9 +10,11 @@ import numpy as np
 
 from .dynamics import energy, mass_matrix
 from .flight import EventSpec
+from .friction import solve_frictional_impulses
 from .impact import solve_impulses
 from .kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
 from .results import ImpactRecord
+from .walls import tangent_basis
 
 
 class Contacts:
@@ -81,13 +83,26 @@ def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink
     e_k = e_wall[pairs[:, 0]]
     if resting is not None:
         e_k = np.where(resting[pairs[:, 0], pairs[:, 1]], 0.0, e_k)
-    sol = solve_impulses(M, Wmat, qd, e_k)
+    mu_k = np.array([contacts.walls[w].friction for w in pairs[:, 0]])
+    friction = {}
+    if np.any(mu_k > 0):
+        # Moreau's law with Coulomb's cone (friction.py): tangents t1, t2 of each contact.
+        T = tangent_basis(normals)  # (k, 2, 3)
+        Wt = np.einsum("kac,kcn->nka", T, Jac[pairs[:, 1]])
+        sol = solve_frictional_impulses(M, Wmat, Wt, qd, e_k, mu_k)
+        world = lambda a: np.einsum("ka,kac->kc", a, T)  # noqa: E731
+        friction = dict(friction_impulses=world(sol.tangential_impulses), slip_before=world(sol.slip_before),
+                        slip_after=world(sol.slip_after))
+        rounds = sol.rounds
+    else:
+        sol = solve_impulses(M, Wmat, qd, e_k)
+        rounds = len(sol.rounds)
     rec = ImpactRecord(
         time=t, joints=tuple(int(j) + 1 for j in pairs[:, 1]), wall=tuple(int(w) for w in pairs[:, 0]),
         normals=normals, impulses=sol.impulses, v_before=sol.v_before, v_after=sol.v_after,
         restitution=e_k, qdot_before=qd.copy(), qdot_after=sol.qdot_after.copy(),
         energy_before=energy(model, q, qd), energy_after=energy(model, q, sol.qdot_after),
-        rounds=len(sol.rounds),
+        rounds=rounds, **friction,
     )
     return rec, near
 

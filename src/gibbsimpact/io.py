@@ -157,7 +157,17 @@ IMPACT_COLUMNS = [
     "normal_X1", "normal_X2", "normal_X3", "impulse_N_s", "v_before_m_per_s", "v_after_m_per_s", "restitution",
     "kinetic_before_J", "gravity_before_J", "strain_before_J", "total_before_J",
     "kinetic_after_J", "gravity_after_J", "strain_after_J", "total_after_J",
+    "friction_impulse_X1_N_s", "friction_impulse_X2_N_s", "friction_impulse_X3_N_s",
+    "slip_before_X1_m_per_s", "slip_before_X2_m_per_s", "slip_before_X3_m_per_s",
+    "slip_after_X1_m_per_s", "slip_after_X2_m_per_s", "slip_after_X3_m_per_s",
 ]
+
+
+def _friction_columns(rec, c) -> np.ndarray:
+    """Friction impulse, slip before, slip after of contact c (9,), zeros for a frictionless impact."""
+    if rec.friction_impulses is None:
+        return np.zeros(9)
+    return np.concatenate([np.asarray(a)[c] for a in (rec.friction_impulses, rec.slip_before, rec.slip_after)])
 
 
 def write_impacts_csv(result: Result, path) -> Path:
@@ -175,6 +185,7 @@ def write_impacts_csv(result: Result, path) -> Path:
                     + [_fmt(rec.impulses[c]), _fmt(rec.v_before[c]), _fmt(rec.v_after[c]), _fmt(rec.restitution[c])]
                     + [_fmt(v) for v in rec.energy_before]
                     + [_fmt(v) for v in rec.energy_after]
+                    + [_fmt(v) for v in _friction_columns(rec, c)]
                 )
     return path
 
@@ -415,20 +426,25 @@ def model_from_dict(d: dict) -> Model:
 
 def wall_to_dict(w) -> dict:
     if isinstance(w, Circle):
-        return {"type": "circle", "radius": w.radius, "center": list(w.center), "restitution": w.restitution}
-    if isinstance(w, Sphere):
-        return {"type": "sphere", "radius": w.radius, "center": list(w.center), "restitution": w.restitution}
-    if isinstance(w, Plane):
-        return {"type": "plane", "point": list(w.point), "normal": list(w.normal_vector), "restitution": w.restitution}
-    raise ValueError(f"cannot store wall {w!r}")
+        d = {"type": "circle", "radius": w.radius, "center": list(w.center), "restitution": w.restitution}
+    elif isinstance(w, Sphere):
+        d = {"type": "sphere", "radius": w.radius, "center": list(w.center), "restitution": w.restitution}
+    elif isinstance(w, Plane):
+        d = {"type": "plane", "point": list(w.point), "normal": list(w.normal_vector), "restitution": w.restitution}
+    else:
+        raise ValueError(f"cannot store wall {w!r}")
+    if w.friction:
+        d["friction"] = w.friction
+    return d
 
 
 def wall_from_dict(d: dict):
+    mu = d.get("friction", 0.0)
     if d["type"] == "circle":
-        return Circle(radius=d["radius"], center=tuple(d["center"]), restitution=d["restitution"])
+        return Circle(radius=d["radius"], center=tuple(d["center"]), restitution=d["restitution"], friction=mu)
     if d["type"] == "sphere":
-        return Sphere(radius=d["radius"], center=tuple(d["center"]), restitution=d["restitution"])
-    w = Plane(point=tuple(d["point"]), normal=tuple(d["normal"]), restitution=d["restitution"])
+        return Sphere(radius=d["radius"], center=tuple(d["center"]), restitution=d["restitution"], friction=mu)
+    w = Plane(point=tuple(d["point"]), normal=tuple(d["normal"]), restitution=d["restitution"], friction=mu)
     # The stored normal is already unit length; keep its exact digits.
     object.__setattr__(w, "normal_vector", tuple(float(v) for v in d["normal"]))
     return w
@@ -517,6 +533,9 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         "impact_energy_before": np.array([tuple(r.energy_before) for r in imps], dtype=float).reshape(len(imps), 4),
         "impact_energy_after": np.array([tuple(r.energy_after) for r in imps], dtype=float).reshape(len(imps), 4),
         "impact_rounds": np.array([int(r.rounds) for r in imps], dtype=np.int64),
+        "impact_frictional": np.array([r.friction_impulses is not None for r in imps], dtype=bool),
+        "contact_friction": np.array([_friction_columns(r, c) for r in imps for c in range(len(r.joints))],
+                                     dtype=float).reshape(-1, 9),
     }
     if result.work is not None:
         arrays["work"] = np.asarray(result.work, dtype=float)
@@ -582,6 +601,9 @@ def load_result(path, with_metadata: bool = False):
             energy_before=Energy(*(float(v) for v in a["impact_energy_before"][i])),
             energy_after=Energy(*(float(v) for v in a["impact_energy_after"][i])),
             rounds=int(a["impact_rounds"][i]) if "impact_rounds" in a else 1,
+            **({"friction_impulses": a["contact_friction"][s, 0:3], "slip_before": a["contact_friction"][s, 3:6],
+                "slip_after": a["contact_friction"][s, 6:9]}
+               if "impact_frictional" in a and a["impact_frictional"][i] else {}),
         ))
     res = Result(
         model=model, walls=walls, t=a["t"], q=a["q"], qdot=a["qdot"], phase=a["phase"], impacts=impacts,

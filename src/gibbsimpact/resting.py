@@ -14,7 +14,8 @@ and the gaps' second time derivatives along the motion (walls.py: |grad g| = 1)
 a0_j = Jdot_j qdot, the acceleration of O_j at qddot = 0, is the translation column
 of the kernel's qddot-free frame acceleration Tddot0 (kernel.JOB_FRAMES), so only
 frame origins O_1 .. O_(n+1) can rest (the extra tips of prismatic hosts cannot:
-an accumulation there still ends the run with status "zeno"). A contact phase
+an accumulation there still ends the run with status "zeno", as it does on a
+wall with friction: sticking and sliding in resting contact are not modelled). A contact phase
 keeps gddot_A = 0: with the Delassus matrix G = W^T M^-1 W (k, k) [m/(N s^2)],
 
     G lambda = -(W^T M^-1 f + c),    qddot = M^-1 f + M^-1 W lambda                (3)
@@ -171,6 +172,8 @@ class RestingContacts:
         if not isinstance(model.chain.base, str):
             restable[0] = False
         self.restable = restable
+        # Resting contact with friction (stick / slip) is not modelled: frictional walls hold no pair.
+        self.can_rest = restable[None, :] & np.array([w.friction == 0 for w in walls], dtype=bool)[:, None]
         grav = float(np.linalg.norm(getattr(model, "gravity", (0.0, 0.0, 0.0))))
         self.force_scale = model.total_mass * grav if grav > 0 else 1.0
         self._cache = (None, None)
@@ -272,7 +275,7 @@ class RestingContacts:
         c = (g <= band) & (np.abs(v) <= grazing_velocity)
         if forced is not None:
             c |= forced & (g <= band)
-        c &= self.restable[None, :]
+        c &= self.can_rest
         if exclude is not None:
             c &= ~exclude
         return np.argwhere(c)

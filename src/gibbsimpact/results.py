@@ -34,6 +34,9 @@ class ImpactRecord(NamedTuple):
     restitution : (k,) coefficients used
     qdot_before, qdot_after : (N,) generalised velocities
     energy_before, energy_after : Energy [J]
+    friction_impulses, slip_before, slip_after : (k, 3) or None: with friction on a wall
+        (gibbsimpact.friction), the tangential impulse of each contact [N s] and its tangential
+        velocity before and after [m/s], world vectors; None for a frictionless impact
     rounds : int, rounds of Newton's law the impact took (gibbsimpact.impact): 1
         when every contact carrying an impulse approached; more when an impulse
         pushed a contact that was moving away back into the wall
@@ -52,6 +55,9 @@ class ImpactRecord(NamedTuple):
     energy_before: Energy
     energy_after: Energy
     rounds: int = 1
+    friction_impulses: np.ndarray | None = None
+    slip_before: np.ndarray | None = None
+    slip_after: np.ndarray | None = None
 
 
 @dataclass(eq=False)

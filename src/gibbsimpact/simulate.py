@@ -376,9 +376,10 @@ def simulate(
                         stop = monitor.add(rec, in_band_before)
                         if stop is not None:
                             # An accumulation: resting contact of its pairs, unless that cannot be.
-                            forced = monitor.recent_pairs() & resting.restable[None, :]
+                            forced = monitor.recent_pairs() & resting.can_rest
                             why = ("accumulation='stop'" if not rest else
-                                   "its contact points cannot rest (tips of prismatic hosts)" if not forced.any() else
+                                   "its pairs cannot rest: tips of prismatic hosts, or walls with friction "
+                                   "(resting contact with friction is not modelled yet)" if not forced.any() else
                                    "resting contact did not resolve it" if settled_at == t else None)
                             if why is not None:
                                 status, message = STATUS_ZENO, f"{stop}; stopped ({why}); results up to here are kept"

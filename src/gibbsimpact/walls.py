@@ -23,6 +23,12 @@ def _check_restitution(name, e):
     return float(e)
 
 
+def _check_friction(name, mu):
+    if isinstance(mu, bool) or not isinstance(mu, Real) or not np.isfinite(mu) or mu < 0:
+        raise ValueError(f"{name} friction={mu!r} must be a finite number >= 0 (Coulomb's coefficient; 0 = frictionless)")
+    return float(mu)
+
+
 def _check_vector(owner, name, v, n):
     a = np.asarray(v, dtype=float) if not isinstance(v, str) else np.array([])
     if a.shape != (n,) or not np.all(np.isfinite(a)):
@@ -49,17 +55,22 @@ class Circle:
     restitution : float or None
         Coefficient of restitution for contacts with this wall; None uses the
         global value given to ``simulate``.
+    friction : float >= 0
+        Coulomb's coefficient mu of impacts on this wall (gibbsimpact.friction); 0 (default)
+        is frictionless. The same parameter exists for every wall type.
     """
 
     radius: float
     center: tuple = (0.0, 0.0)
     restitution: float | None = None
+    friction: float = 0.0
     kind = "circle"
 
     def __post_init__(self):
         object.__setattr__(self, "radius", _check_radius("Circle", self.radius))
         object.__setattr__(self, "center", _check_vector("Circle", "center", self.center, 2))
         object.__setattr__(self, "restitution", _check_restitution("Circle", self.restitution))
+        object.__setattr__(self, "friction", _check_friction("Circle", self.friction))
 
     def gap(self, p: np.ndarray) -> np.ndarray:
         """g(p) for p (K, 3) [m] -> (K,) [m]."""
@@ -91,17 +102,21 @@ class Sphere:
     """Spherical wall of radius R about centre c.
 
     g(p) = R - |p - c|,   n = -(p - c) / |p - c|
+
+    restitution, friction : as for Circle.
     """
 
     radius: float
     center: tuple = (0.0, 0.0, 0.0)
     restitution: float | None = None
+    friction: float = 0.0
     kind = "sphere"
 
     def __post_init__(self):
         object.__setattr__(self, "radius", _check_radius("Sphere", self.radius))
         object.__setattr__(self, "center", _check_vector("Sphere", "center", self.center, 3))
         object.__setattr__(self, "restitution", _check_restitution("Sphere", self.restitution))
+        object.__setattr__(self, "friction", _check_friction("Sphere", self.friction))
 
     def gap(self, p: np.ndarray) -> np.ndarray:
         """g(p) for p (K, 3) [m] -> (K,) [m]."""
@@ -129,14 +144,17 @@ class Plane:
     """Plane wall through ``point`` with unit ``normal`` pointing into the admissible side.
 
     g(p) = n . (p - point)
+
+    restitution, friction : as for Circle.
     """
 
     point: tuple
     normal_vector: tuple = (0.0, 1.0, 0.0)
     restitution: float | None = None
+    friction: float = 0.0
     kind = "plane"
 
-    def __init__(self, point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), restitution=None):
+    def __init__(self, point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), restitution=None, friction=0.0):
         object.__setattr__(self, "point", _check_vector("Plane", "point", point, 3))
         nv = np.array(_check_vector("Plane", "normal", normal, 3))
         nn = np.linalg.norm(nv)
@@ -144,6 +162,7 @@ class Plane:
             raise ValueError(f"Plane normal={normal!r} is the zero vector; give the direction into the free side")
         object.__setattr__(self, "normal_vector", tuple(nv / nn))
         object.__setattr__(self, "restitution", _check_restitution("Plane", restitution))
+        object.__setattr__(self, "friction", _check_friction("Plane", friction))
 
     def gap(self, p: np.ndarray) -> np.ndarray:
         """g(p) for p (K, 3) [m] -> (K,) [m]."""
@@ -163,8 +182,23 @@ WALL_TYPES = (Circle, Sphere, Plane)
 
 def describe(wall) -> str:
     """One-line description of a wall, for messages and summaries."""
+    mu = f", friction {wall.friction:g}" if wall.friction else ""
     if isinstance(wall, Circle):
-        return f"circle R={wall.radius:g} m centre ({wall.center[0]:g}, {wall.center[1]:g})"
+        return f"circle R={wall.radius:g} m centre ({wall.center[0]:g}, {wall.center[1]:g}){mu}"
     if isinstance(wall, Sphere):
-        return f"sphere R={wall.radius:g} m centre ({', '.join(f'{c:g}' for c in wall.center)})"
-    return f"plane through ({', '.join(f'{c:g}' for c in wall.point)}) normal ({', '.join(f'{c:g}' for c in wall.normal_vector)})"
+        return f"sphere R={wall.radius:g} m centre ({', '.join(f'{c:g}' for c in wall.center)}){mu}"
+    return (f"plane through ({', '.join(f'{c:g}' for c in wall.point)}) normal "
+            f"({', '.join(f'{c:g}' for c in wall.normal_vector)}){mu}")
+
+
+def tangent_basis(n: np.ndarray) -> np.ndarray:
+    """Two unit tangents (k, 2, 3) orthogonal to the unit normals n (k, 3) and to each other.
+
+    t1 = e3 x n / |e3 x n| (in the X1-X2 plane: the tangent of a planar motion along a
+    circle or a plane containing X3), or e1 x n when n is along X3; t2 = n x t1.
+    """
+    n = np.asarray(n, dtype=float).reshape(-1, 3)
+    a = np.where((np.abs(n[:, 2]) < 0.9)[:, None], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
+    t1 = np.cross(a, n)
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    return np.stack((t1, np.cross(n, t1)), axis=1)
