@@ -296,21 +296,21 @@ _WALL_KEYS = {
         "radius_m": "radius R in m",
         "center_m": "centre (c1, c2) in m",
         "restitution": "coefficient of restitution of this wall",
-        "friction": "Coulomb friction coefficient of impacts on this wall (default 0)",
+        "friction": "Coulomb friction coefficient of this wall (impacts and resting contact; default 0)",
     },
     "sphere": {
         "type": "wall type",
         "radius_m": "radius R in m",
         "center_m": "centre (c1, c2, c3) in m",
         "restitution": "coefficient of restitution of this wall",
-        "friction": "Coulomb friction coefficient of impacts on this wall (default 0)",
+        "friction": "Coulomb friction coefficient of this wall (impacts and resting contact; default 0)",
     },
     "plane": {
         "type": "wall type",
         "point_m": "a point of the plane in m",
         "normal": "normal pointing into the free side (any length)",
         "restitution": "coefficient of restitution of this wall",
-        "friction": "Coulomb friction coefficient of impacts on this wall (default 0)",
+        "friction": "Coulomb friction coefficient of this wall (impacts and resting contact; default 0)",
     },
 }
 _INITIAL_KEYS = {

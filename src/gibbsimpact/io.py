@@ -541,6 +541,8 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         arrays["work"] = np.asarray(result.work, dtype=float)
     if result.contact_forces is not None:
         arrays["contact_forces"] = np.asarray(result.contact_forces, dtype=float)
+    if result.friction_forces is not None:
+        arrays["friction_forces"] = np.asarray(result.friction_forces, dtype=float)
     meta = {
         "format": "gibbsimpact.Result",
         "format_version": FORMAT_VERSION,
@@ -610,7 +612,7 @@ def load_result(path, with_metadata: bool = False):
         status=meta["status"], message=meta["message"], settings=_untag(meta["settings"]),
         nfev=int(meta["nfev"]), n_steps=int(meta["n_steps"]), n_examined=int(meta.get("n_examined", 0)),
         wall_time=float(_untag(meta["wall_time"])), energy_error=float(_untag(meta["energy_error"])),
-        work=a.get("work"), contact_forces=a.get("contact_forces"),
+        work=a.get("work"), contact_forces=a.get("contact_forces"), friction_forces=a.get("friction_forces"),
         resting_time=float(_untag(meta.get("resting_time", 0.0))),
     )
     if with_metadata:

@@ -22,6 +22,7 @@ class Chunk(NamedTuple):
     error: float  # energy balance error of these samples (relative)
     impact: ImpactRecord | None
     forces: np.ndarray | None = None  # (k, W, P) [N] resting-contact forces; None: all zero
+    friction: np.ndarray | None = None  # (k, W, P, 3) [N] their tangential forces; None: all zero
 
 
 def one_sample(E: Energy) -> Energy:
@@ -57,10 +58,11 @@ class Recorder:
                                   np.array([phase]), last.work[-1:].copy(), one_sample(rec.energy_after), 0.0, rec))
         self.n_impacts += 1
 
-    def flight(self, T, Y, phase, forces=None):
+    def flight(self, T, Y, phase, forces=None, friction=None):
         """Samples T (K,), Y (K, 2N [+ 2]) of a flight phase that started at the last stored sample.
 
-        forces : None or (K, W, P) [N], the resting-contact forces at the samples.
+        forces : None or (K, W, P) [N], the resting-contact forces at the samples;
+        friction : None or (K, W, P, 3) [N], their tangential (friction) forces.
         """
         N = self.model.n_dof
         last = self.chunks[-1]
@@ -72,20 +74,23 @@ class Recorder:
         # All samples in one kernel call; the balance E(t) - E(0) - W(t) per sample.
         E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
         err = float(np.abs(E.total - E_start.total - (W.sum(axis=1) - W_start)).max() / scale) if T.size else 0.0
-        self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces))
+        self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces,
+                                  friction))
 
-    def mode(self, t, q, qdot, phase, forces):
-        """After a contact-mode decision at t: its contact forces (W, P) [N] on the last sample, or a
-        new sample when the projection (gibbsimpact.resting) moved the state (q, qdot) (N,)."""
+    def mode(self, t, q, qdot, phase, forces, friction):
+        """After a contact-mode decision at t: its contact forces (W, P) and friction forces (W, P, 3) [N]
+        on the last sample, or a new sample when the projection (gibbsimpact.resting) moved the
+        state (q, qdot) (N,)."""
         last = self.chunks[-1]
         if np.array_equal(last.q[-1], q) and np.array_equal(last.qdot[-1], qdot):
             F = np.zeros((last.t.size,) + self.force_shape) if last.forces is None else last.forces.copy()
-            F[-1] = forces
-            self.chunks[-1] = last._replace(forces=F)
+            Ft = np.zeros(F.shape + (3,)) if last.friction is None else last.friction.copy()
+            F[-1], Ft[-1] = forces, friction
+            self.chunks[-1] = last._replace(forces=F, friction=Ft)
             return
         self.chunks.append(Chunk(np.array([t]), q[None, :].copy(), qdot[None, :].copy(), np.array([phase]),
                                   last.work[-1:].copy(), one_sample(energy(self.model, q, qdot)), 0.0, None,
-                                  forces[None].copy()))
+                                  forces[None].copy(), friction[None].copy()))
 
     def ends_with(self, T) -> bool:
         """Whether the last chunk holds the samples T (the same array)."""
@@ -101,10 +106,11 @@ class Recorder:
 
     def arrays(self):
         """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2), Energy of (K,) arrays,
-        contact forces (K, W, P) [N]."""
+        contact forces (K, W, P) [N], friction forces (K, W, P, 3) [N]."""
         cs = self.chunks
         cat = np.concatenate
         F = cat([np.zeros((c.t.size,) + self.force_shape) if c.forces is None else c.forces for c in cs])
+        Ft = cat([np.zeros((c.t.size,) + self.force_shape + (3,)) if c.friction is None else c.friction for c in cs])
         return (cat([c.t for c in cs]), cat([c.q for c in cs]), cat([c.qdot for c in cs]),
                 cat([c.phase for c in cs]), cat([c.work for c in cs]),
-                Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)), F)
+                Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)), F, Ft)

@@ -14,8 +14,7 @@ and the gaps' second time derivatives along the motion (walls.py: |grad g| = 1)
 a0_j = Jdot_j qdot, the acceleration of O_j at qddot = 0, is the translation column
 of the kernel's qddot-free frame acceleration Tddot0 (kernel.JOB_FRAMES), so only
 frame origins O_1 .. O_(n+1) can rest (the extra tips of prismatic hosts cannot:
-an accumulation there still ends the run with status "zeno", as it does on a
-wall with friction: sticking and sliding in resting contact are not modelled). A contact phase
+an accumulation there still ends the run with status "zeno"). A contact phase
 keeps gddot_A = 0: with the Delassus matrix G = W^T M^-1 W (k, k) [m/(N s^2)],
 
     G lambda = -(W^T M^-1 f + c),    qddot = M^-1 f + M^-1 W lambda                (3)
@@ -54,6 +53,34 @@ contact_tol from its wall at any sample.
 Impacts while some pairs rest: the impact stage sees the resting pairs in the
 contact band and gives them e = 0 (a resting contact can take an impulse but
 does not rebound).
+
+Friction (a wall with friction = mu > 0). A resting pair on such a wall *sticks*
+or *slips*. Sticking adds the tangential accelerations of its point to the
+constraints (tangents t1, t2 of walls.tangent_basis; at zero slip the
+tangent's rotation contributes nothing), with free tangential forces
+lambda_t; slipping replaces its force column W_a by W_a - mu J_j^T s_a
+(Coulomb's force -mu lambda_n s_a). With constraint rows C and force columns B
+
+    (C^T M^-1 B) lambda = -(C^T M^-1 f + c),   qddot = M^-1 f + M^-1 B lambda      (6)
+
+(B != C while something slips: the matrix is not symmetric, and can be singular
+for large mu: Painleve's paradox, reported as a failed run). The slip direction
+is the tangential velocity v_t of the point, smoothed through zero by the
+direction s0 it had when the phase started,
+
+    s_a = (v_t + v_tol s0) / |v_t + v_tol s0|                                    (7)
+
+(v_tol = grazing_velocity). Events of a frictional contact phase: "slip" when a
+sticking force reaches the cone, mu lambda_n - |lambda_t| = 0; "stick" when a
+slip stops (or, in 3D, turns by 90 degrees), v_t . s0 = 0. At the mode decision
+a candidate slower than v_tol sticks (its slip is projected away with the
+normal velocity, equation (5) with its tangent rows), the others slip along
+their velocity; an active-set iteration then removes the most negative normal
+force and turns the sticking force farthest outside the cone into slip against
+it, until every normal force is >= 0 and every sticking force inside the cone.
+(Frictionless candidates keep the LCP (4).) The friction power sum F_t . pdot is
+integrated with the damping's work (Result.work[:, 1]) so that the energy
+balance E(t) - E(0) - W(t) still closes.
 """
 
 from __future__ import annotations
@@ -66,6 +93,7 @@ from . import kernel as _k
 from .dynamics import _raise_singular
 from .impact import _solve_lcp
 from .kinematics import run_kernel, states
+from .walls import tangent_basis
 
 _JOB = _k.JOB_SOLVE | _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS | _k.JOB_FRAMES
 _JOB_POS = _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS
@@ -85,13 +113,20 @@ class ConstraintData(NamedTuple):
     c: np.ndarray
     g: np.ndarray
     v: np.ndarray
+    M: np.ndarray | None = None  # (N, N)
+    J: np.ndarray | None = None  # (k, 3, N) point Jacobians
+    n: np.ndarray | None = None  # (k, 3) unit normals
+    pd: np.ndarray | None = None  # (k, 3) point velocities [m/s]
+    a0: np.ndarray | None = None  # (k, 3) Jdot qdot [m/s^2]
 
 
 def _solve_sym(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     """x with G x = b; the least-squares solution of smallest norm when G (k, k) is singular."""
     try:
         x = np.linalg.solve(G, b)
-        if np.all(np.isfinite(x)) and np.linalg.cond(G) < 1e12:
+        # A regular G reproduces b; a (numerically) singular one does not, or gives huge x.
+        if np.all(np.isfinite(x)) and np.abs(G @ x - b).max(initial=0.0) <= 1e-9 * (np.abs(b).max(initial=0.0) + 1e-300) \
+                and np.abs(x).max(initial=0.0) * np.abs(G).max(initial=0.0) <= 1e12 * (np.abs(b).max(initial=0.0) + 1e-300):
             return x
     except np.linalg.LinAlgError:
         pass
@@ -118,6 +153,7 @@ def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> Constrain
     p = P[pairs[:, 1]]  # (k, 3)
     nrm, g = np.zeros((k, 3)), np.zeros(k)
     c, v = np.zeros(k), np.zeros(k)
+    pd = a0 = None
     if velocities:
         F = out[off[9]:off[10]].reshape(model.n_links + 1, 3, 4, 4)
         qdd = out[off[1] + N:off[1] + 2 * N].copy()
@@ -141,7 +177,7 @@ def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> Constrain
     except np.linalg.LinAlgError:
         _raise_singular(model, q, 1, 0.0, 0.0)
     G = W.T @ MinvW
-    return ConstraintData(qdd, MinvW, W, 0.5 * (G + G.T), c, g, v)
+    return ConstraintData(qdd, MinvW, W, 0.5 * (G + G.T), c, g, v, M, Jp, nrm, pd, a0)
 
 
 _OFFSETS: dict = {}
@@ -157,23 +193,27 @@ def _offsets(model, job):
 
 
 class RestingContacts:
-    """The active set of resting pairs (W, P) bool and equations (3)-(5) (module docstring).
+    """The active set of resting pairs and equations (3)-(7) (module docstring).
 
-    model, walls : the run's; contact_tol [m]: drift bound; force_scale [N]: m |g~|, the
-    scale of the activity threshold (1 N without gravity).
+    active (W, P) bool: resting pairs; stick (W, P) bool: the active pairs on a frictional
+    wall that stick (the others on such a wall slip along slip_dir (W, P, 3)).
+    model, walls : the run's; contact_tol [m]: drift bound; v_tol [m/s]: the slip speed below
+    which a contact may stick (grazing_velocity); force_scale [N]: m |g~| (1 N without gravity).
     """
 
-    def __init__(self, model, walls, contact_tol):
-        self.model, self.walls, self.contact_tol = model, walls, contact_tol
+    def __init__(self, model, walls, contact_tol, v_tol=1e-6):
+        self.model, self.walls, self.contact_tol, self.v_tol = model, walls, contact_tol, v_tol
         P = model.n_joints
         self.active = np.zeros((len(walls), P), dtype=bool)
+        self.stick = np.zeros((len(walls), P), dtype=bool)
+        self.slip_dir = np.zeros((len(walls), P, 3))
+        self.mu = np.array([w.friction for w in walls], dtype=float)
         # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves.
         restable = np.arange(P) <= model.n_links
         if not isinstance(model.chain.base, str):
             restable[0] = False
         self.restable = restable
-        # Resting contact with friction (stick / slip) is not modelled: frictional walls hold no pair.
-        self.can_rest = restable[None, :] & np.array([w.friction == 0 for w in walls], dtype=bool)[:, None]
+        self.can_rest = np.broadcast_to(restable[None, :], self.active.shape)
         grav = float(np.linalg.norm(getattr(model, "gravity", (0.0, 0.0, 0.0))))
         self.force_scale = model.total_mass * grav if grav > 0 else 1.0
         self._cache = (None, None)
@@ -186,31 +226,84 @@ class RestingContacts:
     def any(self) -> bool:
         return bool(self.active.any())
 
+    @property
+    def frictional(self) -> bool:
+        """Whether some active pair is on a wall with friction."""
+        return bool(np.any(self.active & (self.mu[:, None] > 0)))
+
     def clear(self):
         self.active[:] = False
+        self.stick[:] = False
+        self.slip_dir[:] = 0.0
+        self._cache = (None, None)
 
-    # -- equations (1)-(3) ------------------------------------------------------------
+    # -- equations (1)-(3), (6) ------------------------------------------------------
+    def _solve(self, d, pairs, stick, sdir):
+        """Equations (3)/(6) for the pairs (k, 2) with constraint data d; stick (k,) bool, sdir (k, 3).
+
+        Returns (qddot (N,), lambda_n (k,), F_t (k, 3) tangential forces [N], lambda_t (k, 2) of
+        sticking pairs in their tangent basis, slip power (k,) [W]).
+        """
+        k = len(pairs)
+        mu = self.mu[pairs[:, 0]] if k else np.zeros(0)
+        if not np.any(mu > 0):
+            lam = _solve_sym(d.G, -(d.W.T @ d.qdd_free + d.c))
+            return d.qdd_free + d.MinvW @ lam, lam, np.zeros((k, 3)), np.zeros((k, 2)), np.zeros(k)
+        # (6): constraint rows C (normal gaps; tangential accelerations of sticking points) and
+        # force columns B (normal; slip friction -mu n_s along the slip; sticking tangents).
+        C, B, c = [d.W], [d.W.copy()], [d.c]
+        slip = (mu > 0) & ~stick
+        s_hat = np.zeros((k, 3))
+        if np.any(slip):
+            vt = d.pd[slip] - np.sum(d.pd[slip] * d.n[slip], axis=1)[:, None] * d.n[slip]
+            s = vt + self.v_tol * sdir[slip]  # (7): the slip direction, smooth through v_t = 0
+            s_hat[slip] = s / np.linalg.norm(s, axis=1, keepdims=True)
+            B[0] = B[0] - np.einsum("kcn,kc->nk", d.J, s_hat) * mu
+        st = np.nonzero((mu > 0) & stick)[0]
+        if st.size:
+            T = tangent_basis(d.n[st])  # (s, 2, 3)
+            Wt = np.einsum("sac,scn->nsa", T, d.J[st]).reshape(d.W.shape[0], -1)
+            C.append(Wt)
+            B.append(Wt)
+            c.append(np.einsum("sac,sc->sa", T, d.a0[st]).ravel())
+        C, B, c = np.hstack(C), np.hstack(B), np.concatenate(c)
+        MinvB = np.linalg.solve(d.M, B)
+        lam = _solve_sym(C.T @ MinvB, -(C.T @ d.qdd_free + c))
+        lam_n = lam[:k]
+        F_t = -mu[:, None] * lam_n[:, None] * s_hat
+        lam_t = np.zeros((k, 2))
+        if st.size:
+            lam_t[st] = lam[k:].reshape(-1, 2)
+            F_t[st] = np.einsum("sa,sac->sc", lam_t[st], T)
+        power = np.einsum("kc,kc->k", F_t, d.pd)
+        return d.qdd_free + MinvB @ lam, lam_n, F_t, lam_t, power
+
     def acceleration(self, q, qd, Q=None):
-        """(qddot (N,), lambda (k,) [N]) of equation (3) for the active pairs at (q, qd)."""
+        """(qddot (N,), lambda_n (k,) [N], F_t (k, 3) [N], friction power (k,) [W]) of the active pairs."""
         key = (q.tobytes(), qd.tobytes(), None if Q is None else Q.tobytes())
         if self._cache[0] == key:
             return self._cache[1]
-        d = constraint_data(self.model, self.walls, q, qd, Q, self.pairs)
-        lam = _solve_sym(d.G, -(d.W.T @ d.qdd_free + d.c))
-        res = (d.qdd_free + d.MinvW @ lam, lam)
+        pairs = self.pairs
+        d = constraint_data(self.model, self.walls, q, qd, Q, pairs)
+        qdd, lam, F_t, lam_t, power = self._solve(d, pairs, self.stick[self.active], self.slip_dir[self.active])
+        res = (qdd, lam, F_t, power, lam_t, d)
         self._cache = (key, res)
         return res
 
-    def force_matrix(self, q, qd, Q=None) -> np.ndarray:
-        """Normal forces (W, P) [N] of the active pairs at (q, qd), zeros elsewhere."""
+    def force_matrix(self, q, qd, Q=None):
+        """Normal forces (W, P) [N] and tangential forces (W, P, 3) [N] of the active pairs at (q, qd)."""
         F = np.zeros(self.active.shape)
+        Ft = np.zeros(self.active.shape + (3,))
         if self.any():
-            F[self.active] = self.acceleration(q, qd, Q)[1]
-        return F
+            _, lam, F_t, *_ = self.acceleration(q, qd, Q)
+            F[self.active] = lam
+            Ft[self.active] = F_t
+        return F, Ft
 
     # -- equation (5) -----------------------------------------------------------------
-    def project(self, q, qd, pairs, max_iter=20):
-        """(q, qd) moved onto g = 0, v_n = 0 of the pairs (k, 2) along the metric of M (equation (5))."""
+    def project(self, q, qd, pairs, stick=None, max_iter=20):
+        """(q, qd) moved onto g = 0, v_n = 0 of the pairs (k, 2) along the metric of M (equation (5));
+        stick (k,) bool: those pairs' tangential velocities are projected to zero too."""
         q, qd = q.copy(), qd.copy()
         if len(pairs) == 0:
             return q, qd
@@ -224,22 +317,68 @@ class RestingContacts:
             raise np.linalg.LinAlgError(
                 f"resting contact: the projection onto the walls did not converge (max |g| = "
                 f"{np.max(np.abs(d.g)):.3g} m after {max_iter} Newton steps)")
-        qd = qd - d.MinvW @ _solve_sym(d.G, d.W.T @ qd)
+        W = d.W
+        if stick is not None and np.any(stick):
+            T = tangent_basis(d.n[stick])
+            W = np.hstack((W, np.einsum("sac,scn->nsa", T, d.J[stick]).reshape(W.shape[0], -1)))
+        MinvW = np.linalg.solve(d.M, W)
+        qd = qd - MinvW @ _solve_sym(W.T @ MinvW, W.T @ qd)
         return q, qd
 
-    # -- equation (4) -----------------------------------------------------------------
+    # -- equation (4) and its frictional form -----------------------------------------
     def decide(self, q, qd, Q, candidates):
-        """Project onto the candidates (k, 2), solve (4), set the active set; returns the projected (q, qd)."""
+        """Project onto the candidates (k, 2), choose the active set (and stick / slip), set it;
+        returns the projected (q, qd)."""
         self.clear()
-        self._cache = (None, None)
         if len(candidates) == 0:
             return q, qd
-        q, qd = self.project(q, qd, candidates)
-        d = constraint_data(self.model, self.walls, q, qd, Q, candidates)
-        lam = _solve_lcp(d.G, d.W.T @ d.qdd_free + d.c)
-        on = lam > 1e-10 * max(float(lam.max(initial=0.0)), self.force_scale)
-        for (w, j), a in zip(candidates, on):
-            self.active[w, j] = a
+        candidates = np.asarray(candidates, dtype=int).reshape(-1, 2)
+        mu = self.mu[candidates[:, 0]]
+        if not np.any(mu > 0):
+            q, qd = self.project(q, qd, candidates)
+            d = constraint_data(self.model, self.walls, q, qd, Q, candidates)
+            lam = _solve_lcp(d.G, d.W.T @ d.qdd_free + d.c)
+            on = lam > 1e-10 * max(float(lam.max(initial=0.0)), self.force_scale)
+            self.active[candidates[on, 0], candidates[on, 1]] = True
+            return q, qd
+        # With friction: contacts slower than v_tol stick (their slip is projected away), the
+        # others slip along their velocity. Then an active-set iteration: a negative normal force
+        # leaves (the most negative first); a sticking force outside the cone |F_t| <= mu N
+        # turns into slip against it (the largest excess first).
+        d0 = constraint_data(self.model, self.walls, q, qd, Q, candidates)
+        vt = d0.pd - np.sum(d0.pd * d0.n, axis=1)[:, None] * d0.n
+        speed = np.linalg.norm(vt, axis=1)
+        stick = (mu > 0) & (speed <= self.v_tol)
+        sdir = np.where(speed[:, None] > 0, vt / np.maximum(speed, 1e-300)[:, None], 0.0)
+        q, qd = self.project(q, qd, candidates, stick)
+        on = np.ones(len(candidates), dtype=bool)
+        for _ in range(4 * len(candidates) + 4):
+            pairs = candidates[on]
+            d = constraint_data(self.model, self.walls, q, qd, Q, pairs)
+            _, lam, _, lam_t, _ = self._solve(d, pairs, stick[on], sdir[on])
+            scale = max(float(np.abs(lam).max(initial=0.0)), self.force_scale)
+            if np.any(lam < -1e-10 * scale):
+                on[np.nonzero(on)[0][int(np.argmin(lam))]] = False
+                if not on.any():
+                    break
+                continue
+            excess = np.linalg.norm(lam_t, axis=1) - mu[on] * lam
+            excess[~stick[on]] = -np.inf
+            if np.any(excess > 1e-10 * scale):
+                i = int(np.argmax(excess))
+                a = np.nonzero(on)[0][i]
+                stick[a] = False
+                T = tangent_basis(d.n[i][None, :])[0]
+                ft = lam_t[i] @ T
+                sdir[a] = -ft / np.linalg.norm(ft)  # impending slip: against the force that would stick
+                continue
+            on[np.nonzero(on)[0][lam <= 1e-10 * scale]] = False
+            break
+        for a in np.nonzero(on)[0]:
+            w, j = candidates[a]
+            self.active[w, j] = True
+            self.stick[w, j] = stick[a]
+            self.slip_dir[w, j] = sdir[a] if mu[a] > 0 and not stick[a] else 0.0
         return q, qd
 
     # -- the events and the candidates of a contact phase -----------------------------
@@ -252,18 +391,33 @@ class RestingContacts:
         return rows, kinds
 
     def release_events(self, applied):
-        """(fun(t, y) -> lambda (k,) [N], directions (k,) = -1) and kinds of the release events.
+        """(fun(t, y) -> values (m,), directions (m,) = -1) and kinds of the events of a contact phase:
+        "release" lambda_n = 0; "slip" mu lambda_n - |F_t| = 0 of a sticking pair; "stick"
+        v_t . s = 0 of a slipping pair (its slip stops or turns by 90 degrees).
 
         applied(t, q, qd) -> (N,) or None: the generalised forces Q of equation (1).
         """
         N = self.model.n_dof
+        pairs = self.pairs
+        mu = self.mu[pairs[:, 0]]
+        stick = self.stick[self.active] & (mu > 0)
+        slip = ~self.stick[self.active] & (mu > 0)
+        sdir = self.slip_dir[self.active]
 
         def fun(t, y):
             q, qd = y[:N], y[N:2 * N]
-            return self.acceleration(q, qd, applied(t, q, qd))[1]
+            _, lam, F_t, _, _, d = self.acceleration(q, qd, applied(t, q, qd))
+            out = [lam]
+            if stick.any():
+                out.append(mu[stick] * lam[stick] - np.linalg.norm(F_t[stick], axis=1))
+            if slip.any():
+                out.append(np.sum(d.pd[slip] * sdir[slip], axis=1))
+            return np.concatenate(out)
 
-        pairs = self.pairs
-        return (fun, -np.ones(len(pairs))), [("release", int(w), int(j)) for w, j in pairs]
+        kinds = [("release", int(w), int(j)) for w, j in pairs]
+        kinds += [("slip", int(w), int(j)) for w, j in pairs[stick]]
+        kinds += [("stick", int(w), int(j)) for w, j in pairs[slip]]
+        return (fun, -np.ones(len(kinds))), kinds
 
     def candidates(self, g, v, band, grazing_velocity, exclude=None, forced=None) -> np.ndarray:
         """(k, 2) candidate pairs of a mode decision (module docstring).

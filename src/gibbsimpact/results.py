@@ -87,6 +87,9 @@ class Result:
     contact_forces : (K, W, P) [N] or None: the normal force of wall w on contact point
         O_(j+1) at every sample while the pair is in resting contact (gibbsimpact.resting),
         0 elsewhere (impulses of impacts are in ``impacts``); None for results of older files
+    friction_forces : (K, W, P, 3) [N] or None: the tangential (friction) force of wall w on
+        O_(j+1) while the pair rests on a wall with friction (sticking or slipping); None when
+        no wall has friction
     resting_time : float [s], the simulated time spent with at least one pair in resting contact
     """
 
@@ -107,6 +110,7 @@ class Result:
     energy_error: float = float("nan")
     work: np.ndarray | None = None
     contact_forces: np.ndarray | None = None
+    friction_forces: np.ndarray | None = None
     resting_time: float = 0.0
     _energy_cache: Energy | None = field(default=None, repr=False)
 

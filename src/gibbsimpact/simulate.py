@@ -264,7 +264,8 @@ def simulate(
     C_varies = damping_depends_on_q(model)  # a damped Pb link: C = C(d)
     C_damp = damping_matrix(model, q0)
     damped = bool(np.any(C_damp))
-    driven = Q_in is not None or damped
+    # Friction in resting contact does work too: a frictional wall makes the run keep its work.
+    driven = Q_in is not None or damped or any(w.friction > 0 for w in walls)
     e_wall = np.array([restitution if w.restitution is None else w.restitution for w in walls])
     settings = dict(
         method=method, rtol=rtol, atol=atol, restitution=float(restitution),
@@ -298,10 +299,10 @@ def simulate(
         q, qd = y[:N], y[N:2 * N]
         try:
             if resting.any():
-                # A contact phase: equation (3) of resting.py.
+                # A contact phase: equations (3), (6) of resting.py; friction's power joins the damping's.
                 f = forces_in(t, q, qd)
-                qdd = resting.acceleration(q, qd, None if f is None else f[0] + f[1])[0]
-                return np.concatenate((qd, qdd) if f is None else (qd, qdd, [qd @ f[0], qd @ f[1]]))
+                qdd, _, _, power, *_ = resting.acceleration(q, qd, None if f is None else f[0] + f[1])
+                return np.concatenate((qd, qdd) if f is None else (qd, qdd, [qd @ f[0], qd @ f[1] + power.sum()]))
             if not driven:
                 return np.concatenate((qd, forward_dynamics(model, q, qd)))
             Qi, Qd = forces_in(t, q, qd)
@@ -325,7 +326,7 @@ def simulate(
     recorder = Recorder(model, t0, q0, qdot0, len(walls))
     band = contact_band(contact_tol, lipschitz, rtol, atol, q0)
     monitor = Accumulation((len(walls), model.n_joints), int(zeno_count), zeno_interval, band)
-    resting = RestingContacts(model, walls, contact_tol)
+    resting = RestingContacts(model, walls, contact_tol, grazing_velocity)
     rest = accumulation == "rest" and bool(walls)
     release = forced = None  # (W, J) masks for the next mode decision: a released pair, an accumulation
     settled_at = None  # time of the last accumulation resolved into resting contact
@@ -349,13 +350,13 @@ def simulate(
         q, qd = resting.decide(q, qd, applied(t, q, qd), cand)
         monitor.streak[resting.active] = 0
         y = np.concatenate((q, qd, y[2 * N:]))
-        recorder.mode(t, q, qd, phase, resting.force_matrix(q, qd, applied(t, q, qd)))
+        recorder.mode(t, q, qd, phase, *resting.force_matrix(q, qd, applied(t, q, qd)))
         return y
 
     def contact_forces(T, Y):
-        """(K, W, P) [N] resting-contact forces at the samples of a contact phase."""
-        return np.stack([resting.force_matrix(yk[:N], yk[N:2 * N], applied(tk, yk[:N], yk[N:2 * N]))
-                         for tk, yk in zip(T, Y)])
+        """Normal (K, W, P) and tangential (K, W, P, 3) [N] resting-contact forces at the samples of a phase."""
+        F = [resting.force_matrix(yk[:N], yk[N:2 * N], applied(tk, yk[:N], yk[N:2 * N])) for tk, yk in zip(T, Y)]
+        return np.stack([f[0] for f in F]), np.stack([f[1] for f in F])
 
     with progress_reporter(progress, t0, t_end) as report:
         clock = Clock(report)
@@ -378,8 +379,7 @@ def simulate(
                             # An accumulation: resting contact of its pairs, unless that cannot be.
                             forced = monitor.recent_pairs() & resting.can_rest
                             why = ("accumulation='stop'" if not rest else
-                                   "its pairs cannot rest: tips of prismatic hosts, or walls with friction "
-                                   "(resting contact with friction is not modelled yet)" if not forced.any() else
+                                   "its contact points cannot rest (tips of prismatic hosts)" if not forced.any() else
                                    "resting contact did not resolve it" if settled_at == t else None)
                             if why is not None:
                                 status, message = STATUS_ZENO, f"{stop}; stopped ({why}); results up to here are kept"
@@ -428,7 +428,7 @@ def simulate(
                 counters["n_examined"] += out.n_examined
                 if out.sample_t.size:
                     recorder.flight(out.sample_t, out.sample_y, phase,
-                                    contact_forces(out.sample_t, out.sample_y) if resting.any() else None)
+                                    *(contact_forces(out.sample_t, out.sample_y) if resting.any() else (None, None)))
                 flown = None
                 if out.interrupted is not None:
                     raise KeyboardInterrupt(out.interrupted)  # its samples are recorded: stop below
@@ -461,9 +461,10 @@ def simulate(
                     message = f"event loop stalled at t = {t:.9g} s: 100 consecutive events without progress in time"
                     break
                 kind, w_i, j = kinds[out.event]
-                if kind in ("release", "drift"):
-                    # A resting pair's force reached zero (it leaves the active set), or its drift
-                    # reached contact_tol (projection): decide the contact mode again.
+                if kind in ("release", "drift", "slip", "stick"):
+                    # A resting pair's force reached zero (it leaves the active set), its drift
+                    # reached contact_tol (projection), its friction reached the cone (it slips)
+                    # or its slip stopped (it may stick): decide the contact mode again.
                     if kind == "release":
                         release = np.zeros(resting.active.shape, dtype=bool)
                         release[w_i, j] = True
@@ -510,7 +511,7 @@ def simulate(
             message = (f"stopped by {str(exc) or 'KeyboardInterrupt (Ctrl-C)'} at t = {t_last:.9g} s of "
                        f"t_end = {t_end:g} s; the results up to there are kept")
 
-        t_all, q_all, qdot_all, phase_all, work_all, E_all, F_all = recorder.arrays()
+        t_all, q_all, qdot_all, phase_all, work_all, E_all, F_all, Ft_all = recorder.arrays()
         impacts = recorder.impacts
         res = Result(
             model=model, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all, impacts=impacts,
@@ -518,6 +519,7 @@ def simulate(
             nfev=counters["nfev"], n_steps=counters["n_steps"], n_examined=counters["n_examined"],
             wall_time=time.perf_counter() - started, energy_error=recorder.energy_error,
             _energy_cache=E_all, work=work_all if driven else None, contact_forces=F_all,
+            friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
             resting_time=counters["resting_time"],
         )
         if report is not None:

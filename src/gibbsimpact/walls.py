@@ -56,8 +56,9 @@ class Circle:
         Coefficient of restitution for contacts with this wall; None uses the
         global value given to ``simulate``.
     friction : float >= 0
-        Coulomb's coefficient mu of impacts on this wall (gibbsimpact.friction); 0 (default)
-        is frictionless. The same parameter exists for every wall type.
+        Coulomb's coefficient mu on this wall, in impacts (gibbsimpact.friction) and in
+        resting contact (gibbsimpact.resting); 0 (default) is frictionless. The same
+        parameter exists for every wall type.
     """
 
     radius: float
