@@ -7,6 +7,7 @@ import pytest
 from conftest import single_link_sphere_model, single_link_sphere_state, two_link_circle_model, two_link_circle_state
 
 import gibbsimpact as gi
+from test_cli import ZENO
 from gibbsimpact import cli
 from gibbsimpact import io as gio
 from gibbsimpact.dynamics import forward_dynamics
@@ -99,32 +100,9 @@ def test_accumulation_argument_is_checked():
         gi.simulate(model, model.state(X2=0.1), np.zeros(6), (0.0, 0.1), accumulation="soon")
 
 
-DROP = """
-name = "plastic_drop"
-gravity_m_per_s2 = [0.0, -9.81, 0.0]
-restitution = 0.0
-
-[[links]]
-length_m = 1.0
-mass_per_length_kg_per_m = 1.0
-EI_N_m2 = 20.0
-cross_section_radius_m = 0.01
-
-[[walls]]
-type = "plane"
-point_m = [0.0, 0.0, 0.0]
-normal = [0.0, 1.0, 0.0]
-
-[initial.coordinates]
-X1_m = -0.5
-X2_m = 0.01
-
-[time]
-t_end_s = 0.2
-
-[output]
-plots = true
-"""
+# The rigid link of test_cli's ZENO case, dropped flat from 1 cm, with e = 0 and figures on.
+DROP = (ZENO.replace('name = "zeno_drop"', 'name = "plastic_drop"').replace("restitution = 0.5", "restitution = 0.0")
+        .replace("t_end_s = 1.0", "t_end_s = 0.2").split("[solver]")[0] + "[output]\nplots = true\n")
 
 
 def test_case_run_writes_contact_forces(tmp_path, capsys):
@@ -151,3 +129,21 @@ def test_case_run_writes_contact_forces(tmp_path, capsys):
     res = gi.load_result(out / "result.npz")
     np.testing.assert_array_equal(res.contact_forces[:, 0, 0], cols["F_w1_O1_N"])
     assert res.resting_time == pytest.approx(0.2 - t_hit, abs=1e-9)
+
+
+def test_case2_with_restitution_08_runs_3_s_and_ends_resting_in_the_sphere():
+    # Issue 9: the published case 2 with e = 0.8 stopped with status "zeno" after 113 impacts.
+    # Now it goes on; the energy never rises (impacts dissipate, flight and contact phases
+    # conserve it), and at the end the link lies in the sphere with both ends loaded.
+    model = single_link_sphere_model()
+    q, qd = single_link_sphere_state(model)
+    res = gi.simulate(model, q, qd, (0.0, 3.0), walls=[gi.Sphere(1.0)], restitution=0.8)
+    assert res.status == "finished", res.message
+    E = res.energy().total
+    assert np.max(np.diff(E)) <= 1e-8 * abs(E[0])
+    assert all(r.energy_after.total <= r.energy_before.total + 1e-12 * abs(E[0]) for r in res.impacts)
+    assert res.resting_time > 0.1
+    assert np.all(res.contact_forces[-1, 0, :2] > 0.0)
+    # Both ends on the sphere at the end (resting pairs are held within contact_tol).
+    p = model.joint_positions(res.q[-1])
+    np.testing.assert_allclose(np.linalg.norm(p[:2], axis=1), 1.0, atol=1e-9)

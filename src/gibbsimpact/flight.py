@@ -205,6 +205,7 @@ def integrate_phase(
     check_in_step: bool = True,
     gap_batch: Callable | None = None,
     extra: tuple | None = None,
+    gap_single: Callable | None = None,
 ) -> PhaseOutcome:
     """Integrate from (t0, y0) to the first event or t_end.
 
@@ -226,6 +227,8 @@ def integrate_phase(
         (default: gap_matrix state by state)
     extra : None, or (fun(t, y) -> (m,), direction (m,) of +1 / -1): m more event functions,
         sign changes at step ends only (module docstring); event index K + i
+    gap_single : g(q, row, column) -> float [m], one entry of the gap matrix (default: from
+        gap_matrix); the root search of one event calls it many times
 
     Returns
     -------
@@ -244,6 +247,9 @@ def integrate_phase(
         return f if f is not None else rhs(t, y)
 
     def E_single(k):
+        if gap_single is not None:
+            row, col, off = int(events.wall[k]), int(events.joint[k]), float(events.offset[k])
+            return lambda t, y: float(gap_single(y[:N], row, col)) + off
         return lambda t, y: float(events.values(gap_matrix(y[:N]))[k])
 
     g0 = gap_matrix(y0[:N])

@@ -533,6 +533,8 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         "impact_energy_before": np.array([tuple(r.energy_before) for r in imps], dtype=float).reshape(len(imps), 4),
         "impact_energy_after": np.array([tuple(r.energy_after) for r in imps], dtype=float).reshape(len(imps), 4),
         "impact_rounds": np.array([int(r.rounds) for r in imps], dtype=np.int64),
+        "contact_point": np.array([np.asarray(r.points)[c] if r.points is not None else [np.nan] * 3
+                                   for r in imps for c in range(len(r.joints))], dtype=float).reshape(-1, 3),
         "impact_frictional": np.array([r.friction_impulses is not None for r in imps], dtype=bool),
         "contact_friction": np.array([_friction_columns(r, c) for r in imps for c in range(len(r.joints))],
                                      dtype=float).reshape(-1, 9),
@@ -603,6 +605,8 @@ def load_result(path, with_metadata: bool = False):
             energy_before=Energy(*(float(v) for v in a["impact_energy_before"][i])),
             energy_after=Energy(*(float(v) for v in a["impact_energy_after"][i])),
             rounds=int(a["impact_rounds"][i]) if "impact_rounds" in a else 1,
+            points=(a["contact_point"][s] if "contact_point" in a and not np.isnan(a["contact_point"][s]).all()
+                    else None),
             **({"friction_impulses": a["contact_friction"][s, 0:3], "slip_before": a["contact_friction"][s, 3:6],
                 "slip_after": a["contact_friction"][s, 6:9]}
                if "impact_frictional" in a and a["impact_frictional"][i] else {}),

@@ -403,25 +403,40 @@ def _stop_label(result, joint: int, q) -> str:
     return f"stop {joint}"
 
 
+def _point_name(model, j: int) -> str:
+    """'O2' for contact point j (1-based) of model.contact_point_names; 'link 1' for the closest point
+    of a flexible link (contacts.Contacts: the columns after the P points)."""
+    P = model.n_joints
+    if j <= P:
+        return f"O{j}"
+    flex = [i for i in range(model.n_links) if model.delta_index[i].size]
+    return f"link {flex[j - P - 1] + 1}" if j - P - 1 < len(flex) else f"point {j}"
+
+
 def _contacts_text(result, rec) -> str:
-    """The contacts of an impact: 'O2' for a joint point at a wall, 'stop 2 (d_max)' for an end stop."""
+    """The contacts of an impact: 'O2' for a joint point at a wall, 'link 1' for a link's span,
+    'stop 2 (d_max)' for an end stop."""
     walls = tuple(rec.wall) if len(rec.wall) == len(rec.joints) else (0,) * len(rec.joints)
-    if not any(_is_stop(w) for w in walls):
+    if not any(_is_stop(w) for w in walls) and all(j <= result.model.n_joints for j in rec.joints):
         return _joint_list(rec.joints)
     q = _sample_at(result, rec.time)
-    return "+".join(_stop_label(result, int(j), q) if _is_stop(w) else f"O{j}" for j, w in zip(rec.joints, walls))
+    return "+".join(_stop_label(result, int(j), q) if _is_stop(w) else _point_name(result.model, int(j))
+                    for j, w in zip(rec.joints, walls))
 
 
 def _split_contacts(rec):
-    """(wall contacts [(joint point j, normal (3,))], end-stop joints [i]) of an impact record."""
+    """(wall contacts [(contact point j, normal (3,), where it touched (3,) or None)], end-stop joints [i])
+    of an impact record. The point is ImpactRecord.points (None in older files: then O_j)."""
     walls = tuple(rec.wall) if len(rec.wall) == len(rec.joints) else (0,) * len(rec.joints)
     normals = np.asarray(rec.normals, dtype=float).reshape(-1, 3)
+    points = getattr(rec, "points", None)
     hits, stops = [], []
     for c, (j, w) in enumerate(zip(rec.joints, walls)):
         if _is_stop(w):
             stops.append(int(j))
         else:
-            hits.append((int(j), normals[c] if c < len(normals) else np.zeros(3)))
+            hits.append((int(j), normals[c] if c < len(normals) else np.zeros(3),
+                         None if points is None else np.asarray(points[c], dtype=float)))
     return hits, stops
 
 
@@ -989,8 +1004,10 @@ def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, ar
         p = _stop_point(model, q, i)
         ax.plot(p[0], p[1], zorder=5, **_STOP_MARKER)
     if normals is not None:
-        for j, n in normals:
-            p = O[j - 1]
+        for j, n, pt in normals:
+            p = pt if pt is not None else O[j - 1]
+            if j > len(O):  # a link's span (contacts.Contacts): its star here, joints' above
+                ax.plot(p[0], p[1], "*", ms=13, color="red", mec="darkred", zorder=5)
             ax.annotate("", xy=p[:2] + arrow * n[:2], xytext=p[:2],
                         arrowprops={"arrowstyle": "->", "color": "red", "lw": 1.2}, zorder=5)
 
@@ -1016,7 +1033,7 @@ def _panels(result):
         q = result.q[i]
         normals, stops = _split_contacts(rec)
         panels.append((rec.time, q, f"impact {k}: t = {rec.time:.6f} s, {_contacts_text(result, rec)}",
-                       tuple(j for j, _ in normals), normals, tuple(stops)))
+                       tuple(j for j, _, _ in normals), normals, tuple(stops)))
     if final:
         end = "final" if result.status == "finished" else f"stopped: {result.status}"
         panels.append((t_end, result.q[-1], f"t = {t_end:.6g} s ({end})", (), None, ()))
@@ -1118,8 +1135,10 @@ def _draw_chain_3d(ax, model, q, n_points, hit=(), normals=None, labels=True, fl
     for i in stops:
         ax.plot(*_to3(_stop_point(model, q, i)[None, :]), **_STOP_MARKER)
     if normals is not None:
-        for j, n in normals:
-            p = O[j - 1]
+        for j, n, pt in normals:
+            p = pt if pt is not None else O[j - 1]
+            if j > len(O):  # a link's span (contacts.Contacts)
+                ax.plot(*_to3(p[None, :]), "*", ms=13, color="red", mec="darkred", ls="none")
             ax.quiver(*_to3(p), *_to3(arrow * n), color="red", lw=1.2, arrow_length_ratio=0.3)
 
 
@@ -1251,7 +1270,7 @@ def plot_trajectory(result, case_name=None, n_points: int = 41, ax=None):
         hits, stops = _split_contacts(rec)
         if hits:
             O = transforms(model, q)[:, :3, 3]
-            impact_points += [O[j - 1] for j, _ in hits]
+            impact_points += [pt if pt is not None else O[j - 1] for j, _, pt in hits]
         stop_points += [_stop_point(model, q, i) for i in stops]
     impact_points = np.array(impact_points).reshape(-1, 3)
     stop_points = np.array(stop_points).reshape(-1, 3)
@@ -1465,7 +1484,7 @@ def animate(result, path, fps: int = 20, speed: float = 0.25, n_points: int = 41
         parts = _link_parts(model, q, n_points)
         O = transforms(model, q)[:, :3, 3]
         recent = [rec for rec in result.impacts if 0.0 <= times[f] - rec.time < flash]
-        hit = sorted({j for rec in recent for j, _ in _split_contacts(rec)[0]})
+        hit = sorted({j for rec in recent for j, _, _ in _split_contacts(rec)[0] if j <= len(O)})
         stopped = sorted({i for rec in recent for i in _split_contacts(rec)[1]})
         for ln, rear, (main, back) in zip(lines, rears, parts):
             put(ln, main)

@@ -198,18 +198,19 @@ class RestingContacts:
     active (W, P) bool: resting pairs; stick (W, P) bool: the active pairs on a frictional
     wall that stick (the others on such a wall slip along slip_dir (W, P, 3)).
     model, walls : the run's; contact_tol [m]: drift bound; v_tol [m/s]: the slip speed below
-    which a contact may stick (grazing_velocity); force_scale [N]: m |g~| (1 N without gravity).
+    which a contact may stick (grazing_velocity); n_cols: columns of the gap matrix (default
+    the P joint points); force_scale [N]: m |g~| (1 N without gravity).
     """
 
-    def __init__(self, model, walls, contact_tol, v_tol=1e-6):
+    def __init__(self, model, walls, contact_tol, v_tol=1e-6, n_cols=None):
         self.model, self.walls, self.contact_tol, self.v_tol = model, walls, contact_tol, v_tol
-        P = model.n_joints
+        P = model.n_joints if n_cols is None else n_cols  # columns of the gap matrix (contacts.Contacts)
         self.active = np.zeros((len(walls), P), dtype=bool)
         self.stick = np.zeros((len(walls), P), dtype=bool)
         self.slip_dir = np.zeros((len(walls), P, 3))
         self.mu = np.array([w.friction for w in walls], dtype=float)
         # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves.
-        restable = np.arange(P) <= model.n_links
+        restable = np.arange(P) <= model.n_links  # link columns (contacts.py) never rest
         if not isinstance(model.chain.base, str):
             restable[0] = False
         self.restable = restable

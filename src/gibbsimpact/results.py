@@ -25,7 +25,8 @@ class ImpactRecord(NamedTuple):
     """One impact (possibly several simultaneous contacts, k of them).
 
     time : float [s]
-    joints : tuple of int, length k, 1-based joint numbers (O_1 ... O_(n+1))
+    joints : tuple of int, length k, 1-based contact numbers: O_1 ... O_P (model.contact_point_names),
+        then P + 1 + f for the closest point of the f-th flexible link (contacts.Contacts.names)
     wall : tuple of int, length k, index of each contact's wall in Result.walls;
         -1 for an end-stop impact of a prismatic joint (joints then holds the joint number i)
     normals : (k, 3) unit wall normals into the free region
@@ -34,6 +35,7 @@ class ImpactRecord(NamedTuple):
     restitution : (k,) coefficients used
     qdot_before, qdot_after : (N,) generalised velocities
     energy_before, energy_after : Energy [J]
+    points : (k, 3) [m] or None: where each contact touched its wall (None in files of older versions)
     friction_impulses, slip_before, slip_after : (k, 3) or None: with friction on a wall
         (gibbsimpact.friction), the tangential impulse of each contact [N s] and its tangential
         velocity before and after [m/s], world vectors; None for a frictionless impact
@@ -55,6 +57,7 @@ class ImpactRecord(NamedTuple):
     energy_before: Energy
     energy_after: Energy
     rounds: int = 1
+    points: np.ndarray | None = None
     friction_impulses: np.ndarray | None = None
     slip_before: np.ndarray | None = None
     slip_after: np.ndarray | None = None

@@ -135,8 +135,8 @@ def _validate(model, q0, qdot0, t_span, walls, restitution, method, **tols):
     return q0, qdot0, (float(ts[0]), float(ts[1])), walls
 
 
-def _check_inside(model, q, walls, contact_tol):
-    """Raise ValueError naming every joint that starts beyond a wall."""
+def _check_inside(model, q, walls, contact_tol, contacts=None):
+    """Raise ValueError naming every joint (and link, with link contacts) that starts beyond a wall."""
     p = joint_positions(model, q)
     bad = []
     for w_i, w in enumerate(walls):
@@ -145,8 +145,14 @@ def _check_inside(model, q, walls, contact_tol):
             bad.append(
                 f"joint O{j + 1} at {np.round(p[j], 6).tolist()} m is {-g[j]:.3g} m outside wall {w_i + 1} ({describe(w)})"
             )
+    if contacts is not None and contacts.flex and not bad:
+        g = contacts.gaps(q)[:, contacts.n_joints:]
+        for w_i, f in np.argwhere(g < -contact_tol):
+            bad.append(f"link {contacts.flex[f] + 1} bends {-g[w_i, f]:.3g} m beyond wall {w_i + 1} ({describe(walls[w_i])}) "
+                       "between its joints")
     if bad:
-        raise ValueError("initial state q0 puts a joint outside a wall: " + "; ".join(bad) + ". Move the chain inside.")
+        what = "a joint" if "joint" in bad[0] else "a link"
+        raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(bad) + ". Move the chain inside.")
 
 
 def simulate(
@@ -172,6 +178,7 @@ def simulate(
     joint_limit: str = "stop",
     joint_restitution: float = 0.5,
     accumulation: str = "rest",
+    link_contacts: bool = True,
     _in_step_check: bool = True,
 ) -> Result:
     """Simulate flight phases and impacts from (q0, qdot0) over t_span.
@@ -215,6 +222,9 @@ def simulate(
         from an LCP, release events; Result.contact_forces); "stop" ends the run with status
         "zeno" at the accumulation and never enters resting contact (the behaviour before
         resting contact existed).
+    link_contacts : bool, default True: the closest point of every flexible link to every
+        wall is a contact candidate too (a link bulging into a wall between its joints;
+        gibbsimpact.contacts.Contacts); False: joints only, as in the published case studies.
     _in_step_check : private; False turns off the search for gap dips inside steps
         (flight.py), leaving solve_ivp's sign test at step ends: for benchmarks and tests only.
 
@@ -246,12 +256,16 @@ def simulate(
                          "or 'impact' (an end-stop impact with joint_restitution)")
     if isinstance(joint_restitution, bool) or not isinstance(joint_restitution, Real) or not 0.0 <= joint_restitution <= 1.0:
         raise ValueError(f"simulate joint_restitution={joint_restitution!r} must be a number in [0, 1]")
+    if not isinstance(link_contacts, (bool, np.bool_)):
+        raise ValueError(f"simulate link_contacts={link_contacts!r} must be True (links' closest points are contact "
+                         "candidates too) or False (joints only)")
     if accumulation not in ("rest", "stop"):
         raise ValueError(f"simulate accumulation={accumulation!r} must be 'rest' (go on in resting contact) "
                          "or 'stop' (end the run with status 'zeno')")
     limits = joint_limits(model)
     check_initial(limits, q0)
-    _check_inside(model, q0, walls, contact_tol)
+    contacts = Contacts(model, walls, bool(link_contacts))
+    _check_inside(model, q0, walls, contact_tol, contacts)
     try:
         mass_matrix(model, q0)
         forward_dynamics(model, q0, qdot0)
@@ -259,7 +273,7 @@ def simulate(
         raise SingularMassMatrixError(f"initial state q0: {exc}") from None
     warn_state(model, q0, qdot0, walls)  # outside the model's assumptions: warned, never changed
 
-    N = model.n_dof
+    N, P = model.n_dof, model.n_joints
     Q_in = generalized_force(model, inputs, t0, q0, qdot0)
     C_varies = damping_depends_on_q(model)  # a damped Pb link: C = C(d)
     C_damp = damping_matrix(model, q0)
@@ -273,7 +287,7 @@ def simulate(
         contact_tol=contact_tol, grazing_velocity=grazing_velocity, penetration_tol=penetration_tol,
         zeno_interval=zeno_interval, zeno_count=int(zeno_count), max_impacts=int(max_impacts),
         t_span=[t0, t_end], joint_limit=joint_limit, joint_restitution=float(joint_restitution),
-        accumulation=accumulation,
+        accumulation=accumulation, link_contacts=bool(link_contacts),
     )
     counters = {"nfev": 0, "n_steps": 0, "n_examined": 0, "resting_time": 0.0}
 
@@ -315,24 +329,23 @@ def simulate(
             singular["message"] = f"at t = {t:.9g} s: {exc}"
             return np.full(y.shape, np.nan)
 
-    contacts = Contacts(model, walls)
     # Joint limits, when the chain has prismatic joints: one more row of the gap matrix (row W).
     gap_matrix, gap_batch = contacts.gaps, contacts.gaps_batch
-    stops = EndStops(limits, len(walls), model.n_joints) if limits else None
+    stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
     if stops is not None:
         gap_matrix, gap_batch = stops.wrap(contacts.gaps), stops.wrap_batch(contacts.gaps_batch)
     # |dg/dq| <= 1 + 2 sum l: a translation moves a joint 1:1, a rotation by at most its lever arm.
     lipschitz = 1.0 + 2.0 * sum(ld.length for ld in model.link_data)
     recorder = Recorder(model, t0, q0, qdot0, len(walls))
     band = contact_band(contact_tol, lipschitz, rtol, atol, q0)
-    monitor = Accumulation((len(walls), model.n_joints), int(zeno_count), zeno_interval, band)
-    resting = RestingContacts(model, walls, contact_tol, grazing_velocity)
+    monitor = Accumulation((len(walls), contacts.n_cols), int(zeno_count), zeno_interval, band)
+    resting = RestingContacts(model, walls, contact_tol, grazing_velocity, contacts.n_cols)
     rest = accumulation == "rest" and bool(walls)
     release = forced = None  # (W, J) masks for the next mode decision: a released pair, an accumulation
     settled_at = None  # time of the last accumulation resolved into resting contact
     status, message = STATUS_FINISHED, f"reached t_end = {t_end:g} s"
     t, y, phase = t0, np.concatenate((q0, qdot0, np.zeros(2 if driven else 0))), 0
-    near = np.zeros((len(walls), model.n_joints), dtype=bool)
+    near = np.zeros((len(walls), contacts.n_cols), dtype=bool)
     pending_impact = True  # check the initial state for an impact in progress
     pending_mode = False  # decide the contact mode (resting.py) before the next flight phase
     sink_pair = None  # (wall, joint) whose sink event ended the last phase
@@ -342,21 +355,21 @@ def simulate(
     def mode_stage(t, y, phase):
         """Contact-mode decision at (t, y) (resting.py); returns the (projected) state."""
         q, qd = y[:N], y[N:2 * N]
-        g, nrm, Jac = contacts.full(q)
-        v = np.einsum("wjc,jcn,n->wj", nrm, Jac, qd)
+        g, nrm, Jac, _, _ = contacts.full(q)
+        v = np.einsum("wjc,wjcn,n->wj", nrm, Jac, qd)
         cand = resting.candidates(g, v, band, grazing_velocity, release, forced)
         if len(cand) == 0 and not resting.any():
             return y
         q, qd = resting.decide(q, qd, applied(t, q, qd), cand)
         monitor.streak[resting.active] = 0
         y = np.concatenate((q, qd, y[2 * N:]))
-        recorder.mode(t, q, qd, phase, *resting.force_matrix(q, qd, applied(t, q, qd)))
+        recorder.mode(t, q, qd, phase, *(f[:, :P] for f in resting.force_matrix(q, qd, applied(t, q, qd))))
         return y
 
     def contact_forces(T, Y):
         """Normal (K, W, P) and tangential (K, W, P, 3) [N] resting-contact forces at the samples of a phase."""
         F = [resting.force_matrix(yk[:N], yk[N:2 * N], applied(tk, yk[:N], yk[N:2 * N])) for tk, yk in zip(T, Y)]
-        return np.stack([f[0] for f in F]), np.stack([f[1] for f in F])
+        return np.stack([f[0][:, :P] for f in F]), np.stack([f[1][:, :P] for f in F])
 
     with progress_reporter(progress, t0, t_end) as report:
         clock = Clock(report)
@@ -420,6 +433,7 @@ def simulate(
                         rhs, t, y, t_end, events, gap_matrix, method=method, rtol=rtol, atol=atol,
                         max_step=max_step, output_dt=output_dt, t_origin=t0, lipschitz=lipschitz, slack=contact_tol,
                         n_q=N, check_in_step=_in_step_check, gap_batch=gap_batch, extra=extra,
+                        gap_single=lambda q, w, c: contacts.gap_single(q, w, c, gap_matrix),
                     )
                 except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
                     status, message = STATUS_FAILED, f"integration failed after t = {t:.9g} s: {exc}"
@@ -443,7 +457,7 @@ def simulate(
                     status = STATUS_PENETRATION
                     what = "a wall or a joint limit" if stops is not None else "a wall"
                     message = (
-                        f"a joint went {-out.min_gap:.3g} m beyond {what} between events in the phase starting at "
+                        f"a contact point went {-out.min_gap:.3g} m beyond {what} between events in the phase starting at "
                         f"t = {t:.9g} s without an event firing; tighten rtol or set max_step"
                     )
                     break
