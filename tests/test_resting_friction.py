@@ -208,3 +208,52 @@ def test_frictionless_rod_slides_down_an_incline():
     E = res.energy().total
     s_end = G * np.sin(ALPHA) / 2  # s(1 s): the energy scale, m g sin(a) s_end = 11.2 J
     assert np.max(np.abs(E - E[0])) <= 1e-8 * M * G * np.sin(ALPHA) * s_end
+
+
+def test_stick_slip_under_an_oscillating_push_matches_a_one_dof_reference():
+    # A rod lying on a floor (mu = 0.3) pushed along its axis by F(t) = 1.5 mu m g sin(2 pi t):
+    # it sticks while |F| <= mu m g, slips with m a = F - mu m g sign(v) otherwise, and sticks
+    # again where v returns to 0 with |F| <= mu m g. The reference integrates that 1-dof law
+    # with scipy (its own events), independently of the package.
+    from scipy.integrate import solve_ivp
+
+    mu, T = 0.3, 2.0
+    model = planar_rod()
+    F0 = 1.5 * mu * M * G
+    F = lambda t: F0 * np.sin(2 * np.pi * t)  # noqa: E731
+    res = gi.simulate(model, model.state(), np.zeros(6), (0.0, T), walls=[gi.Plane((0, 0, 0), (0, 1, 0), friction=mu)],
+                      inputs={"X1": lambda t, q, qd: F(t)}, output_dt=1e-3)
+    assert res.status == "finished", res.message
+
+    t, x, pieces = 0.0, 0.0, []
+    while t < T:
+        # stick until |F| reaches mu m g (on a fine grid, then brentq)
+        from scipy.optimize import brentq
+        grid = np.linspace(t, T, 4001)
+        over = np.nonzero(np.abs(F(grid)) > mu * M * G)[0]
+        if over.size == 0:
+            pieces.append(("stick", t, T, x))
+            break
+        k = int(over[0])
+        t1 = brentq(lambda s: abs(F(s)) - mu * M * G, grid[max(k - 1, 0)], grid[k], xtol=1e-15) if k else t
+        pieces.append(("stick", t, t1, x))
+        s = np.sign(F(t1 + 1e-9))
+        stop = lambda tt, y: y[1]  # noqa: E731
+        stop.terminal, stop.direction = True, -s
+        sol = solve_ivp(lambda tt, y: [y[1], (F(tt) - mu * M * G * s) / M], (t1, T), [x, 0.0], rtol=1e-12,
+                        atol=1e-14, events=stop, dense_output=True)
+        pieces.append(("slip", t1, sol.t[-1], sol.sol))
+        t, x = sol.t[-1], sol.y[0, -1]
+
+    def x_ref(tt):
+        for kind, a, b, data in pieces:
+            if a <= tt <= b:
+                return data if kind == "stick" else data(tt)[0]
+        return np.nan
+
+    ref = np.array([x_ref(tt) for tt in res.t])
+    assert len([p for p in pieces if p[0] == "slip"]) >= 3
+    np.testing.assert_allclose(res.q[:, 0], ref, atol=1e-8)
+    Nsum = res.contact_forces[:, 0, :].sum(axis=1)
+    assert np.all(np.abs(res.friction_forces[:, 0, :, 0].sum(axis=1)) <= mu * Nsum * (1 + 1e-9))
+    assert res.energy_error <= 1e-8

@@ -456,3 +456,20 @@ def test_simultaneous_impact_does_not_depend_on_rtol(rtol):
                                rtol=0, atol=10 * rtol + 1e-6)
     # at the default tolerances the band is 2 contact_tol (the published runs are unchanged)
     assert contact_band(1e-9, 5.0, 1e-10, 1e-12, case.q0) == 2e-9
+
+
+@pytest.mark.parametrize("what", ["12 modes", "EI 1e6", "rtol 1e-3"])
+def test_restarts_that_used_to_fail_with_dop853(what):
+    # Issue 9: case 1's chain with 12 modes per link, or EI = 1e6, or rtol = 1e-3 stopped at a
+    # restart after an impact ("mass matrix numerically singular", a wrong diagnosis). Each now
+    # goes through its first impacts with DOP853 and finishes, Newton's law holding at each.
+    n_modes, EI, kw, t_end = {"12 modes": (12, 20.0, {}, 0.45), "EI 1e6": (1, 1e6, {}, 0.325),
+                              "rtol 1e-3": (1, 20.0, dict(rtol=1e-3, atol=1e-5), 0.6)}[what]
+    link = gi.Link(1.0, 1.0, EI, modes=[gi.Mode("clamped-clamped", "y", k) for k in range(1, n_modes + 1)])
+    model = gi.Model(gi.Chain([link, link]), gravity=(0.0, -9.81, 0.0))
+    q, qd = two_link_circle_state(model)
+    res = gi.simulate(model, q, qd, (0.0, t_end), walls=[gi.Circle(1.0)])
+    assert res.status == "finished", res.message
+    assert len(res.impacts) >= 1
+    for r in res.impacts:
+        np.testing.assert_allclose(r.v_after[r.impulses > 0], -r.v_before[r.impulses > 0], rtol=1e-9)

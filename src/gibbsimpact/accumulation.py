@@ -27,8 +27,10 @@ def accumulation_time(times, intervals):
 class Accumulation:
     """Detects an accumulation of impacts (rules (a) and (b) of the module docstring)."""
 
-    def __init__(self, shape, zeno_count, zeno_interval, band):
+    def __init__(self, shape, zeno_count, zeno_interval, band, names=None):
         self.count, self.interval, self.band = zeno_count, zeno_interval, band
+        # names of the columns (contacts.Contacts.names): "O2", "link 1", ...
+        self.names = list(names) if names is not None else [f"O{j + 1}" for j in range(shape[1])]
         self.streak = np.zeros(shape, dtype=int)  # consecutive in-band impacts per (wall, joint)
         self.times: list[float] = []
         self.pairs: list[tuple] = []  # (walls, joints) that took an impulse, per impact
@@ -64,7 +66,8 @@ class Accumulation:
         d = np.diff(times)
         if np.max(self.streak) >= k:
             w_i, j = np.unravel_index(int(np.argmax(self.streak)), self.streak.shape)
-            why = (f"joint O{j + 1} stayed within {1.5 * self.band:.3g} m of wall {w_i + 1} through {k} consecutive "
+            what = f"joint {self.names[j]}" if self.names[j].startswith("O") else f"the span of {self.names[j]}"
+            why = (f"{what} stayed within {1.5 * self.band:.3g} m of wall {w_i + 1} through {k} consecutive "
                    "impacts (its rebounds no longer leave the contact band)")
         elif d.size >= k and np.all(d[-k:] < self.interval):
             why = f"{k} consecutive impacts less than {self.interval:g} s apart"

@@ -176,6 +176,7 @@ SOLVER_KEYS = {
     "joint_limit": ("joint_limit", "str", "at the end of a prismatic joint's range: 'stop' the run or 'impact'"),
     "joint_restitution": ("joint_restitution", "number", "coefficient of restitution of the end-stop impacts"),
     "accumulation": ("accumulation", "str", "after an accumulation of impacts: 'rest' (resting contact) or 'stop'"),
+    "link_contacts": ("link_contacts", "bool", "closest points of flexible links are contact candidates (true)"),
 }
 #: [solver] string keys with a fixed set of values (and what each means).
 _SOLVER_CHOICES = {

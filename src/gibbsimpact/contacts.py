@@ -92,7 +92,7 @@ class Contacts:
     @property
     def names(self) -> list:
         """Names of the C columns: the joint points, then "link i" for the closest point of link i."""
-        return list(self.model.contact_point_names) + [f"link {i + 1}" for i in self.flex]
+        return [f"O{j + 1}" for j in range(self.n_joints)] + [f"link {i + 1}" for i in self.flex]
 
     def _link_gaps(self, qs, g_joints=None):
         """Link columns (K, W, F) [m], the closest points' abscissae x (K, W, F) [m], their normals

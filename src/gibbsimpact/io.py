@@ -7,7 +7,8 @@ Files (docs/case-format.md, "Output files"):
 * ``impacts.csv``: one row per contact (an impact with k simultaneous
   contacts gives k rows sharing its ``impact`` number).
 * ``contact_forces.csv`` (when some pair rested): one row per sample: t, phase, and the
-  normal force [N] of every (wall, contact point) pair in resting contact (0 elsewhere).
+  normal force [N] of every (wall, contact point) pair in resting contact (0 elsewhere),
+  then (with friction on a wall) the friction force of each pair, world components.
 * ``summary.json``: versions, settings, impacts, energies, status.
 * ``result.npz``: everything in a :class:`~gibbsimpact.results.Result`
   (trajectory, every field of every impact, status, settings, counters, the
@@ -157,6 +158,7 @@ IMPACT_COLUMNS = [
     "normal_X1", "normal_X2", "normal_X3", "impulse_N_s", "v_before_m_per_s", "v_after_m_per_s", "restitution",
     "kinetic_before_J", "gravity_before_J", "strain_before_J", "total_before_J",
     "kinetic_after_J", "gravity_after_J", "strain_after_J", "total_after_J",
+    "point_X1_m", "point_X2_m", "point_X3_m",
     "friction_impulse_X1_N_s", "friction_impulse_X2_N_s", "friction_impulse_X3_N_s",
     "slip_before_X1_m_per_s", "slip_before_X2_m_per_s", "slip_before_X3_m_per_s",
     "slip_after_X1_m_per_s", "slip_after_X2_m_per_s", "slip_after_X3_m_per_s",
@@ -185,6 +187,7 @@ def write_impacts_csv(result: Result, path) -> Path:
                     + [_fmt(rec.impulses[c]), _fmt(rec.v_before[c]), _fmt(rec.v_after[c]), _fmt(rec.restitution[c])]
                     + [_fmt(v) for v in rec.energy_before]
                     + [_fmt(v) for v in rec.energy_after]
+                    + [_fmt(v) for v in (np.asarray(rec.points)[c] if rec.points is not None else [math.nan] * 3)]
                     + [_fmt(v) for v in _friction_columns(rec, c)]
                 )
     return path
@@ -197,14 +200,19 @@ def contact_force_columns(result: Result) -> list[str]:
 
 
 def write_contact_forces_csv(result: Result, path) -> Path:
-    """Write t, phase and the resting-contact force of every (wall, contact point) pair, one row per sample."""
+    """Write t, phase and the resting-contact force of every (wall, contact point) pair, one row per sample;
+    with friction on a wall also the friction force Ft_w<wall>_<point>_X<a>_N (world components)."""
     path = Path(path)
     K = len(result.t)
     F = result.contact_forces
     F = np.zeros((K, len(result.walls) * result.model.n_joints)) if F is None else np.asarray(F).reshape(K, -1)
+    header = ["t_s", "phase"] + contact_force_columns(result)
+    if result.friction_forces is not None:
+        F = np.hstack((F, np.asarray(result.friction_forces).reshape(K, -1)))
+        header += [c.replace("F_", "Ft_", 1)[:-2] + f"_X{a + 1}_N" for c in contact_force_columns(result) for a in range(3)]
     with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["t_s", "phase"] + contact_force_columns(result))
+        w.writerow(header)
         for k in range(K):
             w.writerow([_fmt(result.t[k]), str(int(result.phase[k]))] + [_fmt(v) for v in F[k]])
     return path
@@ -333,6 +341,10 @@ def summary(result: Result, case=None) -> dict:
         names = model.contact_point_names
         d["final_contact_forces_N"] = {f"{names[j]} on wall {w + 1}": float(F[-1, w, j])
                                        for w, j in np.argwhere(F[-1] != 0.0)}
+        if result.friction_forces is not None:
+            Ft = np.asarray(result.friction_forces)[-1]
+            d["final_friction_forces_N"] = {f"{names[j]} on wall {w + 1}": [float(v) for v in Ft[w, j]]
+                                            for w, j in np.argwhere(F[-1] != 0.0)}
     d["wall_time_s"] = float(result.wall_time)
     d["nfev"] = int(result.nfev)
     d["n_steps"] = int(result.n_steps)

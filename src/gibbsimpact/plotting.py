@@ -824,17 +824,19 @@ def plot_contact_forces(result, case_name=None, ax=None):
     """Normal force [N] of every (wall, contact point) pair that was ever in resting contact
     (Result.contact_forces), against time; None when no pair rested.
 
-    ax : None (a new figure) or one Axes.
+    ax : None (a new figure), one Axes (the normal forces) or two (and the friction forces |F_t|, with friction).
     """
     F = result.contact_forces
     if F is None or not np.any(F):
         return None
+    Ft = result.friction_forces
+    n_panels = 2 if Ft is not None and np.any(Ft) else 1
     own = ax is None
     if own:
-        fig = _figure((9.5, 4.2))
-        axes = [fig.subplots(1, 1)]
+        fig = _figure((9.5, 4.2 if n_panels == 1 else 6.4))
+        axes = list(fig.subplots(n_panels, 1, sharex=True, squeeze=False)[:, 0])
     else:
-        axes = _given_axes(ax, 1, "plot_contact_forces")
+        axes = _given_axes(ax, n_panels, "plot_contact_forces")
         fig = axes[0].figure
     names = result.model.contact_point_names
     c = 0
@@ -842,8 +844,17 @@ def plot_contact_forces(result, case_name=None, ax=None):
         axes[0].plot(result.t, F[:, w, j], label=f"{names[j]} on wall {w + 1}", **_style(c, _joint_colour(int(j))))
         c += 1
     axes[0].set_ylabel("contact force [N]")
+    if n_panels == 2:
+        c = 0
+        for w, j in np.argwhere(np.any(F != 0.0, axis=0)):
+            axes[1].plot(result.t, np.linalg.norm(Ft[:, w, j], axis=1), label=f"{names[j]} on wall {w + 1}",
+                         **_style(c, _joint_colour(int(j))))
+            c += 1
+        axes[1].set_ylabel("friction force\n|F_t| [N]")
     _legend(axes[0], outside=own)
     what = "normal force of each wall on each contact point in resting contact (0 in flight; impacts are impulses)"
+    if n_panels == 2:
+        what += "; below: the friction force |F_t|"
     _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
     return fig
 
@@ -904,7 +915,9 @@ def plot_energy(result, case_name=None, ax=None):
     balance = E.total - E.total[0]
     if result.work is not None:
         # A work that stays zero (no inputs, or no damped link) is left out of the legend and the plot.
-        for c, text in enumerate(("work of inputs", "work of damping")):
+        dissipation = ("work of damping and friction" if any(getattr(w, "friction", 0.0) > 0 for w in result.walls)
+                       else "work of damping")
+        for c, text in enumerate(("work of inputs", dissipation)):
             if np.any(result.work[:, c] != 0.0) or not np.any(result.work != 0.0) and c == 0:
                 axes[0].plot(result.t, result.work[:, c], label=text, **_style(3 + c))
         balance = balance - result.work.sum(axis=1)

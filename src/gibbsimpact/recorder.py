@@ -46,6 +46,8 @@ class Recorder:
     def __init__(self, model, t0, q0, qdot0, n_walls=0):
         self.model = model
         self.force_shape = (n_walls, model.n_joints)
+        self.energy_floor = model.total_mass * float(np.linalg.norm(model.gravity)) * sum(
+            ld.length for ld in model.link_data)
         # Energy of every stored sample: needed for the flight-phase drift, then handed
         # to the Result so res.energy() does not evaluate M at every sample again.
         self.chunks = [Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, 2)),
@@ -69,8 +71,9 @@ class Recorder:
         E_start = Energy(*(float(a[-1]) for a in last.energy))
         W_start = last.work[-1].sum()
         W = Y[:, 2 * N:2 * N + 2] if Y.shape[1] > 2 * N else np.zeros((T.size, 2))
+        # The floor m |g~| sum l: a chain at rest at the gravity datum has E ~ 0 (no scale of its own).
         scale = max(abs(E_start.total), abs(E_start.kinetic) + abs(E_start.gravity) + abs(E_start.strain),
-                    float(np.max(np.abs(W.sum(axis=1) - W_start), initial=0.0)), 1e-300)
+                    float(np.max(np.abs(W.sum(axis=1) - W_start), initial=0.0)), self.energy_floor, 1e-300)
         # All samples in one kernel call; the balance E(t) - E(0) - W(t) per sample.
         E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
         err = float(np.abs(E.total - E_start.total - (W.sum(axis=1) - W_start)).max() / scale) if T.size else 0.0

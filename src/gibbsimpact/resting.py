@@ -327,9 +327,14 @@ class RestingContacts:
         return q, qd
 
     # -- equation (4) and its frictional form -----------------------------------------
-    def decide(self, q, qd, Q, candidates):
+    def decide(self, q, qd, Q, candidates, slipping=None):
         """Project onto the candidates (k, 2), choose the active set (and stick / slip), set it;
-        returns the projected (q, qd)."""
+        returns the projected (q, qd).
+
+        slipping : None or {(wall, point): s (3,)}: pairs whose sticking force just reached the
+        cone (a "slip" event): they slip along s whatever their speed, so that a force exactly
+        at the cone's edge does not stick and slip again at the same instant.
+        """
         self.clear()
         if len(candidates) == 0:
             return q, qd
@@ -344,13 +349,18 @@ class RestingContacts:
             return q, qd
         # With friction: contacts slower than v_tol stick (their slip is projected away), the
         # others slip along their velocity. Then an active-set iteration: a negative normal force
-        # leaves (the most negative first); a sticking force outside the cone |F_t| <= mu N
-        # turns into slip against it (the largest excess first).
+        # leaves (the most negative first); a sticking force outside the cone |F_t| < mu N (or on
+        # its edge) turns into slip against it (the largest excess first).
         d0 = constraint_data(self.model, self.walls, q, qd, Q, candidates)
         vt = d0.pd - np.sum(d0.pd * d0.n, axis=1)[:, None] * d0.n
         speed = np.linalg.norm(vt, axis=1)
         stick = (mu > 0) & (speed <= self.v_tol)
         sdir = np.where(speed[:, None] > 0, vt / np.maximum(speed, 1e-300)[:, None], 0.0)
+        for a, (w, j) in enumerate(candidates):
+            s = (slipping or {}).get((int(w), int(j)))
+            if s is not None and mu[a] > 0:
+                stick[a] = False
+                sdir[a] = s if speed[a] <= self.v_tol else sdir[a]
         q, qd = self.project(q, qd, candidates, stick)
         on = np.ones(len(candidates), dtype=bool)
         for _ in range(4 * len(candidates) + 4):
@@ -363,9 +373,11 @@ class RestingContacts:
                 if not on.any():
                     break
                 continue
+            # A pair sticks only strictly inside the cone (by 1e-9 of the force scale): at its edge
+            # it slips, so that a sticking phase starts with its slip event above zero.
             excess = np.linalg.norm(lam_t, axis=1) - mu[on] * lam
             excess[~stick[on]] = -np.inf
-            if np.any(excess > 1e-10 * scale):
+            if np.any(excess > -1e-9 * scale):
                 i = int(np.argmax(excess))
                 a = np.nonzero(on)[0][i]
                 stick[a] = False
@@ -419,6 +431,14 @@ class RestingContacts:
         kinds += [("slip", int(w), int(j)) for w, j in pairs[stick]]
         kinds += [("stick", int(w), int(j)) for w, j in pairs[slip]]
         return (fun, -np.ones(len(kinds))), kinds
+
+    def slip_direction(self, q, qd, Q, pair) -> np.ndarray:
+        """The direction (3,) in which a sticking pair (wall, point) starts to slip: against its
+        tangential force at (q, qd), the force that can no longer hold it."""
+        _, _, F_t, *_ = self.acceleration(q, qd, Q)
+        k = int(np.nonzero((self.pairs == np.asarray(pair)).all(axis=1))[0][0])
+        f = F_t[k]
+        return -f / np.linalg.norm(f) if np.linalg.norm(f) > 0 else f
 
     def candidates(self, g, v, band, grazing_velocity, exclude=None, forced=None) -> np.ndarray:
         """(k, 2) candidate pairs of a mode decision (module docstring).

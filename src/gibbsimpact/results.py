@@ -83,7 +83,8 @@ class Result:
     n_examined : int, steps whose dense output was searched for a gap dip (flight.py)
     wall_time : float [s]
     energy_error : float, max over flight phases of |E(t) - E(start) - (W(t) - W(start))| / scale,
-        scale = max(|E_start|, |kinetic| + |gravity| + |strain| at phase start, max |W(t) - W(start)|),
+        scale = max(|E_start|, |kinetic| + |gravity| + |strain| at phase start, max |W(t) - W(start)|,
+        m |g| sum l),
         W = 0 without inputs and damping (then it is the energy drift)
     work : (K, 2) [J] or None: work of the inputs and of the structural damping
         since t_span[0] at every sample (None for an undriven, undamped run)

@@ -3,24 +3,31 @@
 ``simulate`` is a driver over named stages, one module each:
 
 * :mod:`gibbsimpact.flight` — a flight phase (scipy's stepping, events seen inside steps);
-* :mod:`gibbsimpact.contacts` — gaps of the (wall, contact point) pairs, the contact band,
+* :mod:`gibbsimpact.contacts` — gaps of the (wall, contact point) pairs (joints, and the
+  closest point of each flexible link: :mod:`gibbsimpact.linkpoints`), the contact band,
   the impact stage and the events of a phase;
+* :mod:`gibbsimpact.impact` / :mod:`gibbsimpact.friction` — the impulse problem (Newton's law
+  in rounds; Moreau's law with a Coulomb cone on walls with friction);
+* :mod:`gibbsimpact.resting` — the contact-mode stage: resting contact (LCP on the Delassus
+  matrix), stick and slip, release / slip / stick / drift events;
 * :mod:`gibbsimpact.limits` — joint limits of prismatic joints: their events and end-stop impacts;
-* :mod:`gibbsimpact.accumulation` — the accumulation monitor (status "zeno");
-* :mod:`gibbsimpact.recorder` — samples, impacts and the flight-phase energy balance;
+* :mod:`gibbsimpact.accumulation` — the accumulation monitor (resting contact, or status "zeno");
+* :mod:`gibbsimpact.recorder` — samples, impacts, contact forces and the energy balance;
 * :mod:`gibbsimpact.progress` — the progress callback or bar.
 
-A run alternates two stages until t_end or a stop:
+A run repeats three stages until t_end or a stop:
 
+* **impact** (:func:`impact_stage`), when the last phase ended at a hit or sink
+  event (or at the start): every candidate within the contact band at the event
+  time is a contact of one impact (resting pairs with e = 0);
+* **contact mode** (``mode_stage`` below, :mod:`gibbsimpact.resting`), after an
+  impact stage and at a release, slip, stick or drift event: which pairs rest,
+  and whether they stick or slip;
 * **flight** (:func:`gibbsimpact.flight.integrate_phase`): scipy's ODE solver
-  steps the equations of motion; one terminal event per (joint, wall) pair,
-  ``g_w(O_j(q(t)))``, direction -1, located at step ends *and inside steps*
-  (a dip of a gap between two accepted steps is found from the dense output,
-  see flight.py);
-* **impact** (:func:`impact_stage`): every joint within the contact band
-  ``g <= 2 contact_tol`` at the event time is a contact of one impact; the
-  impulses come from :func:`gibbsimpact.impact.solve_impulses` (rounds of
-  Newton's law, never raising the kinetic energy).
+  steps the equations of motion (constrained by the resting pairs); one terminal
+  event per (contact point, wall) pair, ``g_w(p(q(t)))``, direction -1, located
+  at step ends *and inside steps* (a dip of a gap between two accepted steps is
+  found from the dense output, see flight.py), plus the events of the resting pairs.
 
 Event-loop rules (each one has a test in tests/test_simulate.py):
 
@@ -338,10 +345,11 @@ def simulate(
     lipschitz = 1.0 + 2.0 * sum(ld.length for ld in model.link_data)
     recorder = Recorder(model, t0, q0, qdot0, len(walls))
     band = contact_band(contact_tol, lipschitz, rtol, atol, q0)
-    monitor = Accumulation((len(walls), contacts.n_cols), int(zeno_count), zeno_interval, band)
+    monitor = Accumulation((len(walls), contacts.n_cols), int(zeno_count), zeno_interval, band, contacts.names)
     resting = RestingContacts(model, walls, contact_tol, grazing_velocity, contacts.n_cols)
     rest = accumulation == "rest" and bool(walls)
     release = forced = None  # (W, J) masks for the next mode decision: a released pair, an accumulation
+    slipping = None  # {(wall, point): direction} of a pair whose "slip" event ended the phase
     settled_at = None  # time of the last accumulation resolved into resting contact
     status, message = STATUS_FINISHED, f"reached t_end = {t_end:g} s"
     t, y, phase = t0, np.concatenate((q0, qdot0, np.zeros(2 if driven else 0))), 0
@@ -360,7 +368,7 @@ def simulate(
         cand = resting.candidates(g, v, band, grazing_velocity, release, forced)
         if len(cand) == 0 and not resting.any():
             return y
-        q, qd = resting.decide(q, qd, applied(t, q, qd), cand)
+        q, qd = resting.decide(q, qd, applied(t, q, qd), cand, slipping)
         monitor.streak[resting.active] = 0
         y = np.concatenate((q, qd, y[2 * N:]))
         recorder.mode(t, q, qd, phase, *(f[:, :P] for f in resting.force_matrix(q, qd, applied(t, q, qd))))
@@ -392,7 +400,8 @@ def simulate(
                             # An accumulation: resting contact of its pairs, unless that cannot be.
                             forced = monitor.recent_pairs() & resting.can_rest
                             why = ("accumulation='stop'" if not rest else
-                                   "its contact points cannot rest (tips of prismatic hosts)" if not forced.any() else
+                                   "resting contact is modelled for joints only, not for a link's span or the "
+                                   "tip of a prismatic host" if not forced.any() else
                                    "resting contact did not resolve it" if settled_at == t else None)
                             if why is not None:
                                 status, message = STATUS_ZENO, f"{stop}; stopped ({why}); results up to here are kept"
@@ -408,7 +417,7 @@ def simulate(
                 # Stage 2: contact mode (resting.py), after an impact stage, a release or a drift event.
                 if pending_mode:
                     y = mode_stage(t, y, phase)
-                    release = forced = None
+                    release = forced = slipping = None
                     pending_mode = False
                 if t >= t_end:
                     break
@@ -482,6 +491,9 @@ def simulate(
                     if kind == "release":
                         release = np.zeros(resting.active.shape, dtype=bool)
                         release[w_i, j] = True
+                    elif kind == "slip":
+                        qe, qde = y[:N], y[N:2 * N]
+                        slipping = {(w_i, j): resting.slip_direction(qe, qde, applied(t, qe, qde), (w_i, j))}
                     pending_mode = True
                     continue
                 if w_i == len(walls):
