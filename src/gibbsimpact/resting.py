@@ -280,7 +280,9 @@ class RestingContacts:
         return d.qdd_free + MinvB @ lam, lam_n, F_t, lam_t, power
 
     def acceleration(self, q, qd, Q=None):
-        """(qddot (N,), lambda_n (k,) [N], F_t (k, 3) [N], friction power (k,) [W]) of the active pairs."""
+        """Equations (3)/(6) for the active pairs at (q, qd) with forces Q (N,) or None, cached per state:
+        (qddot (N,), lambda_n (k,) [N], F_t (k, 3) [N], friction power (k,) [W], lambda_t (k, 2) [N]
+        of sticking pairs in their tangent basis, the ConstraintData)."""
         key = (q.tobytes(), qd.tobytes(), None if Q is None else Q.tobytes())
         if self._cache[0] == key:
             return self._cache[1]
