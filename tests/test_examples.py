@@ -19,6 +19,7 @@ T_END = {
     "fixed_base_fe_arm.py": 0.25,                # tip strikes at 0.194 s, chatter, zeno
     "symbolic_equations.py": 0.1,
     "telescoping_arm.py": 0.4,                   # first end-stop impact at 0.386 s
+    "rod_on_a_frictional_incline.py": 1.5,       # 13 bounces, then resting: sticks (mu 0.6) / slides (mu 0.2)
 }
 DEFAULT_T_END = 0.05
 

@@ -114,6 +114,9 @@ _METHODS = tuple(SOLVERS)
 #: Status of a run stopped by a KeyboardInterrupt (Ctrl-C, SIGTERM in the command line);
 #: the Result holds everything computed until then.
 STATUS_INTERRUPTED = "interrupted"
+#: Budget of contact-mode events (release, slip, stick, drift) of one run: a contact mode that keeps
+#: switching without settling ends the run (status "failed") instead of crawling on.
+MAX_MODE_EVENTS = 100_000
 
 
 def _positive(name, v, allow_inf=False):
@@ -296,7 +299,7 @@ def simulate(
         t_span=[t0, t_end], joint_limit=joint_limit, joint_restitution=float(joint_restitution),
         accumulation=accumulation, link_contacts=bool(link_contacts),
     )
-    counters = {"nfev": 0, "n_steps": 0, "n_examined": 0, "resting_time": 0.0}
+    counters = {"nfev": 0, "n_steps": 0, "n_examined": 0, "resting_time": 0.0, "mode_events": 0}
 
     singular = {"message": None}  # diagnosis of the last trial state with a singular M
 
@@ -485,6 +488,12 @@ def simulate(
                     break
                 kind, w_i, j = kinds[out.event]
                 if kind in ("release", "drift", "slip", "stick"):
+                    counters["mode_events"] += 1
+                    if counters["mode_events"] > MAX_MODE_EVENTS:
+                        status = STATUS_FAILED
+                        message = (f"stopped after {MAX_MODE_EVENTS} contact-mode events (release, slip, stick, drift) "
+                                   f"at t = {t:.9g} s: the resting contacts do not settle")
+                        break
                     # A resting pair's force reached zero (it leaves the active set), its drift
                     # reached contact_tol (projection), its friction reached the cone (it slips)
                     # or its slip stopped (it may stick): decide the contact mode again.
