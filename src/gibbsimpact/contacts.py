@@ -17,6 +17,11 @@ from .results import ImpactRecord
 from .walls import tangent_basis
 
 
+def flexible_links(model) -> list:
+    """0-based indices of the links with elastic coordinates: the link columns of Contacts, in order."""
+    return [i for i in range(model.n_links) if model.delta_index[i].size]
+
+
 #: Gap [m] of a link candidate whose closest point is at an end of the link (its end joint stands for it).
 NOT_INTERIOR = 1e300
 
@@ -50,7 +55,7 @@ class Contacts:
     def __init__(self, model, walls, link_contacts=True):
         self.model, self.walls = model, walls
         self.N, self.n_joints = model.n_dof, model.n_joints
-        self.flex = [i for i in range(model.n_links) if model.delta_index[i].size] if (walls and link_contacts) else []
+        self.flex = flexible_links(model) if (walls and link_contacts) else []
         self.n_cols = self.n_joints + len(self.flex)
         # Link minima farther than this from a wall are not refined (a sample's gap: sign exact).
         self.refine_below = 0.01 * (1.0 + sum(ld.length for ld in model.link_data))

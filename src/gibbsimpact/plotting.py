@@ -406,10 +406,12 @@ def _stop_label(result, joint: int, q) -> str:
 def _point_name(model, j: int) -> str:
     """'O2' for contact point j (1-based) of model.contact_point_names; 'link 1' for the closest point
     of a flexible link (contacts.Contacts: the columns after the P points)."""
+    from .contacts import flexible_links
+
     P = model.n_joints
     if j <= P:
         return f"O{j}"
-    flex = [i for i in range(model.n_links) if model.delta_index[i].size]
+    flex = flexible_links(model)
     return f"link {flex[j - P - 1] + 1}" if j - P - 1 < len(flex) else f"point {j}"
 
 

@@ -210,8 +210,7 @@ class RestingContacts:
         restable = np.arange(P) <= model.n_links  # link columns (contacts.py) never rest
         if not isinstance(model.chain.base, str):
             restable[0] = False
-        self.restable = restable
-        self.can_rest = np.broadcast_to(restable[None, :], self.active.shape)
+        self.can_rest = np.broadcast_to(restable[None, :], self.active.shape)  # (W, P): the same for every wall
         grav = float(np.linalg.norm(getattr(model, "gravity", (0.0, 0.0, 0.0))))
         self.force_scale = model.total_mass * grav if grav > 0 else 1.0
         self._cache = (None, None)
