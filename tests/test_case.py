@@ -526,6 +526,15 @@ def test_simulate_overrides_are_held_to_the_ranges(tmp_path):
     assert case.simulate_kwargs(t_end=0.5, output_dt=None)["output_dt"] is None
 
 
+def test_boolean_solver_keys_can_be_overridden(tmp_path):
+    # link_contacts is the one boolean [solver] key: overriding it used to raise KeyError.
+    case = gi.load_case(write(tmp_path, GOOD))
+    assert case.simulate_kwargs(link_contacts=False)["link_contacts"] is False
+    with pytest.raises(CaseError) as info:
+        case.simulate_kwargs(link_contacts="no")
+    assert dict(info.value.problems) == {"link_contacts": "expected true or false, got the string 'no'"}
+
+
 # -- finite elements, a fixed base and inputs -----------------------------------
 
 # A rigid rod on a fixed base, no gravity, driven by a constant motor torque.

@@ -185,6 +185,8 @@ _SOLVER_CHOICES = {
 }
 #: Keyword of Case.simulate that overrides a case-file key -> that key's path.
 OVERRIDE_KEYS = {"t_end": "time.t_end_s", **{kw: f"solver.{key}" for key, (kw, _, _) in SOLVER_KEYS.items()}}
+#: Keyword of a [solver] key -> its kind ("str", "bool", "number").
+_SOLVER_KINDS = {kw: kind for kw, kind, _ in SOLVER_KEYS.values()}
 _METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA", "RK23")
 
 #: Output options with their defaults.
@@ -547,6 +549,11 @@ class Case:
                 v = r.value(v, labels[kw], "str")
                 if v is not _BAD and v not in _SOLVER_CHOICES[kw]:
                     r.add(labels[kw], _choice_message(kw, v))
+                continue
+            if _SOLVER_KINDS.get(kw) == "bool":
+                v = r.value(v, labels[kw], "bool")
+                if v is not _BAD:
+                    solver[kw] = v
                 continue
             v = r.value(v, labels[kw], "number", _range_of(OVERRIDE_KEYS[kw]))
             if v is _BAD:
