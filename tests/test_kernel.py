@@ -266,6 +266,30 @@ def test_compiled_equals_uncompiled(chain, compiled, uncompiled):
     assert not bad, f"{chain}: compiled vs uncompiled beyond {RTOL:g} relative: {bad}"
 
 
+@needs_jit
+@pytest.mark.parametrize("chain", [c for c in CHAINS if CHAINS[c]().kernel_data[3] is _k.REVOLUTE])
+def test_revolute_variant_equals_the_prismatic_one(chain, compiled):
+    # Chains without prismatic joints run the kernel variant compiled without the prismatic
+    # branches (pris = None); the full variant (pris = 1) must give the same numbers on them.
+    model = CHAINS[chain]()
+    fdat, idat, zeros, pris = model.kernel_data
+    assert pris is _k.REVOLUTE and _k.variant(idat) is _k.REVOLUTE
+    rng = np.random.default_rng(11)
+    qs, qds, Qs = (np.concatenate(a) for a in zip(*_states(model, rng)))
+    job = ALL_OBSERVABLES | _k.JOB_SOLVE | _k.JOB_M | _k.JOB_H
+    a = _k.compiled(_k.REVOLUTE)(fdat, idat, qs, qds, Qs[:model.n_dof].copy(), job, _k.REVOLUTE)
+    b = _k.compiled(_k.PRISMATIC)(fdat, idat, qs, qds, Qs[:model.n_dof].copy(), job, _k.PRISMATIC)
+    assert a.shape == b.shape
+    assert _rel(b, a) <= RTOL
+
+
+def test_prismatic_models_select_the_prismatic_variant():
+    for name, build in CHAINS.items():
+        model = build()
+        kinds = {jt.kind for jt in model.chain.joints}
+        assert model.kernel_data[3] is (_k.PRISMATIC if kinds - {"R"} else _k.REVOLUTE), name
+
+
 # -- 2. no recompiles -----------------------------------------------------------------
 
 @needs_jit
@@ -282,17 +306,19 @@ def test_one_signature_and_no_recompiles(compiled):
     kin.joint_positions(model, q[::-1][::-1])
     kin.frames(model, np.repeat(q, 2)[::2], qd)
 
+    # One signature per kernel variant (revolute-only and prismatic chains; ``compiled`` used both).
     kernel = _k.kernel
-    assert hasattr(kernel, "signatures") and len(kernel.signatures) == 1, kernel.signatures
-    fdat, idat, zeros = model.kernel_data
+    assert hasattr(kernel, "signatures") and len(kernel.signatures) == 2, kernel.signatures
+    fdat, idat, zeros, pris = model.kernel_data
+    assert pris is _k.REVOLUTE
     qs, qds = kin.states(q, qd)
-    assert np.all(np.isfinite(kernel(fdat, idat, qs, qds, zeros, _k.JOB_SOLVE)))
+    assert np.all(np.isfinite(kernel(fdat, idat, qs, qds, zeros, _k.JOB_SOLVE, pris)))
     bad_calls = {
-        "float32 states": (fdat, idat, qs.astype(np.float32), qds, zeros, _k.JOB_SOLVE),
-        "non-contiguous states": (fdat, idat, np.repeat(qs, 2)[::2], qds, zeros, _k.JOB_SOLVE),
-        "non-contiguous fdat": (np.repeat(fdat, 2)[::2], idat, qs, qds, zeros, _k.JOB_M),
-        "int32 idat": (fdat, idat.astype(np.int32), qs, qds, zeros, _k.JOB_M),
-        "2-d states": (fdat, idat, qs.reshape(1, -1), qds, zeros, _k.JOB_M),
+        "float32 states": (fdat, idat, qs.astype(np.float32), qds, zeros, _k.JOB_SOLVE, pris),
+        "non-contiguous states": (fdat, idat, np.repeat(qs, 2)[::2], qds, zeros, _k.JOB_SOLVE, pris),
+        "non-contiguous fdat": (np.repeat(fdat, 2)[::2], idat, qs, qds, zeros, _k.JOB_M, pris),
+        "int32 idat": (fdat, idat.astype(np.int32), qs, qds, zeros, _k.JOB_M, pris),
+        "2-d states": (fdat, idat, qs.reshape(1, -1), qds, zeros, _k.JOB_M, pris),
     }
     for what, args in bad_calls.items():
         try:
@@ -301,7 +327,7 @@ def test_one_signature_and_no_recompiles(compiled):
             assert "No matching definition" in str(exc), (what, exc)
         else:
             pytest.fail(f"the kernel accepted {what} (compiled a new signature or converted)")
-    assert len(kernel.signatures) == 1, kernel.signatures
+    assert len(kernel.signatures) == 2, kernel.signatures
 
 
 @needs_jit

@@ -92,7 +92,7 @@ import time
 import numpy as np
 
 # -- data layout --------------------------------------------------------------
-# idat: [n, N, base kind, X, 0, 0, 0, 0] + per coordinate (N rows of _CI ints)
+# idat: [n, N, base kind, X, prismatic (0/1), 0, 0, 0] + per coordinate (N rows of _CI ints)
 #       (X: extra contact points, the tips of host links whose child joint is prismatic)
 #       + per link (n rows of _LI ints)
 _H = 8
@@ -136,6 +136,7 @@ def pack(model):
     idat = np.zeros(_H + _CI * N + _LI * n, dtype=np.int64)
     idat[0], idat[1], idat[2] = n, N, base_kind
     idat[3] = sum(1 for i, jt in enumerate(model.chain.joints) if i > 0 and jt.kind != "R")
+    idat[4] = int(any(jt.kind != "R" for jt in model.chain.joints))  # the kernel variant (variant())
     ci = idat[_H:_H + _CI * N].reshape(N, _CI)
     li = idat[_H + _CI * N:].reshape(n, _LI) if n else np.zeros((0, _LI), dtype=np.int64)
     ci[:, 3] = -1
@@ -776,11 +777,11 @@ def _pb_step(fdat, idat, link, q, qd, vel, B, w, ss):
             B[w + 1, r, 3] += a * B[w + 1, r, 0] + dd * B[w, r, 0]
 
 
-def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w):
+def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w, pris):
     """Frames of the n links and of the tip into B[ts + i], i = 0 .. n (and their
     time derivatives into B[tds + i], B[tdds + i] when vel); twists into B[ss + c].
 
-    B[w .. w + _W_SIZE) is work space.
+    B[w .. w + _W_SIZE) is work space. pris: None in the all-revolute variant (see kernel).
     """
     n = idat[0]
     N = idat[1]
@@ -808,7 +809,7 @@ def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w):
         # R and Pb joints sit at the host's tip: the host's end E_(i-1) first (formulation.md 10).
         if i > 0 and jk != JOINT_PA:
             _end_step(fdat, idat, i - 1, q, qd, vel, B, w, ss)
-        if jk == JOINT_R:
+        if pris is None or jk == JOINT_R:
             _rot_step(B, w, ss + th, idat[_H + _CI * th + 1], q[th], qd[th], vel)
         elif jk == JOINT_PA:
             _pa_step(fdat, idat, i, q, qd, vel, B, w, ss)
@@ -941,7 +942,7 @@ def _own(idat, link, q, qd, k):
     return 1, 0.0, qd[idat[base + 2]]
 
 
-def _link_body(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, so):
+def _link_body(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, so, pris):
     """Body moments of ``link`` at delta, deltadot; returns (ms, src, o_cx): the number of own
     shapes and where their moments cx, c1, Mpsi live (fdat, or SD[so:] for a Pb link).
 
@@ -954,7 +955,7 @@ def _link_body(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, so):
     base = _H + _CI * N + _LI * link
     m = idat[base]
     off = idat[base + 3]
-    if idat[base + 5] == JOINT_PB:
+    if pris is not None and idat[base + 5] == JOINT_PB:
         _pb_moments(fdat, idat, link, q, qd, SD, so)
         src = SD
         o_cx = so
@@ -1005,7 +1006,7 @@ def _mmax(idat):
 
 # -- dynamics -------------------------------------------------------------------------
 
-def assemble(fdat, idat, q, qd, vel, M, h, dV):
+def assemble(fdat, idat, q, qd, vel, M, h, dV, pris):
     """M (N, N), and h (N,) when vel, and dV/dq (N,) (module docstring, items 2-4).
 
     h and dV must be zero on entry.
@@ -1027,7 +1028,7 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
     kP = WK + 20
     kPv = WK + 21
     kX = WK + 22
-    chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK)
+    chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK, pris)
     MUC = 0
     YY = n1
     EE = n1 + N
@@ -1042,9 +1043,9 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
         m = idat[base]
         d0 = idat[base + 1]
         off = idat[base + 3]
-        pb = idat[base + 5] == JOINT_PB
+        pb = pris is not None and idat[base + 5] == JOINT_PB
         so = i * SDS
-        ms, src, o_cx = _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV, SD, so)
+        ms, src, o_cx = _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV, SD, so, pris)
         # Pi_i = T P T^T;  mu_i = T m_r
         _mm(B, TS + i, kP, kX)
         _mmt(B, kX, TS + i, PIC + i)
@@ -1155,7 +1156,7 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
                     val += fdat[idat[bl + 3] + 21 + 2 * m + m * la + lb]
             f2a = idat[_H + _CI * a + 5]
             f2b = idat[_H + _CI * b + 5]
-            if f2a >= 0 or f2b >= 0:
+            if pris is not None and (f2a >= 0 or f2b >= 0):
                 # second twists: S_a(j) = S_a + [j >= f2_a] S2_a on frame j
                 for pa in range(2):
                     if pa == 1 and f2a < 0:
@@ -1191,7 +1192,7 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV):
                     x += B[SS + c, r, k] * B[FC + fc, k, r]
             h[c] += x
         f2 = idat[_H + _CI * c + 5]
-        if f2 >= 0:
+        if pris is not None and f2 >= 0:
             # the second twist's share: -g~ . (S2_c mu^c_f2) and tr(S2_c F^c_f2)
             s = 0.0
             for r in range(3):
@@ -1270,7 +1271,7 @@ def _cholesky_solve(M, b):
     return x, (2 if dmin < 1e-7 * dmax else 0), dmin, dmax
 
 
-def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out, SD):
+def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out, SD, pris):
     """out (12,): kinetic, gravity, strain energy [J]; linear momentum L [kg m/s];
     angular momentum about the origin H0 [kg m^2/s]; first moment sum T m_r [kg m].
 
@@ -1298,7 +1299,7 @@ def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out, SD):
         m = idat[base]
         d0 = idat[base + 1]
         off = idat[base + 3]
-        ms, src, o_cx = _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV, SD, i * SDS)
+        ms, src, o_cx = _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV, SD, i * SDS, pris)
         T = ts + i
         Td = tds + i
         # Kinetic energy: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) here, the modal part below.
@@ -1317,7 +1318,7 @@ def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out, SD):
             al, dl, vl = _own(idat, i, q, qd, l)
             out[0] += 0.5 * vl * V[QDV + l, al]
             V[MRD, al] += vl * src[o_cx + ms + l]
-        if idat[base + 5] == JOINT_PB:
+        if pris is not None and idat[base + 5] == JOINT_PB:
             out[2] += SD[i * SDS + 3 * ms + ms * ms + 4 + m + 1]
         else:
             for l in range(m):
@@ -1376,7 +1377,7 @@ def layout(n, N, K, job, npts):
     return off
 
 
-def kernel(fdat, idat, qs, qds, Q, job):
+def kernel(fdat, idat, qs, qds, Q, job, pris):
     """The one compiled entry point: everything the package computes from states.
 
     qs, qds: K states q and qdot one after the other, (K N,) each; Q: applied
@@ -1414,7 +1415,7 @@ def kernel(fdat, idat, qs, qds, Q, job):
         M = np.zeros((N, N))
         h = np.zeros(N)
         dV = np.zeros(N)
-        assemble(fdat, idat, q, qd, (job & (JOB_H | JOB_SOLVE)) != 0, M, h, dV)
+        assemble(fdat, idat, q, qd, (job & (JOB_H | JOB_SOLVE)) != 0, M, h, dV, pris)
         o = L[_S_M]
         if L[_S_M + 1] > o:
             for i in range(N):
@@ -1455,9 +1456,9 @@ def kernel(fdat, idat, qs, qds, Q, job):
         for i in range(N):
             q[i] = qs[N * k + i]
             qd[i] = qds[N * k + i]
-        chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK)
+        chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK, pris)
         if job & (JOB_ENERGY | JOB_MOMENTUM):
-            _link_observables(fdat, idat, q, qd, B, TS, TDS, WK, V, part, SD)
+            _link_observables(fdat, idat, q, qd, B, TS, TDS, WK, V, part, SD, pris)
             if job & JOB_ENERGY:
                 o = L[_S_EN] + 3 * k
                 for a in range(3):
@@ -1492,7 +1493,7 @@ def kernel(fdat, idat, qs, qds, Q, job):
                                 for b in range(3):
                                     s += B[SS + N + c, a, b] * B[TS + j, b, 3]
                             out[o + N * a + c] = s
-        if job & (JOB_POINTS | JOB_JACOBIANS):
+        if pris is not None and job & (JOB_POINTS | JOB_JACOBIANS):
             _extra_points(fdat, idat, q, B, TS, SS, out, L[_S_PTS], L[_S_JAC], job, npts, k)
     return out
 
@@ -1545,11 +1546,18 @@ def _extra_points(fdat, idat, q, B, ts, ss, out, o_pts, o_jac, job, npts, k):
 
 
 # -- compilation ----------------------------------------------------------------------
-# The entry point called from Python gets an explicit signature (C-contiguous
-# float64 / int64 arrays): compiled once, then frozen (no silent recompiles for
-# other types). Every entry point is linked and optimised with all the code it
+# The entry point called from Python gets explicit signatures (C-contiguous
+# float64 / int64 arrays): each compiled once, then frozen (no silent recompiles
+# for other types). Every entry point is linked and optimised with all the code it
 # calls, so fewer entry points compile faster. Helpers are compiled for the types
 # their callers use; called from Python they run uncompiled.
+#
+# Two variants of the one source, told apart by the type of the last argument
+# ``pris``: ``None`` for chains whose joints are all revolute, an int64 (1) for
+# chains with a prismatic joint. ``pris is None`` is known while numba compiles,
+# so it removes the prismatic branches (_pa_step, _pb_step, _pb_moments,
+# _extra_points, the second twists) before they are typed: a model without
+# prismatic joints never compiles them. Each variant compiles on its first use.
 _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_skew", "_skew3",
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
             "_joint_field", "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
@@ -1557,15 +1565,24 @@ _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_sk
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
-_ENTRIES = {"kernel": f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64)"}
-_state = {"ready": False, "cached": None, "seconds": 0.0, "kernel": None}
+#: The entry's signature per variant (the type of ``pris``): REVOLUTE = None, PRISMATIC = 1.
+REVOLUTE, PRISMATIC = None, 1
+_VARIANT_TYPE = {REVOLUTE: "none", PRISMATIC: "int64"}
+_VARIANT_NAME = {REVOLUTE: "revolute joints", PRISMATIC: "prismatic joints"}
+_ENTRY_SIG = f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64, {{}})"
+_state = {"ready": set(), "cached": None, "seconds": {}, "kernel": None, "jitted": False}
 _PY_KERNEL = kernel  # the plain-Python entry point (the global is replaced by the compiled one)
 _lock = threading.Lock()
 NOTICE_AFTER_S = 1.0
 
 
-def _compile_all():
-    """Replace this module's kernel functions by numba dispatchers (compiled or loaded)."""
+def variant(idat) -> int | None:
+    """The kernel variant for a packed model: PRISMATIC if any joint is prismatic, else REVOLUTE."""
+    return PRISMATIC if idat[4] else REVOLUTE
+
+
+def _jit_helpers():
+    """Replace this module's helpers and entry point by numba dispatchers (nothing compiled yet)."""
     g = globals()
     try:
         import numba
@@ -1574,80 +1591,101 @@ def _compile_all():
         import warnings
 
         warnings.warn("numba is not installed: gibbsimpact's kernel runs as plain Python (about 1000x "
-                      "slower); install it with 'pip install numba'", RuntimeWarning, stacklevel=3)
+                      "slower); install it with 'pip install numba'", RuntimeWarning, stacklevel=4)
         _state["cached"] = False
         return
     cached = True
 
-    def jit(f, sig=None):
+    def jit(f):
         nonlocal cached
         kw = dict(cache=cached, nogil=True)
         try:
-            return numba.njit(sig, **kw)(f) if sig else numba.njit(**kw)(f)
+            return numba.njit(**kw)(f)
         except RuntimeError as exc:  # read-only install and no user cache directory
             if "cannot cache" not in str(exc):
                 raise
             cached = False
-            return numba.njit(sig, nogil=True)(f) if sig else numba.njit(nogil=True)(f)
+            return numba.njit(nogil=True)(f)
 
     for name in _HELPERS:
         if name in _SHARED:
-            # Called from several functions: one dispatcher compiles it once (an overload
-            # would be typed and lowered again for every caller).
+            # Called from several functions: one dispatcher compiles it once per variant (an
+            # overload would be typed and lowered again for every caller).
             g[name] = jit(g[name])
             continue
         # Compiled inside the entry points that call them (no wrapper, no separate finalisation).
         numba.extending.register_jitable(g[name])
-    for name, sig in _ENTRIES.items():
-        g[name] = jit(g[name], sig)
-        if hasattr(g[name], "disable_compile"):
-            g[name].disable_compile()
+    g["kernel"] = jit(g["kernel"])
     _state["cached"] = cached
 
 
-def compiled():
-    """The compiled entry point ``kernel`` (compiling or loading it on first use)."""
+def _compile_variant(pris):
+    """Compile (or load from numba's cache) the entry point's signature of variant ``pris``."""
+    if not _state["jitted"]:
+        _jit_helpers()
+        _state["jitted"] = True
+    d = globals()["kernel"]
+    if not hasattr(d, "disable_compile"):  # no numba
+        return
+    d.disable_compile(False)
+    try:
+        d.compile(_ENTRY_SIG.format(_VARIANT_TYPE[pris]))
+    finally:
+        d.disable_compile()
+
+
+def compiled(pris=PRISMATIC):
+    """The entry point ``kernel`` with variant ``pris`` compiled (or loaded) on first use.
+
+    Call it as ``compiled(pris)(fdat, idat, qs, qds, Q, job, pris)``, pris = variant(idat).
+    """
     f = _state["kernel"]
-    if f is None:
-        ensure_compiled()
+    if f is None or pris not in _state["ready"]:
+        ensure_compiled(pris)
         f = _state["kernel"] = globals()["kernel"]
     return f
 
 
-def _cache_is_warm():
-    """True if numba's on-disk cache holds a valid entry for ``kernel`` (False: a compile
-    is coming; None: cannot tell)."""
+def _cache_is_warm(pris):
+    """True if numba's on-disk cache holds a valid entry of variant ``pris`` (False: a
+    compile is coming; None: cannot tell)."""
     try:
         import numba
 
         probe = numba.njit(cache=True)(_PY_KERNEL)
         # The index is keyed by the source file's stamp: a stale one loads as empty.
-        return bool(probe._cache._cache_file._load_index())
+        index = probe._cache._cache_file._load_index()
+        want = str(_VARIANT_TYPE[pris])
+        return any(str(key[0][-1]) == want for key in index)
     except Exception:  # no cache location, numba internals changed, JIT disabled ...
         return None
 
 
-def ensure_compiled():
-    """Compile the kernel on first use (or load it from numba's cache); cheap afterwards.
+def ensure_compiled(pris=PRISMATIC):
+    """Compile variant ``pris`` of the kernel on first use (or load it from numba's cache);
+    cheap afterwards.
 
-    A one-line notice goes to stderr before a compile (about 20-30 s of CPU);
-    loading from the cache (~0.5 s) is silent. If the cache state cannot be
-    read, the notice appears once compiling has taken NOTICE_AFTER_S.
+    A one-line notice goes to stderr before a compile (about 20 s of CPU for the
+    revolute variant, 30 s for the prismatic one); loading from the cache (~0.5 s) is
+    silent. If the cache state cannot be read, the notice appears once compiling has
+    taken NOTICE_AFTER_S.
     """
-    if _state["ready"]:
+    if pris in _state["ready"]:
         return
     with _lock:
-        if _state["ready"]:
+        if pris in _state["ready"]:
             return
         t0 = time.perf_counter()
         shown = []
+        what = _VARIANT_NAME[pris]
+        cost = "about 20 s" if pris is REVOLUTE else "about 30 s"
 
         def notice():
             shown.append(True)
-            print("gibbsimpact: compiling the dynamics kernel (first use; about 20-30 s of CPU) ...",
+            print(f"gibbsimpact: compiling the dynamics kernel for {what} (first use; {cost} of CPU) ...",
                   file=sys.stderr, flush=True)
 
-        warm = None if jit_disabled() else _cache_is_warm()
+        warm = None if jit_disabled() else _cache_is_warm(pris)
         timer = None
         if warm is False:
             notice()
@@ -1656,16 +1694,17 @@ def ensure_compiled():
             timer.daemon = True
             timer.start()
         try:
-            _compile_all()
+            _compile_variant(pris)
         finally:
             if timer is not None:
                 timer.cancel()
-        _state["seconds"] = time.perf_counter() - t0
-        _state["ready"] = True
+        _state["seconds"][pris] = time.perf_counter() - t0
+        _state["ready"].add(pris)
         if shown:
             where = (" and cached for later runs" if _state["cached"] else
                      " (not cached: no writable cache directory; set NUMBA_CACHE_DIR to one)")
-            print(f"gibbsimpact: kernel ready in {_state['seconds']:.1f} s{where}", file=sys.stderr, flush=True)
+            print(f"gibbsimpact: kernel ready in {_state['seconds'][pris]:.1f} s{where}", file=sys.stderr,
+                  flush=True)
 
 
 def jit_disabled() -> bool:

@@ -720,18 +720,19 @@ class Model:
 
     @property
     def kernel_data(self):
-        """(fdat (F,), idat (I,), zeros (N,)): the model packed for the compiled kernel (built once)."""
+        """(fdat (F,), idat (I,), zeros (N,), pris): the model packed for the compiled kernel (built once);
+        pris is the kernel variant (gibbsimpact.kernel.variant: None without prismatic joints)."""
         try:
             return self._kernel_data
         except AttributeError:
             data = None
         if data is None:
-            from .kernel import pack
+            from .kernel import pack, variant
 
             fdat, idat = pack(self)
             # Writable on purpose: numba types read-only arrays differently (a recompile).
             zeros = np.zeros(self.n_dof)
-            data = self._kernel_data = (fdat, idat, zeros)
+            data = self._kernel_data = (fdat, idat, zeros, variant(idat))
         return data
 
     @property

@@ -422,15 +422,28 @@ def _drain(completed, futures: dict, tasks: list, on_done) -> None:
         on_done(i, outcome)
 
 
+def _kernel_variant(task: dict):
+    """The kernel variant (gibbsimpact.kernel.variant) of a task's model; the prismatic one if
+    the task's case is invalid (its run reports that itself)."""
+    from .kernel import PRISMATIC
+
+    try:
+        case = case_from_dict(copy.deepcopy(task["data"]), name=task["name"], source=task["source"],
+                              path=task["path"])
+    except CaseError:
+        return PRISMATIC
+    return case.model.kernel_data[3]
+
+
 def _execute_pool(tasks: list, pending: list, on_done, workers: int) -> None:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     from .kernel import ensure_compiled
 
-    # Compile (first use) or load the kernel here once, so that the workers load it
-    # from numba's on-disk cache instead of all compiling it at the same time.
-    ensure_compiled()
+    # Compile (first use) or load the kernel's variant of these runs here once, so that the
+    # workers load it from numba's on-disk cache instead of all compiling it at the same time.
+    ensure_compiled(_kernel_variant(tasks[pending[0]]))
     pool = ProcessPoolExecutor(max_workers=min(workers, len(pending)),
                                mp_context=multiprocessing.get_context("spawn"))
     try:
