@@ -348,6 +348,24 @@ def test_read_only_applied_forces_and_wrong_sizes():
         dy.mass_matrix(model, q[:-2])
 
 
+@needs_jit
+def test_no_compile_notice_when_the_cache_is_warm(compiled):
+    # ``compiled`` compiled (or loaded) both variants; with a cache location they are on disk,
+    # so a new process loads them silently (the notice is for a real compile only).
+    if not _k._state["cached"]:
+        pytest.skip("numba has no cache location here")
+    assert _k._cache_is_warm(_k.REVOLUTE) is True and _k._cache_is_warm(_k.PRISMATIC) is True
+    code = ("import sys; sys.path.insert(0, %r); import numpy as np, test_kernel as tk; "
+            "from gibbsimpact import dynamics as dy; "
+            "[dy.forward_dynamics(m, *tk.random_state(m, np.random.default_rng(0))) "
+            "for m in (tk.two_link_circle_model(), tk.CHAINS['prismatic_planar']())]" % str(TESTS_DIR))
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_JIT"}
+    run = subprocess.run([sys.executable, "-c", code], check=False, env=env, cwd=TESTS_DIR, capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert "compiling" not in run.stderr, run.stderr
+
+
 # -- 3. a read-only install -----------------------------------------------------------
 
 _RO_SCRIPT = r"""

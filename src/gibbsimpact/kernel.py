@@ -1655,8 +1655,9 @@ def _cache_is_warm(pris):
         probe = numba.njit(cache=True)(_PY_KERNEL)
         # The index is keyed by the source file's stamp: a stale one loads as empty.
         index = probe._cache._cache_file._load_index()
-        want = str(_VARIANT_TYPE[pris])
-        return any(str(key[0][-1]) == want for key in index)
+        # Keys: (signature text, codegen's magic tuple, ...); the variant is the last argument.
+        want = f", {_VARIANT_TYPE[pris]})"
+        return any(str(key[0]).endswith(want) for key in index)
     except Exception:  # no cache location, numba internals changed, JIT disabled ...
         return None
 

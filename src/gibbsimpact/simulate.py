@@ -317,12 +317,16 @@ def simulate(
         f = forces_in(t, q, qd)
         return None if f is None else f[0] + f[1]
 
+    # Whether the current phase has pairs in resting contact: fixed during a phase (its
+    # events end it), set before each flight stage.
+    in_phase = {"resting": False}
+
     def rhs(t, y):
         counters["nfev"] += 1
         clock.tick(t)
-        q, qd = y[:N], y[N:2 * N]
         try:
-            if resting.any():
+            q, qd = y[:N], y[N:2 * N]
+            if in_phase["resting"]:
                 # A contact phase: equations (3), (6) of resting.py; friction's power joins the damping's.
                 f = forces_in(t, q, qd)
                 qdd, _, _, power, *_ = resting.acceleration(q, qd, None if f is None else f[0] + f[1])
@@ -440,6 +444,7 @@ def simulate(
                 if resting.any():
                     extra, release_kinds = resting.release_events(applied)
                     kinds = kinds + release_kinds
+                in_phase["resting"] = resting.any()
                 try:
                     flown = out = integrate_phase(
                         rhs, t, y, t_end, events, gap_matrix, method=method, rtol=rtol, atol=atol,
