@@ -130,6 +130,10 @@ def test_friction_is_checked_and_stored(tmp_path):
         gi.Plane((0, 0, 0), (0, 1, 0), friction=-0.1)
     with pytest.raises(ValueError, match="Circle friction"):
         gi.Circle(1.0, friction=float("nan"))
+    # The same bound as the case files' walls.friction (it used to be accepted from Python).
+    with pytest.raises(ValueError, match=r"Sphere friction=101 must be a finite number >= 0 and <= 100"):
+        gi.Sphere(1.0, friction=101)
+    assert gi.Sphere(1.0, friction=100).friction == 100.0
     model = planar_rod()
     walls = [gi.Plane((0, 0, 0), (0, 1, 0), friction=0.3), gi.Circle(5.0, friction=0.2), gi.Sphere(9.0, friction=1.0)]
     res = gi.simulate(model, model.state(X2=0.05, theta_1=0.4), model.state(X1=1.0), (0.0, 0.15), walls=walls,

@@ -37,7 +37,7 @@ from .inputs import INPUT_KINDS, InputSpec, is_angle_coordinate, named_inputs
 from .limits import joint_limits, limit_gaps
 from .model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
 from .modes import MODE_DIRECTIONS, MODE_KINDS, Mode, natural_frequency
-from .walls import Circle, Plane, Sphere, describe
+from .walls import MAX_FRICTION, Circle, Plane, Sphere, describe
 
 __all__ = ["Case", "CaseError", "load_case", "case_from_dict", "SOLVER_KEYS", "RANGES", "Range"]
 
@@ -101,7 +101,7 @@ RANGES = {
     "walls.point_m": Range(-1e6, 1e6, "m"),
     "walls.normal": Range(1e-6, 1e6, direction=True, why="it is normalised on load"),
     "walls.restitution": Range(0, 1, why="1 = elastic, 0 = plastic"),
-    "walls.friction": Range(0, 100, why="Coulomb's coefficient; 0 = frictionless"),
+    "walls.friction": Range(0, MAX_FRICTION, why="Coulomb's coefficient; 0 = frictionless"),
     **{f"inputs.{key}": rng for key, rng in {
         # {F}: N_m on an angle coordinate, N on a length coordinate (_INPUT_KEYS).
         "value_N_m": Range(-1e12, 1e12, "N m", why="far beyond any machine, far from overflow"),

@@ -752,7 +752,13 @@ class Model:
         the tip of every host link whose child joint i >= 2 is prismatic: that tip is
         not a frame origin (a carriage rides along the host; a guide sits at its tip).
         """
-        return self._chain.n_links + 1 + sum(1 for i, j in enumerate(self._chain.joints) if i > 0 and j.kind != "R")
+        try:
+            return self._n_joints  # computed once: the event layer asks for it at every gap evaluation
+        except AttributeError:
+            pass
+        P = self._n_joints = self._chain.n_links + 1 + sum(
+            1 for i, j in enumerate(self._chain.joints) if i > 0 and j.kind != "R")
+        return P
 
     @property
     def contact_point_names(self) -> tuple:

@@ -23,9 +23,15 @@ def _check_restitution(name, e):
     return float(e)
 
 
+#: Largest accepted Coulomb coefficient (the same bound as the case files' walls.friction):
+#: beyond it the friction cone is a sticking constraint in all but name.
+MAX_FRICTION = 100.0
+
+
 def _check_friction(name, mu):
-    if isinstance(mu, bool) or not isinstance(mu, Real) or not np.isfinite(mu) or mu < 0:
-        raise ValueError(f"{name} friction={mu!r} must be a finite number >= 0 (Coulomb's coefficient; 0 = frictionless)")
+    if isinstance(mu, bool) or not isinstance(mu, Real) or not np.isfinite(mu) or not 0 <= mu <= MAX_FRICTION:
+        raise ValueError(f"{name} friction={mu!r} must be a finite number >= 0 and <= {MAX_FRICTION:g} (Coulomb's "
+                         f"coefficient; 0 = frictionless)")
     return float(mu)
 
 
