@@ -176,6 +176,8 @@ def test_summary_json_is_strict_and_complete(result, case, tmp_path):
     for key in ("wall_time_s", "nfev", "n_steps", "model", "walls"):
         assert key in d
     assert d["model"]["n_odes"] == 18
+    # Each wall says which restitution it used (its own, or the global one).
+    assert d["walls"] == [f"circle R=1.5 m centre (0, 0), restitution {result.settings['restitution']:g} (global)"]
     assert result.summary(case) == d
 
 

@@ -317,7 +317,10 @@ def summary(result: Result, case=None) -> dict:
         "coordinate_names": list(model.coordinate_names), "total_mass_kg": float(model.total_mass),
         "gravity_m_per_s2": [float(g) for g in model.gravity],
     }
-    d["walls"] = [describe(w) for w in result.walls]
+    e_global = result.settings.get("restitution")
+    d["walls"] = [describe(w) + (f", restitution {w.restitution:g}" if w.restitution is not None else
+                                 f", restitution {e_global:g} (global)" if e_global is not None else "")
+                  for w in result.walls]
     d["settings"] = _json_safe(result.settings)
     d["status"] = result.status
     d["message"] = result.message
