@@ -6,6 +6,8 @@ The rules are stated in gibbsimpact.simulate's module docstring; simulate.py dri
 
 from __future__ import annotations
 
+from math import sqrt
+
 import numpy as np
 
 from .dynamics import energy, mass_matrix
@@ -26,6 +28,36 @@ def flexible_links(model) -> list:
 NOT_INTERIOR = 1e300
 
 
+def _skipped(kind, R, gA, gB, lam, D2, r, pts, ab) -> bool:
+    """The skip rule of one (wall, link) pair (Contacts docstring), in plain floats.
+
+    kind : 0 plane, 1 circle, 2 sphere; R [m] the radius; gA, gB [m] the end joints' gaps;
+    lam = Lam, D2 = 2 D_i [m]; r = refine_below [m]; pts the joint positions (P, 3) [m] (used
+    for a circle or a sphere) and ab the end joints' indices in them.
+    """
+    m = min(gA, gB)
+    if m - D2 > r:                                   # (1)
+        return True
+    t = min(m, r)
+    hA, hB = gA - t, gB - t                          # >= 0
+    if kind == 0:
+        # (3): (sqrt(h_A) + sqrt(h_B))^2 > Lam
+        S = sqrt(hA) + sqrt(hB)
+        return S * S > lam
+    # (4): 4 T > Lam and S^2 + L^2 > 2 T Lam, T = R - t, S = sqrt(h_A (2 T - h_A)) + sqrt(h_B (2 T - h_B))
+    T2 = 2.0 * (R - t)
+    if not 2.0 * T2 > lam:
+        return False
+    pA, pB = pts[ab[0]], pts[ab[1]]
+    dx, dy = pB[0] - pA[0], pB[1] - pA[1]
+    L2 = dx * dx + dy * dy                           # |P (B - A)|^2: P drops X3 for a circle
+    if kind == 2:
+        dz = pB[2] - pA[2]
+        L2 += dz * dz
+    S = sqrt(max(hA * (T2 - hA), 0.0)) + sqrt(max(hB * (T2 - hB), 0.0))
+    return S * S + L2 > T2 * lam
+
+
 class Contacts:
     """Gaps, normals and Jacobians of every (wall, contact point) pair (formulation.md 5; issue 9 item 2).
 
@@ -39,18 +71,64 @@ class Contacts:
 
     link_contacts=False: joints only (C = P), the model of the published case studies.
 
-    Cost: a link is searched only where it can be near a wall. Along the undeformed axis of
-    link i the gap is linear (plane) or concave (circle, sphere), so it is at least the
-    smaller gap of the axis' ends; the deflection moves a point by at most
-    D_i = sum_k max_x|psi_k(x)| |delta_k| (|grad g| = 1), and the end joints lie within D_i
-    of the axis' ends, so
+    Cost: a link is searched (gibbsimpact.linkpoints.closest_points) only where its column can
+    hold a gap <= refine_below; elsewhere it gets NOT_INTERIOR without a search (skip rule
+    below). Notation: s in [0, 1] along the link's search interval (x = s l_i; on a Pb link
+    the protruding part, x = l_i - d + s d), u = s (1 - s), p(s) [m] the material points,
+    G(s) = g(p(s)) [m] on one wall, the end joints A = p(0), B = p(1) (linkpoints.end_joints;
+    every mode and element shape is 0 at x = 0) with gaps g_A, g_B [m].
 
-        g(p_i(x)) >= min(g(end joints of i)) - 2 D_i  =: bound_i                         (1)
+    * Walls: every gap is concave along a straight line (Plane: linear; Circle, Sphere: the
+      inside, g = R - |P (p - c)| with |P (.)| convex; walls.py has no other kind) and
+      1-Lipschitz (|grad g| = 1).
+    * Chord c(s) = (1 - s) A + s B [m]. The axial coordinate of p(s) in the link frame is
+      linear in s, so p(s) - c(s) = R_i (0, phi(s)), phi = (v, w)(s) - (1 - s) (v, w)(0)
+      - s (v, w)(1) = sum_k e_k phi_k(s), linear in the elastic coordinates (e_k = delta_k; on
+      a Pb link a slope coordinate's e_k = delta_k d / l_i, its shape tabulated at d = l_i),
+      and every phi_k (2,) [m per unit of e_k] is 0 at s = 0 and s = 1, so that
+      lam_k = max over 0 < s < 1 of |phi_k(s)| / u is finite. By the Lipschitz bound,
 
-    A link with bound_i > refine_below on every wall gets NOT_INTERIOR without a search (it
-    cannot touch: its gap is above refine_below > 0 wherever the search is skipped, so the
-    switch between the two never fakes a sign change).
+          G(s) >= g(c(s)) - Lam u,        Lam = sum_k |e_k| lam_k [m]                    (2)
+
+      (the tables of lam_k and of max|psi_k| in (1): 1.1 times their maxima over 4097
+      samples, as the old rule (1) took 1.1 times the maximum over 401).
+
+    Skip rule, per (wall, link), with t = min(g_A, g_B, refine_below), h_A = g_A - t >= 0,
+    h_B = g_B - t >= 0: the pair is skipped when one of these holds, each of which gives
+    G(s) > t for every s in (0, 1):
+
+    * (1) min(g_A, g_B) - 2 D_i > refine_below, D_i = sum_k |e_k| max_x |psi_k(x)| [m]:
+      |phi_k| <= 2 max|psi_k| and g(c(s)) >= min(g_A, g_B) (concavity).
+    * Plane: (sqrt(h_A) + sqrt(h_B))^2 > Lam. g(c(s)) = (1 - s) g_A + s g_B, so by (2)
+
+          G(s) - t >= (1 - s) h_A + s h_B - Lam u = u (h_A / s + h_B / (1 - s) - Lam)
+                   >= u ((sqrt(h_A) + sqrt(h_B))^2 - Lam)                              (3)
+
+      (min over s of a / s + b / (1 - s) is (sqrt(a) + sqrt(b))^2: Cauchy-Schwarz).
+    * Circle, sphere: 4 T > Lam and S^2 + L^2 > 2 T Lam, with T = R - t,
+      S = sqrt(h_A (2 T - h_A)) + sqrt(h_B (2 T - h_B)), L = |P (B - A)| [m]. Here
+      g(c(s)) = R - sqrt(Z), Z = |P (c(s) - c_w)|^2 = (1 - s) rho_A^2 + s rho_B^2 - u L^2
+      exactly (rho = R - g <= T), and G(s) > t follows from T - Lam u > 0 (4 T > Lam) and
+
+          (T - Lam u)^2 - Z >= (1 - s)(T^2 - rho_A^2) + s (T^2 - rho_B^2) + u (L^2 - 2 T Lam)
+                            >= u (S^2 + L^2 - 2 T Lam) > 0                              (4)
+
+      as T^2 - rho_A^2 = h_A (2 T - h_A). (With both joints on the wall: the chord's sagitta
+      L^2 / (8 R) exceeds the largest offset Lam / 4 of the link from its chord.)
+
+    Why a skip never hides a contact: the search returns an interior point s* with
+    G(s*) <= refine_below only as a refined minimum that beats both end samples (linkpoints:
+    by the margin _TIE = 64 eps (1 + max|p|), which also covers the round-off of these
+    bounds' gaps; an unrefined sample is above refine_below), so G(s*) < min(g_A, g_B), and
+    then G(s*) > t would mean G(s*) > refine_below, a contradiction. A skipped pair would thus
+    have held NOT_INTERIOR (always so when min(g_A, g_B) < refine_below: the skip changes
+    nothing then) or a gap above refine_below > 0: its column is never <= refine_below, and
+    the switch between search and skip never fakes a sign change. (3), (4) hold with the
+    joints on the wall (t = g_A or g_B), where (1), the old rule, always searched.
     """
+
+    #: Samples of the tables lam_k, max|psi_k| (their maxima, plus 10 %).
+    _TABLE_SAMPLES = 4097
 
     def __init__(self, model, walls, link_contacts=True):
         self.model, self.walls = model, walls
@@ -62,25 +140,126 @@ class Contacts:
         self._key, self._g = None, None
         self._pkey, self._p = None, None
         if self.flex:
-            from .linkpoints import end_joints
-            from .model import link_deflection
+            self._bound_tables()
 
-            # (1): max_x |psi_k(x)| per elastic coordinate (10 % over a 401-point grid), and the end joints.
-            self._psi_max = np.zeros((len(self.flex), self.N))
-            for f, i in enumerate(self.flex):
-                lk = model.chain.links[i]
-                x = np.linspace(0.0, lk.length, 401)
-                q = np.zeros(self.N)
-                if model.chain.joints[i].kind == "Pb":
-                    q[model.theta_index[i]] = lk.length  # stretching shapes are largest fully out
-                for c in model.delta_index[i]:
-                    q[c] = 1.0
-                    v, w = link_deflection(model, q, i, x)
-                    self._psi_max[f, c] = 1.1 * float(np.max(np.hypot(v, w)))
-                    q[c] = 0.0
-            ends = end_joints(model)[self.flex]
-            self._ends = ends
-            self._always = np.any(ends < 0, axis=1)  # a Pb link on the base guide: no end point, always searched
+    def _bound_tables(self):
+        """Tables of the skip rule (class docstring).
+
+        _table (N, 2 F) [m per unit of e_k]: lam_k of link f in column f, 2 max_x |psi_k(x)|
+        in column F + f (each 1.1 times its sampled maximum); _pairs: per link f its end
+        joints (a, b), or None for a link without an end point (searched always);
+        _wall_kinds: per wall (0 plane, 1 circle, 2 sphere) and R [m]; _pb_slopes:
+        (slope indices, d index, l_i) of the Pb links (e_k = delta_k d / l_i for a slope).
+        """
+        from .linkpoints import end_joints
+        from .model import link_deflection
+        from .walls import Circle, Plane, Sphere
+
+        model, N, F = self.model, self.N, len(self.flex)
+        u = np.linspace(0.0, 1.0, self._TABLE_SAMPLES)
+        inner = slice(1, -1)
+        table = np.zeros((N, 2 * F))
+        self._pb_slopes = []
+        for f, i in enumerate(self.flex):
+            lk = model.chain.links[i]
+            x = u * lk.length
+            q = np.zeros(N)
+            if model.chain.joints[i].kind == "Pb":
+                # d = l: x = l - d + s d = s l; a slope coordinate's shape scales with d (e_k = delta_k d / l).
+                q[model.theta_index[i]] = lk.length
+                self._pb_slopes.append((model.delta_index[i][1::2], model.theta_index[i], lk.length))
+            for c in model.delta_index[i]:
+                q[c] = 1.0
+                v, w = link_deflection(model, q, i, x)
+                q[c] = 0.0
+                # phi_k = (v, w)(s) - (1 - s) (v, w)(0) - s (v, w)(1); lam_k = max |phi_k| / (s (1 - s)).
+                phi = np.hypot(v - (1.0 - u) * v[0] - u * v[-1], w - (1.0 - u) * w[0] - u * w[-1])
+                table[c, f] = 1.1 * float(np.max(phi[inner] / (u[inner] * (1.0 - u[inner]))))
+                table[c, F + f] = 2.0 * 1.1 * float(np.max(np.hypot(v, w)))
+        self._table = table
+        ends = end_joints(model)[self.flex]
+        self._pairs = [None if (a < 0 or b < 0) else (int(a), int(b)) for a, b in ends]
+        kinds = []
+        for w in self.walls:
+            if isinstance(w, Plane):
+                kinds.append((0, 0.0))
+            elif isinstance(w, (Circle, Sphere)):
+                kinds.append((1 if isinstance(w, Circle) else 2, float(w.radius)))
+            else:
+                raise TypeError(f"wall {w!r}: link contacts need gibbsimpact Plane, Circle or Sphere walls")
+        self._wall_kinds = kinds
+        self._need_points = any(k > 0 for k, _ in kinds)
+
+    def _link_bounds(self, qs, g_joints, points):
+        """Inputs of the skip rule as Python lists: Lam and 2 D_i [m] (K, 2 F), the joint gaps
+        g_joints (K, W, P) [m] and positions points (K, P, 3) [m] (None without a curved wall)."""
+        # |e_k| = |delta_k| (a Pb link's slope coordinate: |delta_k| d / l_i); Lam = sum_k |e_k| lam_k,
+        # 2 D_i = sum_k |e_k| 2 max|psi_k|.
+        e = np.abs(qs)
+        for slopes, jd, length in self._pb_slopes:
+            e[:, slopes] *= np.abs(qs[:, jd, None]) / length
+        return (e @ self._table).tolist(), g_joints.tolist(), points.tolist() if self._need_points else None
+
+    def _searched(self, qs, g_joints, points) -> np.ndarray:
+        """(K,) bool: the states qs (K, N) with a (wall, link) pair that the skip rule (class
+        docstring) does not skip: they need a link search. g_joints (K, W, P) [m] and points
+        (K, P, 3) [m] are the joint gaps and positions of the same states.
+
+        Plain float arithmetic per pair (a few pairs per state: cheaper than numpy calls).
+        """
+        F, r = len(self.flex), self.refine_below
+        E, G, Pts = self._link_bounds(qs, g_joints, points)
+        need = np.zeros(len(qs), dtype=bool)
+        for k, (Ek, Gk) in enumerate(zip(E, G)):
+            Pk = Pts[k] if Pts is not None else None
+            for f, ab in enumerate(self._pairs):
+                if ab is None or not all(_skipped(kind, R, Gw[ab[0]], Gw[ab[1]], Ek[f], Ek[F + f], r, Pk, ab)
+                                         for (kind, R), Gw in zip(self._wall_kinds, Gk)):
+                    need[k] = True
+                    break
+        return need
+
+    def skipped(self, q) -> np.ndarray:
+        """(W, F) bool, or (K, W, F) for q (K, N): the (wall, link) pairs that the skip rule
+        (class docstring) proves to have a link column of NOT_INTERIOR or above refine_below."""
+        qs = np.atleast_2d(np.asarray(q, dtype=float))
+        pts = joint_positions_batch(self.model, qs)
+        g = np.stack([w.gap(pts) for w in self.walls], axis=1)
+        F, r = len(self.flex), self.refine_below
+        E, G, Pts = self._link_bounds(qs, g, pts)
+        out = np.array([[[ab is not None and _skipped(kind, R, Gw[ab[0]], Gw[ab[1]], Ek[f], Ek[F + f], r,
+                                                      Pts[k] if Pts is not None else None, ab)
+                          for f, ab in enumerate(self._pairs)]
+                         for (kind, R), Gw in zip(self._wall_kinds, Gk)]
+                        for k, (Ek, Gk) in enumerate(zip(E, G))], dtype=bool).reshape(len(qs), len(self.walls), F)
+        return out if np.ndim(q) == 2 else out[0]
+
+    def _link_gaps(self, qs, g_joints=None, points=None, out=None):
+        """Link columns (K, W, F) [m], the closest points' abscissae x (K, W, F) [m], their normals
+        (K, W, F, 3) and whether they are interior (K, W, F), for the states qs (K, N).
+
+        g_joints, points : (K, W, P) [m] and (K, P, 3) [m], the joint gaps and positions of the
+        same states, for the skip rule (class docstring); None searches every link.
+        out : None, or a (K, W, F) array that receives the link columns (then only they are
+        computed, and None is returned: gaps, gaps_batch).
+        """
+        K, W, F = len(qs), len(self.walls), len(self.flex)
+        need = np.ones(K, dtype=bool) if g_joints is None else self._searched(qs, g_joints, points)
+        details = out is None
+        if details:
+            out = np.full((K, W, F), NOT_INTERIOR)
+            x, nrm, inside = np.zeros((K, W, F)), np.zeros((K, W, F, 3)), np.zeros((K, W, F), dtype=bool)
+        else:
+            out[...] = NOT_INTERIOR
+        if need.any():
+            from .linkpoints import closest_points, interior
+
+            cp = closest_points(self.model, qs[need], self.walls, refine_below=self.refine_below)
+            ins = interior(self.model, qs[need], cp.x)[..., self.flex]
+            out[need] = np.where(ins, cp.gap[..., self.flex], NOT_INTERIOR)
+            if details:
+                x[need], nrm[need], inside[need] = cp.x[..., self.flex], cp.normal[..., self.flex, :], ins
+        return (out, x, nrm, inside) if details else None
 
     def gap_single(self, q: np.ndarray, w: int, c: int, full=None) -> float:
         """g[w, c] at q [m]; a joint column costs one joint-position call (cached per q), not a link search.
@@ -99,39 +278,17 @@ class Contacts:
         """Names of the C columns: the joint points, then "link i" for the closest point of link i."""
         return [f"O{j + 1}" for j in range(self.n_joints)] + [f"link {i + 1}" for i in self.flex]
 
-    def _link_gaps(self, qs, g_joints=None):
-        """Link columns (K, W, F) [m], the closest points' abscissae x (K, W, F) [m], their normals
-        (K, W, F, 3) and whether they are interior (K, W, F), for the states qs (K, N).
-
-        g_joints : (K, W, P) [m] the joint gaps of the same states, for the bound (1); None searches every link.
-        """
-        from .linkpoints import closest_points, interior
-
-        K, W, F = len(qs), len(self.walls), len(self.flex)
-        g = np.full((K, W, F), NOT_INTERIOR)
-        x, nrm, inside = np.zeros((K, W, F)), np.zeros((K, W, F, 3)), np.zeros((K, W, F), dtype=bool)
-        if g_joints is None:
-            need = np.ones(K, dtype=bool)
-        else:
-            D = np.abs(qs) @ self._psi_max.T  # (K, F)
-            ends = np.where(self._ends < 0, 0, self._ends)
-            bound = np.minimum(g_joints[:, :, ends[:, 0]], g_joints[:, :, ends[:, 1]]) - 2.0 * D[:, None, :]
-            need = np.any((bound <= self.refine_below) | self._always[None, None, :], axis=(1, 2))
-        if np.any(need):
-            cp = closest_points(self.model, qs[need], self.walls, refine_below=self.refine_below)
-            ins = interior(self.model, qs[need], cp.x)[..., self.flex]
-            g[need] = np.where(ins, cp.gap[..., self.flex], NOT_INTERIOR)
-            x[need], nrm[need], inside[need] = cp.x[..., self.flex], cp.normal[..., self.flex, :], ins
-        return g, x, nrm, inside
-
     def gaps(self, q: np.ndarray) -> np.ndarray:
         """g (W, C) [m]; cached per q (every event function of a step sees the same q)."""
         key = q.tobytes()
         if key != self._key:
             p = joint_positions(self.model, q)
-            g = np.array([w.gap(p) for w in self.walls]).reshape(len(self.walls), self.n_joints)
+            P = self.n_joints
+            g = np.empty((len(self.walls), self.n_cols))
+            for w_i, w in enumerate(self.walls):
+                g[w_i, :P] = w.gap(p)
             if self.flex:
-                g = np.concatenate((g, self._link_gaps(q[None, :], g[None])[0][0]), axis=1)
+                self._link_gaps(q[None, :], g[None, :, :P], p[None], out=g[None, :, P:])
             self._g = g
             self._key = key
         return self._g
@@ -140,10 +297,13 @@ class Contacts:
         """g (K, W, C) [m] of the states qs (K, N): one kernel call for all of them."""
         if not self.walls:
             return np.zeros((len(qs), 0, self.n_cols))
-        P = joint_positions_batch(self.model, qs)  # (K, J, 3)
-        g = np.stack([w.gap(P) for w in self.walls], axis=1).reshape(len(qs), len(self.walls), self.n_joints)
+        pts = joint_positions_batch(self.model, qs)  # (K, J, 3)
+        P = self.n_joints
+        g = np.empty((len(qs), len(self.walls), self.n_cols))
+        for w_i, w in enumerate(self.walls):
+            g[:, w_i, :P] = w.gap(pts)
         if self.flex:
-            g = np.concatenate((g, self._link_gaps(qs, g)[0]), axis=2)
+            self._link_gaps(qs, g[:, :, :P], pts, out=g[:, :, P:])
         return g
 
     def full(self, q: np.ndarray):
@@ -159,7 +319,7 @@ class Contacts:
         if self.flex:
             from .linkpoints import material_jacobian
 
-            gl, x, nl, inside = (a[0] for a in self._link_gaps(q[None, :], g[None]))
+            gl, x, nl, inside = (a[0] for a in self._link_gaps(q[None, :], g[None], p[None]))
             F = len(self.flex)
             Jl, pl = np.zeros((W, F, 3, self.N)), np.full((W, F, 3), np.nan)
             for w, f in np.argwhere(inside):
