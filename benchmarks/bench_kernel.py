@@ -381,11 +381,11 @@ from gibbsimpact import kernel as K
 case = gi.load_case(sys.argv[1])
 repeats = int(sys.argv[2])
 m = case.model
-fdat, idat, zeros, pris = m.kernel_data
+fdat, idat, zeros, v = m.kernel_data
 N = m.n_dof
-kern = K.compiled(pris)
+kern = K.compiled(v)
 def f(t, y):
-    return kern(fdat, idat, y[:N], y[N:], zeros, K.JOB_SOLVE, pris)[3:3 + 2 * N]
+    return kern(fdat, idat, y[:N], y[N:], zeros, K.JOB_SOLVE, *v)[3:3 + 2 * N]
 kw = case.simulate_kwargs()
 y0 = np.concatenate((case.q0, case.qdot0))
 plain = []
@@ -503,7 +503,7 @@ def cold_start(cfg):
     # What a second run cannot avoid: importing the libraries and loading the cached kernel.
     code = ("import json, time; t0 = time.perf_counter(); import numpy, scipy.integrate, numba; "
             "t1 = time.perf_counter(); import gibbsimpact as gi; from gibbsimpact import kernel as K; "
-            "t2 = time.perf_counter(); K.ensure_compiled(K.REVOLUTE); t3 = time.perf_counter(); "
+            "t2 = time.perf_counter(); K.ensure_compiled(K.RIGID_ENDS); t3 = time.perf_counter(); "
             "print(json.dumps([t1 - t0, t2 - t1, t3 - t2]))")
     p = subprocess.run([sys.executable, "-c", code], env=dict(os.environ, PYTHONPATH=env["PYTHONPATH"]), cwd=ROOT,
                        capture_output=True, text=True, timeout=600, check=False)

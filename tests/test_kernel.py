@@ -267,27 +267,33 @@ def test_compiled_equals_uncompiled(chain, compiled, uncompiled):
 
 
 @needs_jit
-@pytest.mark.parametrize("chain", [c for c in CHAINS if CHAINS[c]().kernel_data[3] is _k.REVOLUTE])
-def test_revolute_variant_equals_the_prismatic_one(chain, compiled):
-    # Chains without prismatic joints run the kernel variant compiled without the prismatic
-    # branches (pris = None); the full variant (pris = 1) must give the same numbers on them.
+@pytest.mark.parametrize("chain", [c for c in CHAINS if CHAINS[c]().kernel_data[3] != _k.PRISMATIC])
+def test_pruned_variants_equal_the_full_one(chain, compiled):
+    # Chains without prismatic joints run a kernel variant compiled without the prismatic
+    # branches (pris = None), and without the moving-end path when every link end is rigid
+    # (ends = None); the full variant (1, 1) must give the same numbers on them.
     model = CHAINS[chain]()
-    fdat, idat, zeros, pris = model.kernel_data
-    assert pris is _k.REVOLUTE and _k.variant(idat) is _k.REVOLUTE
+    fdat, idat, zeros, v = model.kernel_data
+    assert v in (_k.RIGID_ENDS, _k.REVOLUTE) and _k.variant(idat) == v
     rng = np.random.default_rng(11)
     qs, qds, Qs = (np.concatenate(a) for a in zip(*_states(model, rng)))
     job = ALL_OBSERVABLES | _k.JOB_SOLVE | _k.JOB_M | _k.JOB_H
-    a = _k.compiled(_k.REVOLUTE)(fdat, idat, qs, qds, Qs[:model.n_dof].copy(), job, _k.REVOLUTE)
-    b = _k.compiled(_k.PRISMATIC)(fdat, idat, qs, qds, Qs[:model.n_dof].copy(), job, _k.PRISMATIC)
+    a = _k.compiled(v)(fdat, idat, qs, qds, Qs[:model.n_dof].copy(), job, *v)
+    b = _k.compiled(_k.PRISMATIC)(fdat, idat, qs, qds, Qs[:model.n_dof].copy(), job, *_k.PRISMATIC)
     assert a.shape == b.shape
     assert _rel(b, a) <= RTOL
 
 
-def test_prismatic_models_select_the_prismatic_variant():
+def test_models_select_their_variant():
+    seen = set()
     for name, build in CHAINS.items():
         model = build()
         kinds = {jt.kind for jt in model.chain.joints}
-        assert model.kernel_data[3] is (_k.PRISMATIC if kinds - {"R"} else _k.REVOLUTE), name
+        rigid_ends = all(ld.end_is_rigid for ld in model.link_data)
+        want = _k.PRISMATIC if kinds - {"R"} else (_k.RIGID_ENDS if rigid_ends else _k.REVOLUTE)
+        assert model.kernel_data[3] == want, name
+        seen.add(want)
+    assert seen == {_k.RIGID_ENDS, _k.REVOLUTE, _k.PRISMATIC}  # the chains cover every variant
 
 
 # -- 2. no recompiles -----------------------------------------------------------------
@@ -306,19 +312,19 @@ def test_one_signature_and_no_recompiles(compiled):
     kin.joint_positions(model, q[::-1][::-1])
     kin.frames(model, np.repeat(q, 2)[::2], qd)
 
-    # One signature per kernel variant (revolute-only and prismatic chains; ``compiled`` used both).
+    # One signature per kernel variant (``compiled`` used all three).
     kernel = _k.kernel
-    assert hasattr(kernel, "signatures") and len(kernel.signatures) == 2, kernel.signatures
-    fdat, idat, zeros, pris = model.kernel_data
-    assert pris is _k.REVOLUTE
+    assert hasattr(kernel, "signatures") and len(kernel.signatures) == 3, kernel.signatures
+    fdat, idat, zeros, v = model.kernel_data
+    assert v == _k.RIGID_ENDS
     qs, qds = kin.states(q, qd)
-    assert np.all(np.isfinite(kernel(fdat, idat, qs, qds, zeros, _k.JOB_SOLVE, pris)))
+    assert np.all(np.isfinite(kernel(fdat, idat, qs, qds, zeros, _k.JOB_SOLVE, *v)))
     bad_calls = {
-        "float32 states": (fdat, idat, qs.astype(np.float32), qds, zeros, _k.JOB_SOLVE, pris),
-        "non-contiguous states": (fdat, idat, np.repeat(qs, 2)[::2], qds, zeros, _k.JOB_SOLVE, pris),
-        "non-contiguous fdat": (np.repeat(fdat, 2)[::2], idat, qs, qds, zeros, _k.JOB_M, pris),
-        "int32 idat": (fdat, idat.astype(np.int32), qs, qds, zeros, _k.JOB_M, pris),
-        "2-d states": (fdat, idat, qs.reshape(1, -1), qds, zeros, _k.JOB_M, pris),
+        "float32 states": (fdat, idat, qs.astype(np.float32), qds, zeros, _k.JOB_SOLVE, *v),
+        "non-contiguous states": (fdat, idat, np.repeat(qs, 2)[::2], qds, zeros, _k.JOB_SOLVE, *v),
+        "non-contiguous fdat": (np.repeat(fdat, 2)[::2], idat, qs, qds, zeros, _k.JOB_M, *v),
+        "int32 idat": (fdat, idat.astype(np.int32), qs, qds, zeros, _k.JOB_M, *v),
+        "2-d states": (fdat, idat, qs.reshape(1, -1), qds, zeros, _k.JOB_M, *v),
     }
     for what, args in bad_calls.items():
         try:
@@ -327,7 +333,7 @@ def test_one_signature_and_no_recompiles(compiled):
             assert "No matching definition" in str(exc), (what, exc)
         else:
             pytest.fail(f"the kernel accepted {what} (compiled a new signature or converted)")
-    assert len(kernel.signatures) == 2, kernel.signatures
+    assert len(kernel.signatures) == 3, kernel.signatures
 
 
 @needs_jit
@@ -350,15 +356,16 @@ def test_read_only_applied_forces_and_wrong_sizes():
 
 @needs_jit
 def test_no_compile_notice_when_the_cache_is_warm(compiled):
-    # ``compiled`` compiled (or loaded) both variants; with a cache location they are on disk,
+    # ``compiled`` compiled (or loaded) every variant; with a cache location they are on disk,
     # so a new process loads them silently (the notice is for a real compile only).
     if not _k._state["cached"]:
         pytest.skip("numba has no cache location here")
-    assert _k._cache_is_warm(_k.REVOLUTE) is True and _k._cache_is_warm(_k.PRISMATIC) is True
+    assert all(_k._cache_is_warm(v) is True for v in (_k.RIGID_ENDS, _k.REVOLUTE, _k.PRISMATIC))
     code = ("import sys; sys.path.insert(0, %r); import numpy as np, test_kernel as tk; "
             "from gibbsimpact import dynamics as dy; "
             "[dy.forward_dynamics(m, *tk.random_state(m, np.random.default_rng(0))) "
-            "for m in (tk.two_link_circle_model(), tk.CHAINS['prismatic_planar']())]" % str(TESTS_DIR))
+            "for m in (tk.two_link_circle_model(), tk.CHAINS['spatial_two_link'](), "
+            "tk.CHAINS['prismatic_planar']())]" % str(TESTS_DIR))
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_JIT"}
     run = subprocess.run([sys.executable, "-c", code], check=False, env=env, cwd=TESTS_DIR, capture_output=True,
                          text=True, timeout=300)

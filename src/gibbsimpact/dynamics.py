@@ -119,14 +119,14 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
     # The hot path of every simulation (one call per RHS): float64 arrays of the right shape go
     # straight to the kernel, which refuses (TypeError, no recompile) a non-contiguous or
     # read-only one; only then are they converted. The kernel does not check bounds: shapes are.
-    fdat, idat, zeros, pris = model.kernel_data
+    fdat, idat, zeros, v = model.kernel_data
     N = zeros.size
     shape = (N,)
     # (A read-only array is screened out here: numba's TypeError for it costs ~0.3 ms.)
     if Q is None and q.__class__ is np.ndarray and qdot.__class__ is np.ndarray and q.shape == shape \
             and qdot.shape == shape and q.flags.writeable and qdot.flags.writeable:
         try:
-            out = _k.compiled(pris)(fdat, idat, q, qdot, zeros, _k.JOB_SOLVE, pris)
+            out = _k.compiled(v)(fdat, idat, q, qdot, zeros, _k.JOB_SOLVE, *v)
         except TypeError:
             pass
         else:
@@ -144,7 +144,7 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
                              f"ordered as {', '.join(model.coordinate_names)}")
         if not Q.flags.writeable:
             Q = Q.copy()  # numba types a read-only array differently (no recompiles: a copy)
-    out = _k.compiled(pris)(fdat, idat, q, qdot, zeros if Q is None else Q, _k.JOB_SOLVE, pris)
+    out = _k.compiled(v)(fdat, idat, q, qdot, zeros if Q is None else Q, _k.JOB_SOLVE, *v)
     if out[0] != 0.0:
         _raise_singular(model, q, out[0], out[1], out[2])
     return out[3 + N:3 + 2 * N]  # a view of a private array

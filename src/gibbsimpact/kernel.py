@@ -92,7 +92,7 @@ import time
 import numpy as np
 
 # -- data layout --------------------------------------------------------------
-# idat: [n, N, base kind, X, prismatic (0/1), 0, 0, 0] + per coordinate (N rows of _CI ints)
+# idat: [n, N, base kind, X, prismatic (0/1), general ends (0/1), 0, 0] + per coordinate (N rows of _CI ints)
 #       (X: extra contact points, the tips of host links whose child joint is prismatic)
 #       + per link (n rows of _LI ints)
 _H = 8
@@ -137,6 +137,7 @@ def pack(model):
     idat[0], idat[1], idat[2] = n, N, base_kind
     idat[3] = sum(1 for i, jt in enumerate(model.chain.joints) if i > 0 and jt.kind != "R")
     idat[4] = int(any(jt.kind != "R" for jt in model.chain.joints))  # the kernel variant (variant())
+    idat[5] = int(any(not ld.end_is_rigid for ld in model.link_data))  # a link end moved by its modes
     ci = idat[_H:_H + _CI * N].reshape(N, _CI)
     li = idat[_H + _CI * N:].reshape(n, _LI) if n else np.zeros((0, _LI), dtype=np.int64)
     ci[:, 3] = -1
@@ -427,13 +428,14 @@ def _rot_step(B, w, si, axis, th, thd, vel):
         B[w, r, j] = tgj
 
 
-def _end_step(fdat, idat, link, q, qd, vel, B, w, ss):
+def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
     """T <- T E(delta) for the end of ``link`` (T, Td, Tdd0 = B[w], B[w+1], B[w+2]);
     B[ss + c] = the world twist of each end coordinate c of the link.
 
     E = [[R(phi), t], [0, 1]], t = l e_x + end_t^T delta, phi = end_phi^T delta;
     Ed = [[dR[phidot], tdot], [0, 0]], Edd0 = [[d2R[phidot, phidot], 0], [0, 0]];
     local twist of delta_k: dE_k E^-1 = [[dR_k R^T, t_k - dR_k R^T t], [0, 0]].
+    ends: None in the variant for chains whose link ends are all rigid (see kernel).
     """
     N = idat[1]
     base = _H + _CI * N + _LI * link
@@ -442,7 +444,7 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss):
     off = idat[base + 3]
     kind = idat[base + 4]
     l = fdat[off + 20]
-    if kind == END_RIGID:
+    if ends is None or kind == END_RIGID:
         # E = Trans(l e_x): the origin column gains l times the x column.
         for r in range(4):
             B[w, r, 3] += l * B[w, r, 0]
@@ -777,11 +779,11 @@ def _pb_step(fdat, idat, link, q, qd, vel, B, w, ss):
             B[w + 1, r, 3] += a * B[w + 1, r, 0] + dd * B[w, r, 0]
 
 
-def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w, pris):
+def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w, pris, ends):
     """Frames of the n links and of the tip into B[ts + i], i = 0 .. n (and their
     time derivatives into B[tds + i], B[tdds + i] when vel); twists into B[ss + c].
 
-    B[w .. w + _W_SIZE) is work space. pris: None in the all-revolute variant (see kernel).
+    B[w .. w + _W_SIZE) is work space. pris, ends: the variant (see kernel's compilation notes).
     """
     n = idat[0]
     N = idat[1]
@@ -808,7 +810,7 @@ def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w, pris):
         jk = idat[base + 5]
         # R and Pb joints sit at the host's tip: the host's end E_(i-1) first (formulation.md 10).
         if i > 0 and jk != JOINT_PA:
-            _end_step(fdat, idat, i - 1, q, qd, vel, B, w, ss)
+            _end_step(fdat, idat, i - 1, q, qd, vel, B, w, ss, ends)
         if pris is None or jk == JOINT_R:
             _rot_step(B, w, ss + th, idat[_H + _CI * th + 1], q[th], qd[th], vel)
         elif jk == JOINT_PA:
@@ -820,7 +822,7 @@ def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w, pris):
             _copy4(B, w + 1, tds + i)
             _copy4(B, w + 2, tdds + i)
     if n > 0:
-        _end_step(fdat, idat, n - 1, q, qd, vel, B, w, ss)
+        _end_step(fdat, idat, n - 1, q, qd, vel, B, w, ss, ends)
     _copy4(B, w, ts + n)
     if vel:
         _copy4(B, w + 1, tds + n)
@@ -1006,7 +1008,7 @@ def _mmax(idat):
 
 # -- dynamics -------------------------------------------------------------------------
 
-def assemble(fdat, idat, q, qd, vel, M, h, dV, pris):
+def assemble(fdat, idat, q, qd, vel, M, h, dV, pris, ends):
     """M (N, N), and h (N,) when vel, and dV/dq (N,) (module docstring, items 2-4).
 
     h and dV must be zero on entry.
@@ -1028,7 +1030,7 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV, pris):
     kP = WK + 20
     kPv = WK + 21
     kX = WK + 22
-    chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK, pris)
+    chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK, pris, ends)
     MUC = 0
     YY = n1
     EE = n1 + N
@@ -1377,7 +1379,7 @@ def layout(n, N, K, job, npts):
     return off
 
 
-def kernel(fdat, idat, qs, qds, Q, job, pris):
+def kernel(fdat, idat, qs, qds, Q, job, pris, ends):
     """The one compiled entry point: everything the package computes from states.
 
     qs, qds: K states q and qdot one after the other, (K N,) each; Q: applied
@@ -1415,7 +1417,7 @@ def kernel(fdat, idat, qs, qds, Q, job, pris):
         M = np.zeros((N, N))
         h = np.zeros(N)
         dV = np.zeros(N)
-        assemble(fdat, idat, q, qd, (job & (JOB_H | JOB_SOLVE)) != 0, M, h, dV, pris)
+        assemble(fdat, idat, q, qd, (job & (JOB_H | JOB_SOLVE)) != 0, M, h, dV, pris, ends)
         o = L[_S_M]
         if L[_S_M + 1] > o:
             for i in range(N):
@@ -1456,7 +1458,7 @@ def kernel(fdat, idat, qs, qds, Q, job, pris):
         for i in range(N):
             q[i] = qs[N * k + i]
             qd[i] = qds[N * k + i]
-        chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK, pris)
+        chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK, pris, ends)
         if job & (JOB_ENERGY | JOB_MOMENTUM):
             _link_observables(fdat, idat, q, qd, B, TS, TDS, WK, V, part, SD, pris)
             if job & JOB_ENERGY:
@@ -1552,12 +1554,15 @@ def _extra_points(fdat, idat, q, B, ts, ss, out, o_pts, o_jac, job, npts, k):
 # calls, so fewer entry points compile faster. Helpers are compiled for the types
 # their callers use; called from Python they run uncompiled.
 #
-# Two variants of the one source, told apart by the type of the last argument
-# ``pris``: ``None`` for chains whose joints are all revolute, an int64 (1) for
-# chains with a prismatic joint. ``pris is None`` is known while numba compiles,
-# so it removes the prismatic branches (_pa_step, _pb_step, _pb_moments,
-# _extra_points, the second twists) before they are typed: a model without
-# prismatic joints never compiles them. Each variant compiles on its first use.
+# Three variants of the one source, told apart by the types of the last two
+# arguments (pris, ends), each None or an int64 (1): ``pris`` None for chains
+# whose joints are all revolute, ``ends`` None for chains whose link ends are all
+# rigid (rigid links, clamped-clamped modes: E = Trans(l e_x)). ``x is None`` is
+# known while numba compiles, so it removes the prismatic branches (_pa_step,
+# _pb_step, _pb_moments, _extra_points, the second twists) and the moving-end
+# path (Rodrigues: rodrigues_directional, _conjugate, _apply_local) before they
+# are typed: the published chains compile neither. Each variant compiles on its
+# first use.
 _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_skew", "_skew3",
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
             "_joint_field", "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
@@ -1565,20 +1570,27 @@ _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_sk
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
-#: The entry's signature per variant (the type of ``pris``): REVOLUTE = None, PRISMATIC = 1.
-REVOLUTE, PRISMATIC = None, 1
-_VARIANT_TYPE = {REVOLUTE: "none", PRISMATIC: "int64"}
-_VARIANT_NAME = {REVOLUTE: "revolute joints", PRISMATIC: "prismatic joints"}
-_ENTRY_SIG = f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64, {{}})"
+#: The variants (pris, ends): the values of the entry point's last two arguments.
+RIGID_ENDS, REVOLUTE, PRISMATIC = (None, None), (None, 1), (1, 1)
+_VARIANT_NAME = {RIGID_ENDS: "revolute joints and rigid link ends", REVOLUTE: "revolute joints",
+                 PRISMATIC: "prismatic joints"}
+_VARIANT_COST = {RIGID_ENDS: "about 15-20 s", REVOLUTE: "about 20-25 s", PRISMATIC: "about 30 s"}
+_ENTRY_SIG = f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64, {{}}, {{}})"
+
+
+def _signature_args(v) -> tuple:
+    """numba type names of the last two arguments of variant v."""
+    return tuple("none" if x is None else "int64" for x in v)
 _state = {"ready": set(), "cached": None, "seconds": {}, "kernel": None, "jitted": False}
 _PY_KERNEL = kernel  # the plain-Python entry point (the global is replaced by the compiled one)
 _lock = threading.Lock()
 NOTICE_AFTER_S = 1.0
 
 
-def variant(idat) -> int | None:
-    """The kernel variant for a packed model: PRISMATIC if any joint is prismatic, else REVOLUTE."""
-    return PRISMATIC if idat[4] else REVOLUTE
+def variant(idat) -> tuple:
+    """The kernel variant for a packed model: PRISMATIC if any joint is prismatic, else
+    REVOLUTE if some link end moves with its modes, else RIGID_ENDS."""
+    return PRISMATIC if idat[4] else (REVOLUTE if idat[5] else RIGID_ENDS)
 
 
 def _jit_helpers():
@@ -1619,8 +1631,8 @@ def _jit_helpers():
     _state["cached"] = cached
 
 
-def _compile_variant(pris):
-    """Compile (or load from numba's cache) the entry point's signature of variant ``pris``."""
+def _compile_variant(v):
+    """Compile (or load from numba's cache) the entry point's signature of variant ``v``."""
     if not _state["jitted"]:
         _jit_helpers()
         _state["jitted"] = True
@@ -1629,25 +1641,25 @@ def _compile_variant(pris):
         return
     d.disable_compile(False)
     try:
-        d.compile(_ENTRY_SIG.format(_VARIANT_TYPE[pris]))
+        d.compile(_ENTRY_SIG.format(*_signature_args(v)))
     finally:
         d.disable_compile()
 
 
-def compiled(pris=PRISMATIC):
-    """The entry point ``kernel`` with variant ``pris`` compiled (or loaded) on first use.
+def compiled(v=PRISMATIC):
+    """The entry point ``kernel`` with variant ``v`` compiled (or loaded) on first use.
 
-    Call it as ``compiled(pris)(fdat, idat, qs, qds, Q, job, pris)``, pris = variant(idat).
+    Call it as ``compiled(v)(fdat, idat, qs, qds, Q, job, *v)``, v = variant(idat).
     """
     f = _state["kernel"]
-    if f is None or pris not in _state["ready"]:
-        ensure_compiled(pris)
+    if f is None or v not in _state["ready"]:
+        ensure_compiled(v)
         f = _state["kernel"] = globals()["kernel"]
     return f
 
 
-def _cache_is_warm(pris):
-    """True if numba's on-disk cache holds a valid entry of variant ``pris`` (False: a
+def _cache_is_warm(v):
+    """True if numba's on-disk cache holds a valid entry of variant ``v`` (False: a
     compile is coming; None: cannot tell)."""
     try:
         import numba
@@ -1656,37 +1668,36 @@ def _cache_is_warm(pris):
         # The index is keyed by the source file's stamp: a stale one loads as empty.
         index = probe._cache._cache_file._load_index()
         # Keys: (signature text, codegen's magic tuple, ...); the variant is the last argument.
-        want = f", {_VARIANT_TYPE[pris]})"
+        want = ", {}, {})".format(*_signature_args(v))
         return any(str(key[0]).endswith(want) for key in index)
     except Exception:  # no cache location, numba internals changed, JIT disabled ...
         return None
 
 
-def ensure_compiled(pris=PRISMATIC):
-    """Compile variant ``pris`` of the kernel on first use (or load it from numba's cache);
-    cheap afterwards.
+def ensure_compiled(v=PRISMATIC):
+    """Compile variant ``v`` (RIGID_ENDS, REVOLUTE, PRISMATIC) of the kernel on first use (or
+    load it from numba's cache); cheap afterwards.
 
-    A one-line notice goes to stderr before a compile (about 20 s of CPU for the
-    revolute variant, 30 s for the prismatic one); loading from the cache (~0.5 s) is
-    silent. If the cache state cannot be read, the notice appears once compiling has
-    taken NOTICE_AFTER_S.
+    A one-line notice goes to stderr before a compile (15-30 s of CPU, _VARIANT_COST);
+    loading from the cache (~0.5 s) is silent. If the cache state cannot be read, the
+    notice appears once compiling has taken NOTICE_AFTER_S.
     """
-    if pris in _state["ready"]:
+    if v in _state["ready"]:
         return
     with _lock:
-        if pris in _state["ready"]:
+        if v in _state["ready"]:
             return
         t0 = time.perf_counter()
         shown = []
-        what = _VARIANT_NAME[pris]
-        cost = "about 20 s" if pris is REVOLUTE else "about 30 s"
+        what = _VARIANT_NAME[v]
+        cost = _VARIANT_COST[v]
 
         def notice():
             shown.append(True)
             print(f"gibbsimpact: compiling the dynamics kernel for {what} (first use; {cost} of CPU) ...",
                   file=sys.stderr, flush=True)
 
-        warm = None if jit_disabled() else _cache_is_warm(pris)
+        warm = None if jit_disabled() else _cache_is_warm(v)
         timer = None
         if warm is False:
             notice()
@@ -1695,16 +1706,16 @@ def ensure_compiled(pris=PRISMATIC):
             timer.daemon = True
             timer.start()
         try:
-            _compile_variant(pris)
+            _compile_variant(v)
         finally:
             if timer is not None:
                 timer.cancel()
-        _state["seconds"][pris] = time.perf_counter() - t0
-        _state["ready"].add(pris)
+        _state["seconds"][v] = time.perf_counter() - t0
+        _state["ready"].add(v)
         if shown:
             where = (" and cached for later runs" if _state["cached"] else
                      " (not cached: no writable cache directory; set NUMBA_CACHE_DIR to one)")
-            print(f"gibbsimpact: kernel ready in {_state['seconds'][pris]:.1f} s{where}", file=sys.stderr,
+            print(f"gibbsimpact: kernel ready in {_state['seconds'][v]:.1f} s{where}", file=sys.stderr,
                   flush=True)
 
 

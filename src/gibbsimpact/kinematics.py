@@ -44,14 +44,14 @@ class Frames(NamedTuple):
 
 def run_kernel(model, st, job: int, Q: np.ndarray | None = None) -> np.ndarray:
     """Call the compiled kernel on the states st = (qs, qds) (K N,) each for the JOB_* bits ``job``."""
-    fdat, idat, zeros, pris = model.kernel_data
+    fdat, idat, zeros, v = model.kernel_data
     qs, qds = st
     # The compiled kernel does not check bounds: states of the wrong size are refused here.
     N = zeros.size
     if qs.size != qds.size or qs.size == 0 or qs.size % N:
         raise ValueError(f"states of shapes {qs.shape}, {qds.shape}: this model needs q and qdot of {N} entries "
                          f"each ({', '.join(model.coordinate_names)})")
-    return _k.compiled(pris)(fdat, idat, qs, qds, zeros if Q is None else Q, job, pris)
+    return _k.compiled(v)(fdat, idat, qs, qds, zeros if Q is None else Q, job, *v)
 
 
 def section(model, out: np.ndarray, K: int, job: int, name: str) -> np.ndarray:

@@ -720,8 +720,8 @@ class Model:
 
     @property
     def kernel_data(self):
-        """(fdat (F,), idat (I,), zeros (N,), pris): the model packed for the compiled kernel (built once);
-        pris is the kernel variant (gibbsimpact.kernel.variant: None without prismatic joints)."""
+        """(fdat (F,), idat (I,), zeros (N,), v): the model packed for the compiled kernel (built once);
+        v is its kernel variant (gibbsimpact.kernel.variant), a pair passed as the last two arguments."""
         try:
             return self._kernel_data
         except AttributeError:
