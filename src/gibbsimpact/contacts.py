@@ -207,17 +207,25 @@ class Contacts:
 
         Plain float arithmetic per pair (a few pairs per state: cheaper than numpy calls).
         """
-        F, r = len(self.flex), self.refine_below
         E, G, Pts = self._link_bounds(qs, g_joints, points)
         need = np.zeros(len(qs), dtype=bool)
         for k, (Ek, Gk) in enumerate(zip(E, G)):
             Pk = Pts[k] if Pts is not None else None
-            for f, ab in enumerate(self._pairs):
-                if ab is None or not all(_skipped(kind, R, Gw[ab[0]], Gw[ab[1]], Ek[f], Ek[F + f], r, Pk, ab)
-                                         for (kind, R), Gw in zip(self._wall_kinds, Gk)):
+            for f in range(len(self.flex)):
+                if not all(self._pair_skipped(w, f, Ek, Gk, Pk) for w in range(len(self.walls))):
                     need[k] = True
                     break
         return need
+
+    def _pair_skipped(self, w, f, Ek, Gk, Pk) -> bool:
+        """The skip rule for wall w and flexible link f of one state: Ek, Gk, Pk its rows of
+        _link_bounds (Lam and 2 D_i, joint gaps (W, P), joint positions or None)."""
+        ab = self._pairs[f]
+        if ab is None:
+            return False
+        kind, R = self._wall_kinds[w]
+        Gw = Gk[w]
+        return _skipped(kind, R, Gw[ab[0]], Gw[ab[1]], Ek[f], Ek[len(self.flex) + f], self.refine_below, Pk, ab)
 
     def skipped(self, q) -> np.ndarray:
         """(W, F) bool, or (K, W, F) for q (K, N): the (wall, link) pairs that the skip rule
@@ -225,13 +233,11 @@ class Contacts:
         qs = np.atleast_2d(np.asarray(q, dtype=float))
         pts = joint_positions_batch(self.model, qs)
         g = np.stack([w.gap(pts) for w in self.walls], axis=1)
-        F, r = len(self.flex), self.refine_below
         E, G, Pts = self._link_bounds(qs, g, pts)
-        out = np.array([[[ab is not None and _skipped(kind, R, Gw[ab[0]], Gw[ab[1]], Ek[f], Ek[F + f], r,
-                                                      Pts[k] if Pts is not None else None, ab)
-                          for f, ab in enumerate(self._pairs)]
-                         for (kind, R), Gw in zip(self._wall_kinds, Gk)]
-                        for k, (Ek, Gk) in enumerate(zip(E, G))], dtype=bool).reshape(len(qs), len(self.walls), F)
+        W, F = len(self.walls), len(self.flex)
+        out = np.array([[[self._pair_skipped(w, f, Ek, Gk, Pts[k] if Pts is not None else None) for f in range(F)]
+                         for w in range(W)] for k, (Ek, Gk) in enumerate(zip(E, G))],
+                       dtype=bool).reshape(len(qs), W, F)
         return out if np.ndim(q) == 2 else out[0]
 
     def _link_gaps(self, qs, g_joints=None, points=None, out=None):

@@ -375,6 +375,11 @@ def _value_problems(base: dict, runs: list, name: str) -> list:
 # --------------------------------------------------------------------------
 # One run (executed by every route)
 
+def _task_case(task: dict):
+    """The Case of one run (raises CaseError): built from a copy of its case table."""
+    return case_from_dict(copy.deepcopy(task["data"]), name=task["name"], source=task["source"], path=task["path"])
+
+
 def _run_task(task: dict) -> dict:
     """Load and simulate one run; plain data in and out (what a worker process receives and returns).
 
@@ -384,8 +389,7 @@ def _run_task(task: dict) -> dict:
     """
     rid = task["run_id"]
     try:
-        case = case_from_dict(copy.deepcopy(task["data"]), name=task["name"], source=task["source"],
-                              path=task["path"])
+        case = _task_case(task)
     except CaseError as exc:
         return {"run_id": rid, "status": STATUS_INVALID, "message": str(exc), "npz": None}
     try:
@@ -428,8 +432,7 @@ def _kernel_variant(task: dict):
     from .kernel import PRISMATIC
 
     try:
-        case = case_from_dict(copy.deepcopy(task["data"]), name=task["name"], source=task["source"],
-                              path=task["path"])
+        case = _task_case(task)
     except CaseError:
         return PRISMATIC
     return case.model.kernel_data[3]
