@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.flight import dip_allowance, hermite_positions
+from scipy.integrate import DOP853, RK45
+
+from gibbsimpact.flight import _Dop853Interpolant, _interpolant, dip_allowance, hermite_positions
 
 L_ROD = 1.0
 
@@ -111,3 +113,39 @@ def test_dip_allowance_bounds_a_parabola_between_samples():
         s = np.linspace(0, 1, 5)
         E = ((s - s0) ** 2)[None, :]
         assert E.min() - dip_allowance(E)[0] <= 0.0 + 1e-15
+
+
+def test_dop853_interpolant_is_scipys_dense_output():
+    # The event loop evaluates DOP853's dense output as y_old + w(x)^T F in one product; scipy's
+    # nested evaluation is the reference. Scalars, the few points of the event loop (<= 16) and
+    # the vectorised branch (> 16), inside the step and just outside it (extrapolation).
+    def f(t, y):
+        return np.array([y[1], -np.sin(y[0]) - 0.1 * y[1], np.cos(3.0 * t) * y[0], 5.0 * y[0] * y[1]])
+
+    solver = DOP853(f, 0.0, np.array([1.0, 0.3, -0.2, 0.05]), 8.0, rtol=1e-10, atol=1e-12)
+    worst, n = 0.0, 0
+    while solver.status == "running" and n < 40:
+        solver.step()
+        n += 1
+        ref, fast = solver.dense_output(), _interpolant(solver)
+        assert isinstance(fast, _Dop853Interpolant)
+        h = solver.t - solver.t_old
+        for m in (1, 3, 16, 17, 101):
+            ts = np.linspace(solver.t_old - 0.1 * h, solver.t + 0.1 * h, m)
+            a, b = fast(ts), ref(ts)
+            assert a.shape == b.shape == (4, m)
+            worst = max(worst, float(np.max(np.abs(a - b) / (1.0 + np.abs(b)))))
+        for t in (solver.t_old, solver.t_old + 0.37 * h, solver.t, np.float64(solver.t_old + 0.5 * h)):
+            a, b = fast(t), ref(t)
+            assert a.shape == b.shape == (4,)
+            worst = max(worst, float(np.max(np.abs(a - b) / (1.0 + np.abs(b)))))
+    assert n == 40
+    assert worst < 1e-15
+
+
+def test_other_methods_keep_scipys_dense_output():
+    solver = RK45(lambda t, y: -y, 0.0, np.ones(3), 1.0)
+    solver.step()
+    dense = _interpolant(solver)
+    assert not isinstance(dense, _Dop853Interpolant)
+    assert np.array_equal(dense(0.5 * solver.t), solver.dense_output()(0.5 * solver.t))
