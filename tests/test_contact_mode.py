@@ -35,6 +35,42 @@ def test_wall_curvature_is_the_second_derivative_of_the_gap(wall):
         assert float(wall.curvature(p0[None, :], v[None, :])[0]) == pytest.approx(fd, rel=1e-7, abs=1e-7)
 
 
+@pytest.mark.parametrize("wall", [gi.Circle(1.3, (0.2, -0.1)), gi.Sphere(1.1, (0.1, 0.2, -0.3)),
+                                  gi.Plane((0, -1, 0), (0.3, 1.0, 0.2))])
+def test_wall_geometry_is_gap_gradient_and_curvature(wall):
+    # geometry(p, v) gives in one call what resting contact needs: g (the gap function itself,
+    # bit for bit), n = grad g by central differences, and v^T H v (the test above).
+    rng = np.random.default_rng(2)
+    p, v = rng.normal(size=(4, 3)) * 0.3, rng.normal(size=(4, 3))
+    g, n, curv = wall.geometry(p, v)
+    assert np.array_equal(g, wall.gap(p))
+    h = 1e-6
+    grad = np.stack([(wall.gap(p + h * e) - wall.gap(p - h * e)) / (2 * h) for e in np.eye(3)], axis=1)
+    assert np.allclose(n, grad, rtol=0, atol=1e-8)
+    assert np.array_equal(curv, wall.curvature(p, v))
+    assert wall.geometry(p)[2] is None
+    if not isinstance(wall, gi.Plane):  # at the centre the direction is undefined: 0
+        centre = np.zeros((1, 3))
+        centre[0, :len(wall.center)] = wall.center
+        assert np.array_equal(wall.geometry(np.vstack((centre, p)))[1][0], np.zeros(3))
+
+
+def test_symmetric_solve_is_lstsq_with_its_cut():
+    # _solve_sym (eigh) against numpy's lstsq with rcond 1e-10 on symmetric matrices: regular,
+    # rank-deficient (a redundant contact) and indefinite; and G of size 0.
+    from gibbsimpact.resting import _solve_sym
+
+    rng = np.random.default_rng(3)
+    for k, rank in [(1, 1), (3, 3), (3, 2), (5, 3), (4, 4)]:
+        X = rng.normal(size=(k, rank))
+        G = X @ np.diag(rng.uniform(0.5, 2.0, rank) * rng.choice([-1, 1], rank)) @ X.T
+        G = 0.5 * (G + G.T)
+        b = rng.normal(size=k)
+        ref = np.linalg.lstsq(G, b, rcond=1e-10)[0]
+        assert np.allclose(_solve_sym(G, b), ref, rtol=0, atol=1e-11 * (1 + np.abs(ref).max()))
+    assert _solve_sym(np.zeros((0, 0)), np.zeros(0)).shape == (0,)
+
+
 @pytest.mark.parametrize("which", ["circle", "sphere"])
 def test_gap_acceleration_terms_match_differences_along_a_motion(which):
     # gddot = W^T qddot + c along q(t) = q0 + qdot t + qddot t^2 / 2: the gap of each joint

@@ -188,6 +188,10 @@ class Contacts:
             else:
                 raise TypeError(f"wall {w!r}: link contacts need gibbsimpact Plane, Circle or Sphere walls")
         self._wall_kinds = kinds
+        # The (link, wall) pairs of the skip rule, flat: (f, w, kind, R, (a, b)); None when a link
+        # has no end joint (it is always searched).
+        self._rules = None if any(ab is None for ab in self._pairs) else [
+            (f, w, kind, R, ab) for f, ab in enumerate(self._pairs) for w, (kind, R) in enumerate(kinds)]
         self._need_points = any(k > 0 for k, _ in kinds)
 
     def _link_bounds(self, qs, g_joints, points):
@@ -207,15 +211,19 @@ class Contacts:
 
         Plain float arithmetic per pair (a few pairs per state: cheaper than numpy calls).
         """
+        if self._rules is None:
+            return np.ones(len(qs), dtype=bool)
         E, G, Pts = self._link_bounds(qs, g_joints, points)
-        need = np.zeros(len(qs), dtype=bool)
+        F, r = len(self.flex), self.refine_below
+        need = [False] * len(qs)
         for k, (Ek, Gk) in enumerate(zip(E, G)):
             Pk = Pts[k] if Pts is not None else None
-            for f in range(len(self.flex)):
-                if not all(self._pair_skipped(w, f, Ek, Gk, Pk) for w in range(len(self.walls))):
+            for f, w, kind, R, ab in self._rules:
+                Gw = Gk[w]
+                if not _skipped(kind, R, Gw[ab[0]], Gw[ab[1]], Ek[f], Ek[F + f], r, Pk, ab):
                     need[k] = True
                     break
-        return need
+        return np.array(need, dtype=bool)
 
     def _pair_skipped(self, w, f, Ek, Gk, Pk) -> bool:
         """The skip rule for wall w and flexible link f of one state: Ek, Gk, Pk its rows of

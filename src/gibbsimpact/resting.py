@@ -121,13 +121,28 @@ class ConstraintData(NamedTuple):
 
 
 def _solve_sym(G: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """x with G x = b (G (k, k)), by least squares with singular values below 1e-10 of the largest
-    cut: redundant contacts (two sticking ends of a rigid rod along its axis, three points of a
-    chain on a line) then share the load with the smallest |x| instead of an arbitrary split
-    blown up by round-off."""
+    """x with G x = b for a symmetric G (k, k): the least-squares solution of smallest |x|, with
+    singular values below 1e-10 of the largest cut: redundant contacts (two sticking ends of a
+    rigid rod along its axis, three points of a chain on a line) then share the load with the
+    smallest |x| instead of an arbitrary split blown up by round-off.
+
+    G symmetric: its singular values are |eigenvalues| and the singular vectors its eigenvectors,
+    so x = sum over |l_i| > 1e-10 max|l| of v_i (v_i . b) / l_i, lstsq's result from eigh (half
+    its cost: this runs at every right-hand side of a contact phase).
+    """
     if G.size == 0:
         return np.zeros(0)
-    return np.linalg.lstsq(G, b, rcond=1e-10)[0]
+    lam, V = np.linalg.eigh(G)
+    keep = np.abs(lam) > 1e-10 * np.abs(lam).max()
+    return V[:, keep] @ ((V[:, keep].T @ b) / lam[keep])
+
+
+def _lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """_solve_sym for a general square A (k, k) (friction's C^T M^-1 B): lstsq, singular values
+    below 1e-10 of the largest cut."""
+    if A.size == 0:
+        return np.zeros(0)
+    return np.linalg.lstsq(A, b, rcond=1e-10)[0]
 
 
 def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> ConstraintData:
@@ -148,9 +163,8 @@ def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> Constrain
     k = len(pairs)
     Jp = J[pairs[:, 1]]  # (k, 3, N)
     p = P[pairs[:, 1]]  # (k, 3)
-    nrm, g = np.zeros((k, 3)), np.zeros(k)
-    c, v = np.zeros(k), np.zeros(k)
     pd = a0 = None
+    c, v = np.zeros(k), np.zeros(k)
     if velocities:
         F = out[off[9]:off[10]].reshape(model.n_links + 1, 3, 4, 4)
         qdd = out[off[1] + N:off[1] + 2 * N].copy()
@@ -158,17 +172,22 @@ def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> Constrain
         a0 = F[pairs[:, 1], 2, :3, 3]  # Jdot qdot = Tddot0's translation column
     else:
         qdd = np.zeros(N)
-    for w in np.unique(pairs[:, 0]):
-        sel = pairs[:, 0] == w
-        wall = walls[w]
-        nrm[sel] = wall.normal(p[sel])
-        g[sel] = wall.gap(p[sel])
-        if velocities:
-            # (2): c = n . a0 + pdot^T H pdot.
-            c[sel] = np.sum(nrm[sel] * a0[sel], axis=1) + wall.curvature(p[sel], pd[sel])
+    ws = pairs[:, 0]
+    if k and (ws == ws[0]).all():  # one wall (the usual case): no masks
+        g, nrm, curv = walls[ws[0]].geometry(p, pd)
+    else:
+        nrm, g, curv = np.zeros((k, 3)), np.zeros(k), np.zeros(k)
+        for w in np.unique(ws):
+            sel = ws == w
+            g[sel], nrm[sel], cw = walls[w].geometry(p[sel], pd[sel] if velocities else None)
+            if velocities:
+                curv[sel] = cw
+    if velocities:
+        # (2): c = n . a0 + pdot^T H pdot.
+        c = np.add.reduce(nrm * a0, axis=1) + curv
     W = np.einsum("kcn,kc->nk", Jp, nrm)
     if velocities:
-        v = np.sum(nrm * pd, axis=1)
+        v = np.add.reduce(nrm * pd, axis=1)
     try:
         MinvW = np.linalg.solve(M, W)
     except np.linalg.LinAlgError:
@@ -214,6 +233,7 @@ class RestingContacts:
         grav = float(np.linalg.norm(getattr(model, "gravity", (0.0, 0.0, 0.0))))
         self.force_scale = model.total_mass * grav if grav > 0 else 1.0
         self._cache = (None, None)
+        self._mode = (None, None)  # (key of active, stick, slip_dir; their pairs and selections)
 
     @property
     def pairs(self) -> np.ndarray:
@@ -243,7 +263,7 @@ class RestingContacts:
         """
         k = len(pairs)
         mu = self.mu[pairs[:, 0]] if k else np.zeros(0)
-        if not np.any(mu > 0):
+        if not (mu > 0).any():
             lam = _solve_sym(d.G, -(d.W.T @ d.qdd_free + d.c))
             return d.qdd_free + d.MinvW @ lam, lam, np.zeros((k, 3)), np.zeros((k, 2)), np.zeros(k)
         # (6): constraint rows C (normal gaps; tangential accelerations of sticking points) and
@@ -265,7 +285,7 @@ class RestingContacts:
             c.append(np.einsum("sac,sc->sa", T, d.a0[st]).ravel())
         C, B, c = np.hstack(C), np.hstack(B), np.concatenate(c)
         MinvB = np.linalg.solve(d.M, B)
-        lam = _solve_sym(C.T @ MinvB, -(C.T @ d.qdd_free + c))
+        lam = _lstsq(C.T @ MinvB, -(C.T @ d.qdd_free + c))
         lam_n = lam[:k]
         F_t = -mu[:, None] * lam_n[:, None] * s_hat
         lam_t = np.zeros((k, 2))
@@ -282,9 +302,13 @@ class RestingContacts:
         key = (q.tobytes(), qd.tobytes(), None if Q is None else Q.tobytes())
         if self._cache[0] == key:
             return self._cache[1]
-        pairs = self.pairs
+        # The active set and its stick / slip data change only at mode decisions: read once per set.
+        mode = (self.active.tobytes(), self.stick.tobytes(), self.slip_dir.tobytes())
+        if self._mode[0] != mode:
+            self._mode = (mode, (self.pairs, self.stick[self.active], self.slip_dir[self.active]))
+        pairs, stick, sdir = self._mode[1]
         d = constraint_data(self.model, self.walls, q, qd, Q, pairs)
-        qdd, lam, F_t, lam_t, power = self._solve(d, pairs, self.stick[self.active], self.slip_dir[self.active])
+        qdd, lam, F_t, lam_t, power = self._solve(d, pairs, stick, sdir)
         res = (qdd, lam, F_t, power, lam_t, d)
         self._cache = (key, res)
         return res
@@ -321,7 +345,8 @@ class RestingContacts:
             T = tangent_basis(d.n[stick])
             W = np.hstack((W, np.einsum("sac,scn->nsa", T, d.J[stick]).reshape(W.shape[0], -1)))
         MinvW = np.linalg.solve(d.M, W)
-        qd = qd - MinvW @ _solve_sym(W.T @ MinvW, W.T @ qd)
+        G = W.T @ MinvW
+        qd = qd - MinvW @ _solve_sym(0.5 * (G + G.T), W.T @ qd)
         return q, qd
 
     # -- equation (4) and its frictional form -----------------------------------------

@@ -1,6 +1,7 @@
 """Walls: gap functions g(p) > 0 inside the admissible region (formulation.md section 5).
 
-Every wall has ``gap(p)`` and ``normal(p)`` for points p of shape (K, 3) [m];
+Every wall has ``gap(p)`` and ``normal(p)`` for points p of shape (K, 3) [m]
+(``geometry(p, v)``: gap, normal and curvature term from one distance computation);
 the unit normal n = grad g / |grad g| points into the admissible region. |grad g| = 1
 for all three, so the gap's second time derivative along a point's motion is
 
@@ -39,6 +40,18 @@ def _norm(d: np.ndarray) -> np.ndarray:
     """|d| over the last axis: what np.linalg.norm(d, axis=-1) computes for real d (bit for bit),
     without its overhead (the event layer evaluates sphere gaps tens of thousands of times)."""
     return np.sqrt(np.add.reduce(d * d, axis=-1))
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """sum(a * b) over the last axis (np.sum's value, without its dispatch overhead)."""
+    return np.add.reduce(a * b, axis=-1)
+
+
+def _unit(d: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """d / r row by row, (K, m) by (K,); rows with r = 0 give 0 (an undefined direction)."""
+    if r.size and r.min() > 0:
+        return d / r[..., None]
+    return np.divide(d, r[..., None], out=np.zeros_like(d), where=r[..., None] > 0)
 
 
 def _check_vector(owner, name, v, n):
@@ -92,22 +105,27 @@ class Circle:
 
     def normal(self, p: np.ndarray) -> np.ndarray:
         """Unit inward normal for p (K, 3) -> (K, 3); zero on the axis, R away from the wall, where it is undefined."""
-        d = p[..., :2] - np.asarray(self.center)
-        r = np.hypot(d[..., 0], d[..., 1])[..., None]
-        n = np.zeros(p.shape)
-        n[..., :2] = -np.divide(d, r, out=np.zeros_like(d), where=r > 0)
-        return n
+        return self.geometry(p)[1]
 
     def curvature(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """v^T H_g v (K,) [m/s^2] for points p (K, 3) [m] moving at v (K, 3) [m/s], H_g the Hessian of g.
+        """v^T H_g v (K,) [m/s^2] for points p (K, 3) [m] moving at v (K, 3) [m/s], H_g the Hessian of g."""
+        return self.geometry(p, v)[2]
+
+    def geometry(self, p: np.ndarray, v: np.ndarray | None = None):
+        """Gap g (K,) [m], unit normal n (K, 3) and curvature term v^T H_g v (K,) [m/s^2] (None
+        without v) of points p (K, 3) [m] moving at v (K, 3) [m/s], from one distance computation.
 
         g = R - r, r = |d_12|:  H_g = -(I_2 - d^ d^T) / r  ->  v^T H_g v = -(|v_12|^2 - (d^ . v_12)^2) / r
         """
         d = p[..., :2] - np.asarray(self.center)
         r = np.hypot(d[..., 0], d[..., 1])
+        n = np.zeros(p.shape)
+        n[..., :2] = -_unit(d, r)
+        if v is None:
+            return self.radius - r, n, None
         vt = v[..., :2]
-        dv = np.sum(d * vt, axis=-1)
-        return -(np.sum(vt * vt, axis=-1) - dv * dv / (r * r)) / r
+        dv = _dot(d, vt)
+        return self.radius - r, n, -(_dot(vt, vt) - dv * dv / (r * r)) / r
 
 
 @dataclass(frozen=True)
@@ -138,19 +156,25 @@ class Sphere:
 
     def normal(self, p: np.ndarray) -> np.ndarray:
         """Unit inward normal for p (K, 3) -> (K, 3); zero at the centre, R away from the wall, where it is undefined."""
-        d = p - np.asarray(self.center)
-        r = _norm(d)[..., None]
-        return -np.divide(d, r, out=np.zeros_like(d), where=r > 0)
+        return self.geometry(p)[1]
 
     def curvature(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """v^T H_g v (K,) [m/s^2] for points p (K, 3) [m] moving at v (K, 3) [m/s], H_g the Hessian of g.
+        """v^T H_g v (K,) [m/s^2] for points p (K, 3) [m] moving at v (K, 3) [m/s], H_g the Hessian of g."""
+        return self.geometry(p, v)[2]
+
+    def geometry(self, p: np.ndarray, v: np.ndarray | None = None):
+        """Gap g (K,) [m], unit normal n (K, 3) and curvature term v^T H_g v (K,) [m/s^2] (None
+        without v) of points p (K, 3) [m] moving at v (K, 3) [m/s], from one distance computation.
 
         g = R - |d|:  H_g = -(I - d^ d^T) / |d|  ->  v^T H_g v = -(|v|^2 - (d^ . v)^2) / |d|
         """
         d = p - np.asarray(self.center)
         r = _norm(d)
-        dv = np.sum(d * v, axis=-1)
-        return -(np.sum(v * v, axis=-1) - dv * dv / (r * r)) / r
+        n = -_unit(d, r)
+        if v is None:
+            return self.radius - r, n, None
+        dv = _dot(d, v)
+        return self.radius - r, n, -(_dot(v, v) - dv * dv / (r * r)) / r
 
 
 @dataclass(frozen=True)
@@ -189,6 +213,10 @@ class Plane:
     def curvature(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
         """v^T H_g v (K,) [m/s^2]: zero, g is linear in p."""
         return np.zeros(np.shape(p)[:-1])
+
+    def geometry(self, p: np.ndarray, v: np.ndarray | None = None):
+        """Gap (K,) [m], normal (K, 3) and curvature term (K,) [m/s^2] (zero; None without v), as Circle.geometry."""
+        return self.gap(p), self.normal(p), None if v is None else self.curvature(p, v)
 
 
 WALL_TYPES = (Circle, Sphere, Plane)
