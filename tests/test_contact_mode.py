@@ -55,13 +55,40 @@ def test_wall_geometry_is_gap_gradient_and_curvature(wall):
         assert np.array_equal(wall.geometry(np.vstack((centre, p)))[1][0], np.zeros(3))
 
 
+@pytest.mark.parametrize("wall", [gi.Circle(1.3, (0.2, -0.1)), gi.Sphere(1.1, (0.1, 0.2, -0.3)),
+                                  gi.Plane((0, -1, 0), (0.3, 1.0, 0.2))])
+def test_compiled_contact_terms_are_the_walls_geometry(wall):
+    # constraint_data's compiled wall terms (kernel.contact_terms) against walls.py's numpy
+    # gap, normal and curvature at the joint points, their velocities J qdot and Tddot0's a0.
+    from gibbsimpact.kinematics import frames, joint_positions_and_jacobians
+
+    model = single_link_sphere_model() if isinstance(wall, gi.Sphere) else two_link_circle_model()
+    rng = np.random.default_rng(4)
+    q, _ = (single_link_sphere_state if isinstance(wall, gi.Sphere) else two_link_circle_state)(model)
+    q = q + 0.05 * rng.normal(size=model.n_dof)
+    qd = rng.normal(size=model.n_dof)
+    pairs = np.array([[0, j] for j in range(model.n_links + 1)])
+    d = constraint_data(model, [wall], q, qd, None, pairs)
+    P, J = joint_positions_and_jacobians(model, q)
+    p, pd = P[pairs[:, 1]], J[pairs[:, 1]] @ qd
+    a0 = frames(model, q, qd).Tdd0[pairs[:, 1], :3, 3]
+    np.testing.assert_allclose(d.g, wall.gap(p), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(d.n, wall.normal(p), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(d.pd, pd, rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(d.c, np.sum(wall.normal(p) * a0, axis=1) + wall.curvature(p, pd), rtol=1e-13,
+                               atol=1e-13)
+    np.testing.assert_allclose(d.v, np.sum(wall.normal(p) * pd, axis=1), rtol=1e-14, atol=1e-15)
+    np.testing.assert_allclose(d.W, np.einsum("kcn,kc->nk", J[pairs[:, 1]], wall.normal(p)), rtol=1e-14, atol=1e-15)
+
+
 def test_symmetric_solve_is_lstsq_with_its_cut():
-    # _solve_sym (eigh) against numpy's lstsq with rcond 1e-10 on symmetric matrices: regular,
-    # rank-deficient (a redundant contact) and indefinite; and G of size 0.
+    # _solve_sym (compiled Jacobi eigenpairs, kernel.sym_solve) against numpy's lstsq with rcond
+    # 1e-10 on symmetric matrices: regular, rank-deficient (a redundant contact) and indefinite,
+    # up to k = 30; and G of size 0.
     from gibbsimpact.resting import _solve_sym
 
     rng = np.random.default_rng(3)
-    for k, rank in [(1, 1), (3, 3), (3, 2), (5, 3), (4, 4)]:
+    for k, rank in [(1, 1), (3, 3), (3, 2), (5, 3), (4, 4), (12, 12), (12, 7), (30, 9)]:
         X = rng.normal(size=(k, rank))
         G = X @ np.diag(rng.uniform(0.5, 2.0, rank) * rng.choice([-1, 1], rank)) @ X.T
         G = 0.5 * (G + G.T)

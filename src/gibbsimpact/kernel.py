@@ -1547,6 +1547,199 @@ def _extra_points(fdat, idat, q, B, ts, ss, out, o_pts, o_jac, job, npts, k):
         x += 1
 
 
+#: Wall kinds of contact_terms (walls.py: Plane, Circle, Sphere; Wall.packed()).
+WALL_PLANE, WALL_CIRCLE, WALL_SPHERE = 0, 1, 2
+
+
+def contact_terms(out, off, qd, pairs, wk, wp, vel):
+    """Equations (1)-(2) of resting.py for k (wall, point) pairs, from one kernel output.
+
+    out: the kernel's output for one state with JOB_M | JOB_POINTS | JOB_JACOBIANS (and, for
+    vel = 1, JOB_SOLVE | JOB_FRAMES); off (11,): its layout; qd (N,) [m/s, rad/s]; pairs (k, 2):
+    wall index, contact point index; wk (W,): WALL_* kinds; wp (W, 6): a plane's point and unit
+    normal [m], a circle's (R, c1, c2) [m], a sphere's (R, c1, c2, c3) [m] (walls.py).
+
+    Per pair a at point p [m] with Jacobian J (3, N), point velocity pd = J qd [m/s] and
+    a0 = Jdot qd [m/s^2] (Tddot0's translation column, vel = 1):
+
+        g = R - |d| (d = p - c, its X1-X2 part for a circle),  n = -d / |d| (0 at d = 0)
+        g = n_w . (p - p_w), n = n_w (plane)
+        pd^T H pd = -(|pd|^2 - (d . pd)^2 / |d|^2) / |d| (circle: X1-X2 parts; plane: 0)
+        W[:, a] = J^T n,   c_a = n . a0 + pd^T H pd,   v_a = n . pd
+
+    and M^-1 W by Cholesky, G = W^T M^-1 W (symmetrised). vel = 0: positions only (c, v,
+    pd, a0 zero). Returns one float64 array: status (1,) (0, or 1 when M is not positive
+    definite), W (N k) and M^-1 W (N k) row-major (N, k), G (k k), c, g, v (k each), then n,
+    pd, a0 (k 3 each).
+    """
+    N = qd.shape[0]
+    k = pairs.shape[0]
+    oM = off[_S_M]
+    oP = off[_S_PTS]
+    oJ = off[_S_JAC]
+    oF = off[_S_FR]
+    oW = 1
+    oMW = oW + N * k
+    oG = oMW + N * k
+    oc = oG + k * k
+    og = oc + k
+    ov = og + k
+    on = ov + k
+    opd = on + 3 * k
+    oa0 = opd + 3 * k
+    res = np.zeros(oa0 + 3 * k)
+    for a in range(k):
+        w = pairs[a, 0]
+        j = pairs[a, 1]
+        kind = wk[w]
+        p0 = out[oP + 3 * j]
+        p1 = out[oP + 3 * j + 1]
+        p2 = out[oP + 3 * j + 2]
+        if vel:
+            for r in range(3):
+                s = 0.0
+                for c in range(N):
+                    s += out[oJ + (3 * j + r) * N + c] * qd[c]
+                res[opd + 3 * a + r] = s
+                # Tddot0 of frame j, row r, column 3 (frames section: T, Td, Tdd0 per frame).
+                res[oa0 + 3 * a + r] = out[oF + 48 * j + 32 + 4 * r + 3]
+        v0 = res[opd + 3 * a]
+        v1 = res[opd + 3 * a + 1]
+        v2 = res[opd + 3 * a + 2]
+        n0 = 0.0
+        n1 = 0.0
+        n2 = 0.0
+        curv = 0.0
+        if kind == WALL_PLANE:
+            n0 = wp[w, 3]
+            n1 = wp[w, 4]
+            n2 = wp[w, 5]
+            res[og + a] = (p0 - wp[w, 0]) * n0 + (p1 - wp[w, 1]) * n1 + (p2 - wp[w, 2]) * n2
+        else:
+            d0 = p0 - wp[w, 1]
+            d1 = p1 - wp[w, 2]
+            d2 = 0.0
+            vz = 0.0
+            if kind == WALL_CIRCLE:
+                r = math.hypot(d0, d1)
+            else:
+                d2 = p2 - wp[w, 3]
+                vz = v2
+                r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            res[og + a] = wp[w, 0] - r
+            if r > 0.0:
+                n0 = -(d0 / r)
+                n1 = -(d1 / r)
+                n2 = -(d2 / r)
+                dv = d0 * v0 + d1 * v1 + d2 * vz
+                curv = -((v0 * v0 + v1 * v1 + vz * vz) - dv * dv / (r * r)) / r
+        res[on + 3 * a] = n0
+        res[on + 3 * a + 1] = n1
+        res[on + 3 * a + 2] = n2
+        if vel:
+            res[oc + a] = (n0 * res[oa0 + 3 * a] + n1 * res[oa0 + 3 * a + 1] + n2 * res[oa0 + 3 * a + 2]) + curv
+            res[ov + a] = n0 * v0 + n1 * v1 + n2 * v2
+        for c in range(N):
+            res[oW + c * k + a] = (out[oJ + 3 * j * N + c] * n0 + out[oJ + (3 * j + 1) * N + c] * n1
+                                   + out[oJ + (3 * j + 2) * N + c] * n2)
+    # M^-1 W column by column (M is small; its factor costs less than a Python call).
+    M = np.zeros((N, N))
+    for i in range(N):
+        for c in range(N):
+            M[i, c] = out[oM + N * i + c]
+    col = np.zeros(N)
+    for a in range(k):
+        for c in range(N):
+            col[c] = res[oW + c * k + a]
+        x, status, dmin, dmax = _cholesky_solve(M, col)
+        if status == 1:
+            res[0] = 1.0
+            return res
+        for c in range(N):
+            res[oMW + c * k + a] = x[c]
+    for a in range(k):
+        for b in range(a, k):
+            s1 = 0.0
+            s2 = 0.0
+            for c in range(N):
+                s1 += res[oW + c * k + a] * res[oMW + c * k + b]
+                s2 += res[oW + c * k + b] * res[oMW + c * k + a]
+            res[oG + a * k + b] = 0.5 * (s1 + s2)
+            res[oG + b * k + a] = 0.5 * (s1 + s2)
+    return res
+
+
+def sym_solve(G, b):
+    """x with G x = b for a symmetric G (k, k): the least-squares solution of smallest |x| with
+    eigenvalues below 1e-10 of the largest in magnitude cut (lstsq's rcond = 1e-10: for a
+    symmetric matrix the singular values are |eigenvalues|, the singular vectors its eigenvectors):
+
+        x = sum over |l_i| > 1e-10 max|l| of v_i (v_i . b) / l_i
+
+    Eigenpairs by cyclic Jacobi rotations (k is the number of contacts: small), until the
+    off-diagonal part is below eps^2 of the matrix (Frobenius).
+    """
+    k = b.shape[0]
+    A = np.empty((k, k))
+    V = np.zeros((k, k))
+    total = 0.0
+    for i in range(k):
+        V[i, i] = 1.0
+        for j in range(k):
+            A[i, j] = G[i, j]
+            total += G[i, j] * G[i, j]
+    for _ in range(100):
+        off = 0.0
+        for p in range(k):
+            for q in range(p + 1, k):
+                off += A[p, q] * A[p, q]
+        if off <= 1e-32 * total:
+            break
+        for p in range(k):
+            for q in range(p + 1, k):
+                apq = A[p, q]
+                if apq == 0.0:
+                    continue
+                # The rotation (c, s) that zeroes A[p, q]: t = tan, the smaller root of
+                # t^2 + 2 theta t - 1 = 0, theta = (A_qq - A_pp) / (2 A_pq).
+                theta = (A[q, q] - A[p, p]) / (2.0 * apq)
+                t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
+                if theta < 0.0:
+                    t = -t
+                c = 1.0 / math.sqrt(t * t + 1.0)
+                s = t * c
+                for r in range(k):  # A <- A R (columns p, q)
+                    arp = A[r, p]
+                    arq = A[r, q]
+                    A[r, p] = c * arp - s * arq
+                    A[r, q] = s * arp + c * arq
+                for r in range(k):  # A <- R^T A (rows p, q)
+                    apr = A[p, r]
+                    aqr = A[q, r]
+                    A[p, r] = c * apr - s * aqr
+                    A[q, r] = s * apr + c * aqr
+                A[p, q] = 0.0
+                A[q, p] = 0.0
+                for r in range(k):  # V <- V R
+                    vrp = V[r, p]
+                    vrq = V[r, q]
+                    V[r, p] = c * vrp - s * vrq
+                    V[r, q] = s * vrp + c * vrq
+    big = 0.0
+    for i in range(k):
+        big = max(big, abs(A[i, i]))
+    x = np.zeros(k)
+    for i in range(k):
+        lam = A[i, i]
+        if abs(lam) > 1e-10 * big:
+            vb = 0.0
+            for r in range(k):
+                vb += V[r, i] * b[r]
+            for r in range(k):
+                x[r] += V[r, i] * (vb / lam)
+    return x
+
+
 # -- compilation ----------------------------------------------------------------------
 # The entry point called from Python gets explicit signatures (C-contiguous
 # float64 / int64 arrays): each compiled once, then frozen (no silent recompiles
@@ -1576,12 +1769,16 @@ _VARIANT_NAME = {RIGID_ENDS: "revolute joints and rigid link ends", REVOLUTE: "r
                  PRISMATIC: "prismatic joints"}
 _VARIANT_COST = {RIGID_ENDS: "about 15-20 s", REVOLUTE: "about 20-25 s", PRISMATIC: "about 30 s"}
 _ENTRY_SIG = f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64, {{}}, {{}})"
+#: Entry points compiled on first use, apart from the kernel: (signature, what the notice calls them).
+_LAZY = {"contact_terms": (f"{_A1}({_A1}, {_I1}, {_A1}, int64[:, ::1], {_I1}, {_A2}, int64)",
+                           "the resting-contact terms"),
+         "sym_solve": (f"{_A1}({_A2}, {_A1})", "the resting-contact solver")}
 
 
 def _signature_args(v) -> tuple:
     """numba type names of the last two arguments of variant v."""
     return tuple("none" if x is None else "int64" for x in v)
-_state = {"ready": set(), "cached": None, "seconds": {}, "kernel": None, "jitted": False}
+_state = {"ready": set(), "cached": None, "seconds": {}, "kernel": None, "jitted": False, "lazy": {}}
 _PY_KERNEL = kernel  # the plain-Python entry point (the global is replaced by the compiled one)
 _lock = threading.Lock()
 NOTICE_AFTER_S = 1.0
@@ -1628,6 +1825,8 @@ def _jit_helpers():
         # Compiled inside the entry points that call them (no wrapper, no separate finalisation).
         numba.extending.register_jitable(g[name])
     g["kernel"] = jit(g["kernel"])
+    for name in _LAZY:  # their own dispatchers: compiled at the first contact phase
+        g[name] = jit(g[name])
     _state["cached"] = cached
 
 
@@ -1656,6 +1855,49 @@ def compiled(v=PRISMATIC):
         ensure_compiled(v)
         f = _state["kernel"] = globals()["kernel"]
     return f
+
+
+def lazy(name):
+    """The entry point ``name`` of _LAZY (contact_terms, sym_solve), compiled (or loaded from
+    numba's cache) on first use.
+
+    Each has its own dispatcher, so that runs without resting contact never compile them
+    (~2-4 s of CPU; a notice goes to stderr when it takes more than NOTICE_AFTER_S). Call
+    with contiguous arrays of the signature's types (resting.py).
+    """
+    f = _state["lazy"].get(name)
+    if f is not None:
+        return f
+    with _lock:
+        if name not in _state["lazy"]:
+            if not _state["jitted"]:
+                _jit_helpers()
+                _state["jitted"] = True
+            d = globals()[name]
+            if hasattr(d, "disable_compile"):
+                t0 = time.perf_counter()
+                shown = []
+
+                def notice():
+                    shown.append(True)
+                    print(f"gibbsimpact: compiling {_LAZY[name][1]} (first use; a few seconds of CPU) ...",
+                          file=sys.stderr, flush=True)
+
+                timer = None if jit_disabled() else threading.Timer(NOTICE_AFTER_S, notice)
+                if timer is not None:
+                    timer.daemon = True
+                    timer.start()
+                try:
+                    d.compile(_LAZY[name][0])
+                    d.disable_compile()
+                finally:
+                    if timer is not None:
+                        timer.cancel()
+                if shown:
+                    print(f"gibbsimpact: {_LAZY[name][1]} ready in {time.perf_counter() - t0:.1f} s",
+                          file=sys.stderr, flush=True)
+            _state["lazy"][name] = d
+    return _state["lazy"][name]
 
 
 def _cache_is_warm(v):

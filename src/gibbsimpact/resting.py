@@ -85,6 +85,7 @@ balance E(t) - E(0) - W(t) still closes.
 
 from __future__ import annotations
 
+from itertools import accumulate
 from typing import NamedTuple
 
 import numpy as np
@@ -92,7 +93,7 @@ import numpy as np
 from . import kernel as _k
 from .dynamics import _raise_singular
 from .impact import _solve_lcp
-from .kinematics import run_kernel, states
+from .kinematics import as_vector, run_kernel, states
 from .walls import tangent_basis
 
 _JOB = _k.JOB_SOLVE | _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS | _k.JOB_FRAMES
@@ -122,19 +123,14 @@ class ConstraintData(NamedTuple):
 
 def _solve_sym(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     """x with G x = b for a symmetric G (k, k): the least-squares solution of smallest |x|, with
-    singular values below 1e-10 of the largest cut: redundant contacts (two sticking ends of a
-    rigid rod along its axis, three points of a chain on a line) then share the load with the
-    smallest |x| instead of an arbitrary split blown up by round-off.
-
-    G symmetric: its singular values are |eigenvalues| and the singular vectors its eigenvectors,
-    so x = sum over |l_i| > 1e-10 max|l| of v_i (v_i . b) / l_i, lstsq's result from eigh (half
-    its cost: this runs at every right-hand side of a contact phase).
+    singular values below 1e-10 of the largest cut (lstsq's rcond): redundant contacts (two
+    sticking ends of a rigid rod along its axis, three points of a chain on a line) then share
+    the load with the smallest |x| instead of an arbitrary split blown up by round-off.
+    Compiled (kernel.sym_solve): it runs at every right-hand side of a contact phase.
     """
     if G.size == 0:
         return np.zeros(0)
-    lam, V = np.linalg.eigh(G)
-    keep = np.abs(lam) > 1e-10 * np.abs(lam).max()
-    return V[:, keep] @ ((V[:, keep].T @ b) / lam[keep])
+    return _k.lazy("sym_solve")(np.array(G, dtype=float, order="C"), np.array(b, dtype=float, order="C"))
 
 
 def _lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -146,7 +142,8 @@ def _lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> ConstraintData:
-    """Equations (1)-(2) of the pairs (k, 2) (wall, point index) at the state (q, qd) (N,) with forces Q (N,) or None.
+    """Equations (1)-(2) of the pairs (k, 2) (wall, point index) at the state (q, qd) (N,) with forces Q (N,) or None:
+    one kernel call, then the compiled kernel.contact_terms on its output.
 
     velocities=False: positions only (c and qdd_free are zero; qd is ignored).
     """
@@ -156,44 +153,39 @@ def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> Constrain
     if velocities and out[0] != 0.0:
         _raise_singular(model, q, out[0], out[1], out[2])
     off = _offsets(model, job)
-    M = out[off[2]:off[3]].reshape(N, N)
-    P = out[off[7]:off[8]].reshape(-1, 3)
-    J = out[off[8]:off[9]].reshape(-1, 3, N)
-    pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
+    pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
     k = len(pairs)
-    Jp = J[pairs[:, 1]]  # (k, 3, N)
-    p = P[pairs[:, 1]]  # (k, 3)
-    pd = a0 = None
-    c, v = np.zeros(k), np.zeros(k)
-    if velocities:
-        F = out[off[9]:off[10]].reshape(model.n_links + 1, 3, 4, 4)
-        qdd = out[off[1] + N:off[1] + 2 * N].copy()
-        pd = Jp @ qd  # (k, 3)
-        a0 = F[pairs[:, 1], 2, :3, 3]  # Jdot qdot = Tddot0's translation column
-    else:
-        qdd = np.zeros(N)
-    ws = pairs[:, 0]
-    if k and (ws == ws[0]).all():  # one wall (the usual case): no masks
-        g, nrm, curv = walls[ws[0]].geometry(p, pd)
-    else:
-        nrm, g, curv = np.zeros((k, 3)), np.zeros(k), np.zeros(k)
-        for w in np.unique(ws):
-            sel = ws == w
-            g[sel], nrm[sel], cw = walls[w].geometry(p[sel], pd[sel] if velocities else None)
-            if velocities:
-                curv[sel] = cw
-    if velocities:
-        # (2): c = n . a0 + pdot^T H pdot.
-        c = np.add.reduce(nrm * a0, axis=1) + curv
-    W = np.einsum("kcn,kc->nk", Jp, nrm)
-    if velocities:
-        v = np.add.reduce(nrm * pd, axis=1)
-    try:
-        MinvW = np.linalg.solve(M, W)
-    except np.linalg.LinAlgError:
+    wk, wp = _packed_walls(walls)
+    # Equations (1)-(2): wall geometry, W, c, v, M^-1 W and G in one compiled call (kernel.contact_terms).
+    r = _k.lazy("contact_terms")(out, off, as_vector(qd) if velocities else np.zeros(N), pairs, wk, wp,
+                              int(velocities))
+    if r[0] != 0.0:
         _raise_singular(model, q, 1, 0.0, 0.0)
-    G = W.T @ MinvW
-    return ConstraintData(qdd, MinvW, W, 0.5 * (G + G.T), c, g, v, M, Jp, nrm, pd, a0)
+    o = list(accumulate((1, N * k, N * k, k * k, k, k, k, 3 * k, 3 * k, 3 * k)))  # section ends
+    W, MinvW = r[o[0]:o[1]].reshape(N, k), r[o[1]:o[2]].reshape(N, k)
+    G, c, g, v = r[o[2]:o[3]].reshape(k, k), r[o[3]:o[4]], r[o[4]:o[5]], r[o[5]:o[6]]
+    nrm, pd, a0 = r[o[6]:o[7]].reshape(k, 3), r[o[7]:o[8]].reshape(k, 3), r[o[8]:o[9]].reshape(k, 3)
+    M = out[off[2]:off[3]].reshape(N, N)
+    Jp = out[off[8]:off[9]].reshape(-1, 3, N)[pairs[:, 1]]  # (k, 3, N)
+    qdd = out[off[1] + N:off[1] + 2 * N].copy() if velocities else np.zeros(N)
+    if not velocities:
+        pd = a0 = None
+    return ConstraintData(qdd, MinvW, W, G, c, g, v, M, Jp, nrm, pd, a0)
+
+
+_PACKED: dict = {}
+
+
+def _packed_walls(walls):
+    """(kinds (W,) int64, parameters (W, 6)) of the walls for kernel.contact_terms, cached per walls."""
+    key = tuple(walls)
+    got = _PACKED.get(key)
+    if got is None:
+        kinds, pars = zip(*(w.packed() for w in walls)) if walls else ((), ())
+        got = (np.array(kinds, dtype=np.int64), np.array(pars, dtype=float).reshape(-1, 6))
+        if len(_PACKED) < 64:
+            _PACKED[key] = got
+    return got
 
 
 _OFFSETS: dict = {}

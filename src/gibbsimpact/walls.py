@@ -127,6 +127,10 @@ class Circle:
         dv = _dot(d, vt)
         return self.radius - r, n, -(_dot(vt, vt) - dv * dv / (r * r)) / r
 
+    def packed(self) -> tuple:
+        """(kind, 6 floats): this wall for the compiled contact terms (kernel.contact_terms)."""
+        return 1, (self.radius, *self.center, 0.0, 0.0, 0.0)
+
 
 @dataclass(frozen=True)
 class Sphere:
@@ -176,6 +180,10 @@ class Sphere:
         dv = _dot(d, v)
         return self.radius - r, n, -(_dot(v, v) - dv * dv / (r * r)) / r
 
+    def packed(self) -> tuple:
+        """(kind, 6 floats): this wall for the compiled contact terms (kernel.contact_terms)."""
+        return 2, (self.radius, *self.center, 0.0, 0.0)
+
 
 @dataclass(frozen=True)
 class Plane:
@@ -217,6 +225,10 @@ class Plane:
     def geometry(self, p: np.ndarray, v: np.ndarray | None = None):
         """Gap (K,) [m], normal (K, 3) and curvature term (K,) [m/s^2] (zero; None without v), as Circle.geometry."""
         return self.gap(p), self.normal(p), None if v is None else self.curvature(p, v)
+
+    def packed(self) -> tuple:
+        """(kind, 6 floats): this wall for the compiled contact terms (kernel.contact_terms)."""
+        return 0, (*self.point, *self.normal_vector)
 
 
 WALL_TYPES = (Circle, Sphere, Plane)
