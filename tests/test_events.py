@@ -6,7 +6,8 @@ import pytest
 import gibbsimpact as gi
 from scipy.integrate import DOP853, RK45
 
-from gibbsimpact.flight import _Dop853Interpolant, _interpolant, dip_allowance, hermite_positions
+from gibbsimpact import flight
+from gibbsimpact.flight import _Dop853Interpolant, _first_crossing, _interpolant, dip_allowance, hermite_positions
 
 L_ROD = 1.0
 
@@ -149,3 +150,28 @@ def test_other_methods_keep_scipys_dense_output():
     dense = _interpolant(solver)
     assert not isinstance(dense, _Dop853Interpolant)
     assert np.array_equal(dense(0.5 * solver.t), solver.dense_output()(0.5 * solver.t))
+
+
+def test_examined_step_skips_the_minimisation_only_without_a_possible_dip(monkeypatch):
+    # _first_crossing on E(t) given in closed form (the "dense output" is E itself).
+    def crossing(E):
+        def sol(t):
+            return np.atleast_1d(E(np.asarray(t, dtype=float)))[None, :] if np.ndim(t) else np.array([E(t)])
+
+        return _first_crossing(lambda t, y: float(y[0]), sol, 0.0, 1.0, E(0.0), E(1.0), lambda Y: Y[0])
+
+    # A pair leaving the wall right after its impact: E(0) ~ 0, rising. The dense samples' dip
+    # bound rules out a crossing: no minimisation.
+    def no_minimisation(*args, **kwargs):
+        raise AssertionError("minimize_scalar called")
+
+    with monkeypatch.context() as m:
+        m.setattr(flight, "minimize_scalar", no_minimisation)
+        assert crossing(lambda t: 1e-17 + 0.3 * t + 0.05 * t * t) is None
+    # A grazing dip between two samples (nearest samples at 0.47, 0.53 are positive): found,
+    # at the parabola's first root.
+    depth = 1e-9
+    t_root = crossing(lambda t: (t - 0.5) ** 2 - depth)
+    assert t_root == pytest.approx(0.5 - depth ** 0.5, abs=1e-12)
+    # The same parabola staying above zero: examined, no crossing.
+    assert crossing(lambda t: (t - 0.5) ** 2 + depth) is None

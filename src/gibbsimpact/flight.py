@@ -28,9 +28,10 @@ h = t_b - t_a:
    with L_q = 1 + 2 sum l_i [m/unit] a bound on |dg/dq|. Only a step with
    min_i E_k(s_i) - a < 0 (some pair comes within a few interpolation errors
    of its level) is examined further: the solver's dense output (for DOP853
-   three more right-hand sides) is sampled at 16 points and the smallest
-   sample is refined by a bounded Brent minimisation. A minimum below zero
-   is an event.
+   three more right-hand sides) is sampled at 16 points; unless the same dip
+   bound at that spacing keeps every sample interval above zero (e.g. a pair
+   leaving the wall after its impact), the smallest sample is refined by a
+   bounded Brent minimisation. A minimum below zero is an event.
 3. Root: the first crossing is bracketed by the first negative sample (or the
    minimum) and found by brentq on the dense output, xtol = rtol = 4 eps,
    exactly as solve_ivp does. The earliest root over all events ends the
@@ -210,8 +211,9 @@ def _first_crossing(fun, sol, t_a: float, t_b: float, E_a: float, E_b: float, fu
     """First t in [t_a, t_b] where fun(t, sol(t)) falls through zero, or None.
 
     E_a = fun at t_a (> 0); E_b at t_b; fun_batch(Y) -> (m,), fun at the states Y (n, m) (the
-    same values, one kernel call). Samples the dense output, refines the smallest sample by a
-    bounded minimisation, then brentq on the first bracket.
+    same values, one kernel call). Samples the dense output; without a sample <= 0 and unless
+    the samples' dip bound rules a crossing out, refines the smallest sample by a bounded
+    minimisation; then brentq on the first bracket.
     """
     ts = np.linspace(t_a, t_b, _N_DENSE + 2)
     Es = np.empty(ts.size)
@@ -225,6 +227,14 @@ def _first_crossing(fun, sol, t_a: float, t_b: float, E_a: float, E_b: float, fu
         else:
             lo, hi = ts[i - 1], ts[i]
     else:
+        # Check 2's dip bound at the samples' spacing: with |E''| delta^2 <= 4 max|D_i| (the same
+        # safety factor 4), on a sample interval with end values e0, e1 > 0
+        #     E >= (1 - u) e0 + u e1 - 2 max|D| u (1 - u) >= u (1 - u) ((sqrt e0 + sqrt e1)^2 - 2 max|D|)
+        # (Cauchy-Schwarz, as in contacts.py's skip rule): no interval can reach zero when every
+        # bracket is positive; typically a pair leaving the wall right after its impact.
+        root = np.sqrt(Es)
+        if np.all((root[:-1] + root[1:]) ** 2 > 2.0 * float(np.max(np.abs(Es[:-2] - 2.0 * Es[1:-1] + Es[2:])))):
+            return None
         i = int(np.argmin(Es))
         lo_b, hi_b = ts[max(i - 1, 0)], ts[min(i + 1, ts.size - 1)]
         res = minimize_scalar(lambda t: fun(t, sol(t)), bounds=(lo_b, hi_b), method="bounded",
