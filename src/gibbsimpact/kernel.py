@@ -1240,17 +1240,25 @@ def _cholesky_solve(M, b):
     status 0: solved; 1: not positive definite; 2: pivots spread beyond 1e7
     (dmin, dmax: smallest and largest diagonal entry of the factor).
     """
-    N = b.shape[0]
+    L, status, dmin, dmax = _cholesky_factor(M)
+    if status == 1:
+        return np.zeros(b.shape[0]), 1, 0.0, dmax
+    return _cholesky_apply(L, b), status, dmin, dmax
+
+
+def _cholesky_factor(M):
+    """L with M = L L^T (lower triangular), status (0; 1 not positive definite; 2 pivots spread
+    beyond 1e7), the smallest and largest pivot."""
+    N = M.shape[0]
     L = np.zeros((N, N))
     dmin = math.inf
     dmax = 0.0
-    x = np.zeros(N)
     for j in range(N):
         s = M[j, j]
         for k in range(j):
             s -= L[j, k] * L[j, k]
         if s <= 0.0:  # (a NaN state gives NaN pivots and a NaN x: the integrator rejects it)
-            return x, 1, 0.0, dmax
+            return L, 1, 0.0, dmax
         d = math.sqrt(s)
         L[j, j] = d
         dmin = min(dmin, d)
@@ -1260,6 +1268,13 @@ def _cholesky_solve(M, b):
             for k in range(j):
                 s -= L[i, k] * L[j, k]
             L[i, j] = s / d
+    return L, (2 if dmin < 1e-7 * dmax else 0), dmin, dmax
+
+
+def _cholesky_apply(L, b):
+    """x with L L^T x = b: forward, then backward substitution."""
+    N = b.shape[0]
+    x = np.zeros(N)
     for i in range(N):
         s = b[i]
         for k in range(i):
@@ -1270,7 +1285,7 @@ def _cholesky_solve(M, b):
         for k in range(i + 1, N):
             s -= L[k, i] * x[k]
         x[i] = s / L[i, i]
-    return x, (2 if dmin < 1e-7 * dmax else 0), dmin, dmax
+    return x
 
 
 def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out, SD, pris):
@@ -1642,19 +1657,20 @@ def contact_terms(out, off, qd, pairs, wk, wp, vel):
         for c in range(N):
             res[oW + c * k + a] = (out[oJ + 3 * j * N + c] * n0 + out[oJ + (3 * j + 1) * N + c] * n1
                                    + out[oJ + (3 * j + 2) * N + c] * n2)
-    # M^-1 W column by column (M is small; its factor costs less than a Python call).
+    # M^-1 W: one Cholesky factor, k solves.
     M = np.zeros((N, N))
     for i in range(N):
         for c in range(N):
             M[i, c] = out[oM + N * i + c]
+    L, status, dmin, dmax = _cholesky_factor(M)
+    if status == 1:
+        res[0] = 1.0
+        return res
     col = np.zeros(N)
     for a in range(k):
         for c in range(N):
             col[c] = res[oW + c * k + a]
-        x, status, dmin, dmax = _cholesky_solve(M, col)
-        if status == 1:
-            res[0] = 1.0
-            return res
+        x = _cholesky_apply(L, col)
         for c in range(N):
             res[oMW + c * k + a] = x[c]
     for a in range(k):
@@ -1759,7 +1775,8 @@ def sym_solve(G, b):
 _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_skew", "_skew3",
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
             "_joint_field", "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
-            "_sd_stride", "_own", "_link_body", "_tr_sps", "_e_sy", "_extra_points", "_mmax", "assemble", "_cholesky_solve", "_link_observables", "layout")
+            "_sd_stride", "_own", "_link_body", "_tr_sps", "_e_sy", "_extra_points", "_mmax", "assemble", "_cholesky_solve",
+            "_cholesky_factor", "_cholesky_apply", "_link_observables", "layout")
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
