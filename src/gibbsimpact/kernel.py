@@ -1786,10 +1786,9 @@ _VARIANT_NAME = {RIGID_ENDS: "revolute joints and rigid link ends", REVOLUTE: "r
                  PRISMATIC: "prismatic joints"}
 _VARIANT_COST = {RIGID_ENDS: "about 15-20 s", REVOLUTE: "about 20-25 s", PRISMATIC: "about 30 s"}
 _ENTRY_SIG = f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64, {{}}, {{}})"
-#: Entry points compiled on first use, apart from the kernel: (signature, what the notice calls them).
-_LAZY = {"contact_terms": (f"{_A1}({_A1}, {_I1}, {_A1}, int64[:, ::1], {_I1}, {_A2}, int64)",
-                           "the resting-contact terms"),
-         "sym_solve": (f"{_A1}({_A2}, {_A1})", "the resting-contact solver")}
+#: Entry points compiled together at the first contact phase, apart from the kernel: their signatures.
+_LAZY = {"contact_terms": f"{_A1}({_A1}, {_I1}, {_A1}, int64[:, ::1], {_I1}, {_A2}, int64)",
+         "sym_solve": f"{_A1}({_A2}, {_A1})"}
 
 
 def _signature_args(v) -> tuple:
@@ -1878,9 +1877,10 @@ def lazy(name):
     """The entry point ``name`` of _LAZY (contact_terms, sym_solve), compiled (or loaded from
     numba's cache) on first use.
 
-    Each has its own dispatcher, so that runs without resting contact never compile them
-    (~2-4 s of CPU; a notice goes to stderr when it takes more than NOTICE_AFTER_S). Call
-    with contiguous arrays of the signature's types (resting.py).
+    They have their own dispatchers, so that runs without resting contact never compile them;
+    the first request compiles all of them (a contact phase needs both): ~2-4 s of CPU, with
+    one notice on stderr when it takes more than NOTICE_AFTER_S. Call with contiguous arrays
+    of the signature's types (resting.py).
     """
     f = _state["lazy"].get(name)
     if f is not None:
@@ -1890,30 +1890,31 @@ def lazy(name):
             if not _state["jitted"]:
                 _jit_helpers()
                 _state["jitted"] = True
-            d = globals()[name]
-            if hasattr(d, "disable_compile"):
-                t0 = time.perf_counter()
-                shown = []
+            t0 = time.perf_counter()
+            shown = []
 
-                def notice():
-                    shown.append(True)
-                    print(f"gibbsimpact: compiling {_LAZY[name][1]} (first use; a few seconds of CPU) ...",
-                          file=sys.stderr, flush=True)
+            def notice():
+                shown.append(True)
+                print("gibbsimpact: compiling the resting-contact code (first contact phase; a few seconds of "
+                      "CPU) ...", file=sys.stderr, flush=True)
 
-                timer = None if jit_disabled() else threading.Timer(NOTICE_AFTER_S, notice)
+            timer = None if jit_disabled() else threading.Timer(NOTICE_AFTER_S, notice)
+            if timer is not None:
+                timer.daemon = True
+                timer.start()
+            try:
+                for entry, sig in _LAZY.items():
+                    d = globals()[entry]
+                    if hasattr(d, "disable_compile"):
+                        d.compile(sig)
+                        d.disable_compile()
+                    _state["lazy"][entry] = d
+            finally:
                 if timer is not None:
-                    timer.daemon = True
-                    timer.start()
-                try:
-                    d.compile(_LAZY[name][0])
-                    d.disable_compile()
-                finally:
-                    if timer is not None:
-                        timer.cancel()
-                if shown:
-                    print(f"gibbsimpact: {_LAZY[name][1]} ready in {time.perf_counter() - t0:.1f} s",
-                          file=sys.stderr, flush=True)
-            _state["lazy"][name] = d
+                    timer.cancel()
+            if shown:
+                print(f"gibbsimpact: resting-contact code ready in {time.perf_counter() - t0:.1f} s",
+                      file=sys.stderr, flush=True)
     return _state["lazy"][name]
 
 
