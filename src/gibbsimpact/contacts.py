@@ -146,14 +146,13 @@ class Contacts:
         """Tables of the skip rule (class docstring).
 
         _table (N, 2 F) [m per unit of e_k]: lam_k of link f in column f, 2 max_x |psi_k(x)|
-        in column F + f (each 1.1 times its sampled maximum); _pairs: per link f its end
-        joints (a, b), or None for a link without an end point (searched always);
-        _wall_kinds: per wall (0 plane, 1 circle, 2 sphere) and R [m]; _pb_slopes:
-        (slope indices, d index, l_i) of the Pb links (e_k = delta_k d / l_i for a slope).
+        in column F + f (each 1.1 times its sampled maximum); _rules: per (link f, wall w) pair
+        (f, w, wall kind (0 plane, 1 circle, 2 sphere), R [m], the link's end joints (a, b) or
+        None for a link without an end point (searched always)); _pb_slopes: (slope indices,
+        d index, l_i) of the Pb links (e_k = delta_k d / l_i for a slope).
         """
         from .linkpoints import end_joints
         from .model import link_deflection
-        from .walls import Circle, Plane, Sphere
 
         model, N, F = self.model, self.N, len(self.flex)
         u = np.linspace(0.0, 1.0, self._TABLE_SAMPLES)
@@ -178,20 +177,18 @@ class Contacts:
                 table[c, F + f] = 2.0 * 1.1 * float(np.max(np.hypot(v, w)))
         self._table = table
         ends = end_joints(model)[self.flex]
-        self._pairs = [None if (a < 0 or b < 0) else (int(a), int(b)) for a, b in ends]
+        pairs = [None if (a < 0 or b < 0) else (int(a), int(b)) for a, b in ends]
+        # Wall kinds as the compiled contact terms number them (Wall.packed(): 0 plane, 1 circle,
+        # 2 sphere; a circle's or a sphere's first parameter is R).
         kinds = []
         for w in self.walls:
-            if isinstance(w, Plane):
-                kinds.append((0, 0.0))
-            elif isinstance(w, (Circle, Sphere)):
-                kinds.append((1 if isinstance(w, Circle) else 2, float(w.radius)))
-            else:
+            if not hasattr(w, "packed"):
                 raise TypeError(f"wall {w!r}: link contacts need gibbsimpact Plane, Circle or Sphere walls")
-        self._wall_kinds = kinds
-        # The (link, wall) pairs of the skip rule, flat: (f, w, kind, R, (a, b)); None when a link
-        # has no end joint (it is always searched).
-        self._rules = None if any(ab is None for ab in self._pairs) else [
-            (f, w, kind, R, ab) for f, ab in enumerate(self._pairs) for w, (kind, R) in enumerate(kinds)]
+            kind, par = w.packed()
+            kinds.append((kind, float(par[0]) if kind else 0.0))
+        # The (link, wall) pairs of the skip rule, flat: (f, w, kind, R, (a, b)), (a, b) None for a
+        # link without an end joint (never skipped).
+        self._rules = [(f, w, kind, R, ab) for f, ab in enumerate(pairs) for w, (kind, R) in enumerate(kinds)]
         self._need_points = any(k > 0 for k, _ in kinds)
 
     def _link_bounds(self, qs, g_joints, points):
@@ -209,31 +206,19 @@ class Contacts:
         docstring) does not skip: they need a link search. g_joints (K, W, P) [m] and points
         (K, P, 3) [m] are the joint gaps and positions of the same states.
 
-        Plain float arithmetic per pair (a few pairs per state: cheaper than numpy calls).
+        Plain float arithmetic per pair (a few pairs per state: cheaper than numpy calls); a
+        state's pairs stop at the first that is not skipped.
         """
-        if self._rules is None:
-            return np.ones(len(qs), dtype=bool)
         E, G, Pts = self._link_bounds(qs, g_joints, points)
-        F, r = len(self.flex), self.refine_below
-        need = [False] * len(qs)
-        for k, (Ek, Gk) in enumerate(zip(E, G)):
-            Pk = Pts[k] if Pts is not None else None
-            for f, w, kind, R, ab in self._rules:
-                Gw = Gk[w]
-                if not _skipped(kind, R, Gw[ab[0]], Gw[ab[1]], Ek[f], Ek[F + f], r, Pk, ab):
-                    need[k] = True
-                    break
-        return np.array(need, dtype=bool)
+        return np.array([not all(self._pair_skipped(rule, Ek, Gk, Pts[k] if Pts is not None else None)
+                                 for rule in self._rules) for k, (Ek, Gk) in enumerate(zip(E, G))], dtype=bool)
 
-    def _pair_skipped(self, w, f, Ek, Gk, Pk) -> bool:
-        """The skip rule for wall w and flexible link f of one state: Ek, Gk, Pk its rows of
-        _link_bounds (Lam and 2 D_i, joint gaps (W, P), joint positions or None)."""
-        ab = self._pairs[f]
-        if ab is None:
-            return False
-        kind, R = self._wall_kinds[w]
-        Gw = Gk[w]
-        return _skipped(kind, R, Gw[ab[0]], Gw[ab[1]], Ek[f], Ek[len(self.flex) + f], self.refine_below, Pk, ab)
+    def _pair_skipped(self, rule, Ek, Gk, Pk) -> bool:
+        """The skip rule of one pair of _rules for one state: Ek, Gk, Pk its rows of _link_bounds
+        (Lam and 2 D_i, joint gaps (W, P), joint positions or None)."""
+        f, w, kind, R, ab = rule
+        return ab is not None and _skipped(kind, R, Gk[w][ab[0]], Gk[w][ab[1]], Ek[f], Ek[len(self.flex) + f],
+                                           self.refine_below, Pk, ab)
 
     def skipped(self, q) -> np.ndarray:
         """(W, F) bool, or (K, W, F) for q (K, N): the (wall, link) pairs that the skip rule
@@ -242,10 +227,10 @@ class Contacts:
         pts = joint_positions_batch(self.model, qs)
         g = np.stack([w.gap(pts) for w in self.walls], axis=1)
         E, G, Pts = self._link_bounds(qs, g, pts)
-        W, F = len(self.walls), len(self.flex)
-        out = np.array([[[self._pair_skipped(w, f, Ek, Gk, Pts[k] if Pts is not None else None) for f in range(F)]
-                         for w in range(W)] for k, (Ek, Gk) in enumerate(zip(E, G))],
-                       dtype=bool).reshape(len(qs), W, F)
+        out = np.zeros((len(qs), len(self.walls), len(self.flex)), dtype=bool)
+        for k, (Ek, Gk) in enumerate(zip(E, G)):
+            for rule in self._rules:
+                out[k, rule[1], rule[0]] = self._pair_skipped(rule, Ek, Gk, Pts[k] if Pts is not None else None)
         return out if np.ndim(q) == 2 else out[0]
 
     def _link_gaps(self, qs, g_joints=None, points=None, out=None):
