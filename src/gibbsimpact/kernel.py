@@ -1566,6 +1566,17 @@ def _extra_points(fdat, idat, q, B, ts, ss, out, o_pts, o_jac, job, npts, k):
 WALL_PLANE, WALL_CIRCLE, WALL_SPHERE = 0, 1, 2
 
 
+def contact_layout(N, k):
+    """Offsets (10,) of contact_terms' output sections W, M^-1 W, G, c, g, v, n, pd, a0 for
+    N coordinates and k pairs, and its size (after the status entry at 0)."""
+    o = np.zeros(10, dtype=np.int64)
+    sizes = (N * k, N * k, k * k, k, k, k, 3 * k, 3 * k, 3 * k)
+    o[0] = 1
+    for i in range(9):
+        o[i + 1] = o[i] + sizes[i]
+    return o
+
+
 def contact_terms(out, off, qd, pairs, wk, wp, vel):
     """Equations (1)-(2) of resting.py for k (wall, point) pairs, from one kernel output.
 
@@ -1593,16 +1604,17 @@ def contact_terms(out, off, qd, pairs, wk, wp, vel):
     oP = off[_S_PTS]
     oJ = off[_S_JAC]
     oF = off[_S_FR]
-    oW = 1
-    oMW = oW + N * k
-    oG = oMW + N * k
-    oc = oG + k * k
-    og = oc + k
-    ov = og + k
-    on = ov + k
-    opd = on + 3 * k
-    oa0 = opd + 3 * k
-    res = np.zeros(oa0 + 3 * k)
+    o = contact_layout(N, k)
+    oW = o[0]
+    oMW = o[1]
+    oG = o[2]
+    oc = o[3]
+    og = o[4]
+    ov = o[5]
+    on = o[6]
+    opd = o[7]
+    oa0 = o[8]
+    res = np.zeros(o[9])
     for a in range(k):
         w = pairs[a, 0]
         j = pairs[a, 1]
@@ -1776,7 +1788,7 @@ _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_sk
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
             "_joint_field", "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
             "_sd_stride", "_own", "_link_body", "_tr_sps", "_e_sy", "_extra_points", "_mmax", "assemble", "_cholesky_solve",
-            "_cholesky_factor", "_cholesky_apply", "_link_observables", "layout")
+            "_cholesky_factor", "_cholesky_apply", "_link_observables", "layout", "contact_layout")
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"

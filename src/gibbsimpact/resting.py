@@ -85,7 +85,6 @@ balance E(t) - E(0) - W(t) still closes.
 
 from __future__ import annotations
 
-from itertools import accumulate
 from typing import NamedTuple
 
 import numpy as np
@@ -161,7 +160,7 @@ def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> Constrain
                               int(velocities))
     if r[0] != 0.0:
         _raise_singular(model, q, 1, 0.0, 0.0)
-    o = list(accumulate((1, N * k, N * k, k * k, k, k, k, 3 * k, 3 * k, 3 * k)))  # section ends
+    o = _k.contact_layout(N, k).tolist()  # section starts, then the end
     W, MinvW = r[o[0]:o[1]].reshape(N, k), r[o[1]:o[2]].reshape(N, k)
     G, c, g, v = r[o[2]:o[3]].reshape(k, k), r[o[3]:o[4]], r[o[4]:o[5]], r[o[5]:o[6]]
     nrm, pd, a0 = r[o[6]:o[7]].reshape(k, 3), r[o[7]:o[8]].reshape(k, 3), r[o[8]:o[9]].reshape(k, 3)
