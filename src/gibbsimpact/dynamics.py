@@ -102,6 +102,19 @@ def _raise_singular(model, q, status, dmin, dmax):
         f"mass matrix is numerically singular (condition ~{(dmax / dmin) ** 2:.1e}): {diagnose_singular(model, q)}")
 
 
+_NDARRAY = np.ndarray
+_JOB_SOLVE = _k.JOB_SOLVE
+
+
+def _solve_call(model) -> tuple:
+    """What forward_dynamics' hot path needs, unpacked once per model (it saves ~2 us a call):
+    (compiled kernel, fdat, idat, zeros (N,), variant pair, (N,), qddot's slice of the output)."""
+    fdat, idat, zeros, v = model.kernel_data
+    N = zeros.size
+    call = model._solve_call = (_k.compiled(v), fdat, idat, zeros, v[0], v[1], (N,), 3 + N, 3 + 2 * N)
+    return call
+
+
 def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | None = None) -> np.ndarray:
     """Generalised accelerations from M qddot = Q - h - dV/dq, shape (N,).
 
@@ -119,20 +132,23 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
     # The hot path of every simulation (one call per RHS): float64 arrays of the right shape go
     # straight to the kernel, which refuses (TypeError, no recompile) a non-contiguous or
     # read-only one; only then are they converted. The kernel does not check bounds: shapes are.
-    fdat, idat, zeros, v = model.kernel_data
-    N = zeros.size
-    shape = (N,)
     # (A read-only array is screened out here: numba's TypeError for it costs ~0.3 ms.)
-    if Q is None and q.__class__ is np.ndarray and qdot.__class__ is np.ndarray and q.shape == shape \
+    try:
+        f, fdat, idat, zeros, v0, v1, shape, lo, hi = model._solve_call
+    except AttributeError:
+        f, fdat, idat, zeros, v0, v1, shape, lo, hi = _solve_call(model)
+    if Q is None and q.__class__ is _NDARRAY and qdot.__class__ is _NDARRAY and q.shape == shape \
             and qdot.shape == shape and q.flags.writeable and qdot.flags.writeable:
         try:
-            out = _k.compiled(v)(fdat, idat, q, qdot, zeros, _k.JOB_SOLVE, *v)
+            out = f(fdat, idat, q, qdot, zeros, _JOB_SOLVE, v0, v1)
         except TypeError:
             pass
         else:
-            if out[0] != 0.0:
+            if out[0]:
                 _raise_singular(model, q, out[0], out[1], out[2])
-            return out[3 + N:3 + 2 * N]  # a view of a private array
+            return out[lo:hi]  # a view of a private array
+    N = zeros.size
+    v = (v0, v1)
     q, qdot = as_vector(q), as_vector(qdot)
     if q.size != N or qdot.size != N:
         raise ValueError(f"forward_dynamics q, qdot have shapes {q.shape}, {qdot.shape}; this model needs "

@@ -139,17 +139,19 @@ def write_timeseries_csv(result: Result, path) -> Path:
     header += ["kinetic_J", "gravity_J", "strain_J", "total_J"]
     if result.work is not None:
         header += ["work_inputs_J", "work_damping_J"]
+    K = len(result.t)
+    cols = [result.q, result.qdot, P.reshape(K, 3 * P.shape[1]), np.column_stack((E.kinetic, E.gravity, E.strain, E.total))]
+    if result.work is not None:
+        cols.append(result.work[:, :2])
+    # One (K, C) table of Python floats, formatted by _fmt row by row (case 1's 1014 rows: 55 ms
+    # against 68 ms when indexing numpy scalars one by one; repr of the floats is most of it).
+    rows = np.column_stack(cols).tolist()
+    phases = [str(int(p)) for p in result.phase]
+    times = result.t.tolist()
     with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
-        for k in range(len(result.t)):
-            row = [_fmt(result.t[k]), str(int(result.phase[k]))]
-            row += [_fmt(v) for v in result.q[k]] + [_fmt(v) for v in result.qdot[k]]
-            row += [_fmt(v) for v in P[k].ravel()]
-            row += [_fmt(E.kinetic[k]), _fmt(E.gravity[k]), _fmt(E.strain[k]), _fmt(E.total[k])]
-            if result.work is not None:
-                row += [_fmt(result.work[k, 0]), _fmt(result.work[k, 1])]
-            w.writerow(row)
+        w.writerows([_fmt(t), ph, *map(_fmt, row)] for t, ph, row in zip(times, phases, rows))
     return path
 
 

@@ -718,6 +718,13 @@ class Model:
     stiffness_matrix = property(lambda self: self._K, doc="Block-diagonal modal stiffness K (N, N) [N/m].")
     total_mass = property(lambda self: self._total_mass, doc="Total mass [kg].")
 
+    def __getstate__(self):
+        # Pickled (a sweep's spawned workers) without dynamics.forward_dynamics' cached call: it
+        # holds the kernel's dispatcher, which a worker must take from its own import of the module.
+        state = self.__dict__.copy()
+        state.pop("_solve_call", None)
+        return state
+
     @property
     def kernel_data(self):
         """(fdat (F,), idat (I,), zeros (N,), v): the model packed for the compiled kernel (built once);
