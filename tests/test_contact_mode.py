@@ -81,6 +81,40 @@ def test_compiled_contact_terms_are_the_walls_geometry(wall):
     np.testing.assert_allclose(d.W, np.einsum("kcn,kc->nk", J[pairs[:, 1]], wall.normal(p)), rtol=1e-14, atol=1e-15)
 
 
+@pytest.mark.parametrize("which", ["circle", "sphere"])
+def test_compiled_frictionless_solve_stops_the_contact_accelerations(which):
+    # Equation (3) solved inside kernel.contact_terms (the right-hand side of a frictionless
+    # contact phase): lam is lstsq's solution of G lam = -(W^T qdd_free + c) from numpy, and the
+    # constrained qddot has zero normal accelerations W^T qddot + c = 0 (G regular here), with M
+    # qddot = M qdd_free + W lam, from the public mass matrix.
+    if which == "circle":
+        model, wall = two_link_circle_model(), gi.Circle(1.0)
+        q, _ = two_link_circle_state(model)
+    else:
+        model, wall = single_link_sphere_model(), gi.Sphere(1.0)
+        q, _ = single_link_sphere_state(model)
+    rng = np.random.default_rng(8)
+    q = q + 0.1 * rng.normal(size=model.n_dof)  # off the sphere's diameter, where G is singular
+    qd = rng.normal(size=model.n_dof)
+    pairs = np.array([[0, j] for j in range(model.n_links + 1)])
+    d = constraint_data(model, [wall], q, qd, None, pairs)
+    assert np.linalg.cond(d.G) < 1e6
+    b = -(d.W.T @ d.qdd_free + d.c)
+    lam = np.linalg.lstsq(d.G, b, rcond=1e-10)[0]
+    np.testing.assert_allclose(d.lam, lam, rtol=1e-10, atol=1e-12 * np.abs(lam).max())
+    scale = np.abs(d.W.T @ d.qdd_free).max() + np.abs(d.c).max()
+    np.testing.assert_allclose(d.W.T @ d.qdd + d.c, 0.0, atol=1e-11 * scale)
+    M = model.mass_matrix(q)
+    np.testing.assert_allclose(M @ d.qdd, M @ d.qdd_free + d.W @ d.lam, rtol=1e-11,
+                               atol=1e-11 * np.abs(M @ d.qdd_free).max())
+    # A resting set without friction takes its right-hand side from these sections.
+    r = RestingContacts(model, [wall], 1e-9)
+    r.active[0, :] = True
+    qdd, lam_n, F_t, power, lam_t, data = r.acceleration(q, qd)
+    assert np.array_equal(qdd, d.qdd) and np.array_equal(lam_n, d.lam) and data is None
+    assert not F_t.any() and not power.any() and not lam_t.any()
+
+
 def test_symmetric_solve_is_lstsq_with_its_cut():
     # _solve_sym (compiled Jacobi eigenpairs, kernel.sym_solve) against numpy's lstsq with rcond
     # 1e-10 on symmetric matrices: regular, rank-deficient (a redundant contact) and indefinite,

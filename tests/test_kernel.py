@@ -193,7 +193,8 @@ def contact_quantities(model, q, qd, Q):
     p = constraint_data(model, CONTACT_WALLS, q, None, None, pairs, velocities=False)
     return {"contact_W": d.W, "contact_MinvW": d.MinvW, "contact_G": d.G, "contact_c": d.c, "contact_g": d.g,
             "contact_v": d.v, "contact_n": d.n, "contact_pd": d.pd, "contact_a0": d.a0,
-            "contact_G_positions": p.G, "contact_lambda": _solve_sym(d.G, -(d.W.T @ d.qdd_free + d.c))}
+            "contact_G_positions": p.G, "contact_lambda": _solve_sym(d.G, -(d.W.T @ d.qdd_free + d.c)),
+            "contact_lambda_compiled": d.lam, "contact_qdd": d.qdd}
 
 
 def compute_all(seed=SEED):

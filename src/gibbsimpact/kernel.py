@@ -1567,12 +1567,12 @@ WALL_PLANE, WALL_CIRCLE, WALL_SPHERE = 0, 1, 2
 
 
 def contact_layout(N, k):
-    """Offsets (10,) of contact_terms' output sections W, M^-1 W, G, c, g, v, n, pd, a0 for
-    N coordinates and k pairs, and its size (after the status entry at 0)."""
-    o = np.zeros(10, dtype=np.int64)
-    sizes = (N * k, N * k, k * k, k, k, k, 3 * k, 3 * k, 3 * k)
+    """Offsets (12,) of contact_terms' output sections W, M^-1 W, G, c, g, v, n, pd, a0, lambda,
+    qddot for N coordinates and k pairs, and its size (after the status entry at 0)."""
+    o = np.zeros(12, dtype=np.int64)
+    sizes = (N * k, N * k, k * k, k, k, k, 3 * k, 3 * k, 3 * k, k, N)
     o[0] = 1
-    for i in range(9):
+    for i in range(11):
         o[i + 1] = o[i] + sizes[i]
     return o
 
@@ -1594,9 +1594,15 @@ def contact_terms(out, off, qd, pairs, wk, wp, vel):
         W[:, a] = J^T n,   c_a = n . a0 + pd^T H pd,   v_a = n . pd
 
     and M^-1 W by Cholesky, G = W^T M^-1 W (symmetrised). vel = 0: positions only (c, v,
-    pd, a0 zero). Returns one float64 array: status (1,) (0, or 1 when M is not positive
-    definite), W (N k) and M^-1 W (N k) row-major (N, k), G (k k), c, g, v (k each), then n,
-    pd, a0 (k 3 each).
+    pd, a0 zero). vel = 2: also equation (3) of resting.py without friction, with
+    qdd_free = M^-1 (Q - h - dV/dq) the kernel's qddot,
+
+        G lambda = -(W^T qdd_free + c)   (_sym_solve),   qddot = qdd_free + M^-1 W lambda
+
+    (the right-hand side of a frictionless contact phase in this one call). Returns one float64
+    array: status (1,) (0, or 1 when M is not positive definite), W (N k) and M^-1 W (N k)
+    row-major (N, k), G (k k), c, g, v (k each), then n, pd, a0 (k 3 each), then lambda (k)
+    [N] and qddot (N) (zero unless vel = 2).
     """
     N = qd.shape[0]
     k = pairs.shape[0]
@@ -1614,7 +1620,9 @@ def contact_terms(out, off, qd, pairs, wk, wp, vel):
     on = o[6]
     opd = o[7]
     oa0 = o[8]
-    res = np.zeros(o[9])
+    olam = o[9]
+    oqdd = o[10]
+    res = np.zeros(o[11])
     for a in range(k):
         w = pairs[a, 0]
         j = pairs[a, 1]
@@ -1694,10 +1702,35 @@ def contact_terms(out, off, qd, pairs, wk, wp, vel):
                 s2 += res[oW + c * k + b] * res[oMW + c * k + a]
             res[oG + a * k + b] = 0.5 * (s1 + s2)
             res[oG + b * k + a] = 0.5 * (s1 + s2)
+    if vel == 2:
+        # Equation (3): G lambda = -(W^T qdd_free + c), qddot = qdd_free + M^-1 W lambda.
+        oy = off[_S_YDOT] + N
+        G = np.empty((k, k))
+        rhs = np.empty(k)
+        for a in range(k):
+            s1 = res[oc + a]
+            for c in range(N):
+                s1 += res[oW + c * k + a] * out[oy + c]
+            rhs[a] = -s1
+            for b in range(k):
+                G[a, b] = res[oG + a * k + b]
+        lam = _sym_solve(G, rhs)
+        for a in range(k):
+            res[olam + a] = lam[a]
+        for c in range(N):
+            s1 = out[oy + c]
+            for a in range(k):
+                s1 += res[oMW + c * k + a] * lam[a]
+            res[oqdd + c] = s1
     return res
 
 
 def sym_solve(G, b):
+    """_sym_solve as an entry point of its own (resting.py's projections)."""
+    return _sym_solve(G, b)
+
+
+def _sym_solve(G, b):
     """x with G x = b for a symmetric G (k, k): the least-squares solution of smallest |x| with
     eigenvalues below 1e-10 of the largest in magnitude cut (lstsq's rcond = 1e-10: for a
     symmetric matrix the singular values are |eigenvalues|, the singular vectors its eigenvectors):
@@ -1788,7 +1821,7 @@ _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_sk
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
             "_joint_field", "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
             "_sd_stride", "_own", "_link_body", "_tr_sps", "_e_sy", "_extra_points", "_mmax", "assemble", "_cholesky_solve",
-            "_cholesky_factor", "_cholesky_apply", "_link_observables", "layout", "contact_layout")
+            "_cholesky_factor", "_cholesky_apply", "_link_observables", "layout", "contact_layout", "_sym_solve")
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"

@@ -118,6 +118,8 @@ class ConstraintData(NamedTuple):
     n: np.ndarray | None = None  # (k, 3) unit normals
     pd: np.ndarray | None = None  # (k, 3) point velocities [m/s]
     a0: np.ndarray | None = None  # (k, 3) Jdot qdot [m/s^2]
+    lam: np.ndarray | None = None  # (k,) [N]: equation (3) without friction, G lam = -(W^T qdd_free + c)
+    qdd: np.ndarray | None = None  # (N,): its qddot = qdd_free + M^-1 W lam
 
 
 def _solve_sym(G: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -125,7 +127,8 @@ def _solve_sym(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     singular values below 1e-10 of the largest cut (lstsq's rcond): redundant contacts (two
     sticking ends of a rigid rod along its axis, three points of a chain on a line) then share
     the load with the smallest |x| instead of an arbitrary split blown up by round-off.
-    Compiled (kernel.sym_solve): it runs at every right-hand side of a contact phase.
+    Compiled (kernel.sym_solve; the right-hand side of a frictionless contact phase solves (3)
+    inside kernel.contact_terms with the same code).
     """
     if G.size == 0:
         return np.zeros(0)
@@ -140,36 +143,67 @@ def _lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(A, b, rcond=1e-10)[0]
 
 
-def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> ConstraintData:
-    """Equations (1)-(2) of the pairs (k, 2) (wall, point index) at the state (q, qd) (N,) with forces Q (N,) or None:
-    one kernel call, then the compiled kernel.contact_terms on its output.
+class _Plan(NamedTuple):
+    """What the compiled contact terms need besides the state, fixed for a set of pairs:
+    pairs (k, 2) int64, packed walls (wk (W,), wp (W, 6)), the kernel job and its output's
+    offsets, contact_terms' vel (0 positions, 2 velocities and equation (3)) and its section
+    offsets o (12,) as a list."""
 
-    velocities=False: positions only (c and qdd_free are zero; qd is ignored).
-    """
-    N = model.n_dof
+    pairs: np.ndarray
+    wk: np.ndarray
+    wp: np.ndarray
+    job: int
+    off: np.ndarray
+    vel: int
+    o: list
+
+
+def _plan(model, walls, pairs, velocities=True) -> _Plan:
     job = _JOB if velocities else _JOB_POS
-    out = run_kernel(model, states(q, qd if velocities else None), job, Q)
-    if velocities and out[0] != 0.0:
-        _raise_singular(model, q, out[0], out[1], out[2])
-    off = _offsets(model, job)
     pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
-    k = len(pairs)
     wk, wp = _packed_walls(walls)
-    # Equations (1)-(2): wall geometry, W, c, v, M^-1 W and G in one compiled call (kernel.contact_terms).
-    r = _k.lazy("contact_terms")(out, off, as_vector(qd) if velocities else np.zeros(N), pairs, wk, wp,
-                              int(velocities))
+    o = _k.contact_layout(model.n_dof, len(pairs)).tolist()  # section starts, then the end
+    return _Plan(pairs, wk, wp, job, _offsets(model, job), 2 if velocities else 0, o)
+
+
+def _terms(model, q, qd, Q, plan: _Plan):
+    """(kernel output, kernel.contact_terms output) at the state (q, qd) (N,) with forces Q or None."""
+    vel = plan.vel
+    out = run_kernel(model, states(q, qd if vel else None), plan.job, Q)
+    if vel and out[0] != 0.0:
+        _raise_singular(model, q, out[0], out[1], out[2])
+    r = _k.lazy("contact_terms")(out, plan.off, as_vector(qd) if vel else model.kernel_data[2], plan.pairs,
+                                 plan.wk, plan.wp, vel)
     if r[0] != 0.0:
         _raise_singular(model, q, 1, 0.0, 0.0)
-    o = _k.contact_layout(N, k).tolist()  # section starts, then the end
+    return out, r
+
+
+def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> ConstraintData:
+    """Equations (1)-(2) of the pairs (k, 2) (wall, point index) at the state (q, qd) (N,) with forces Q (N,) or None:
+    one kernel call, then the compiled kernel.contact_terms on its output (equation (3) without
+    friction included: lam, qdd).
+
+    velocities=False: positions only (c and qdd_free are zero; qd is ignored; lam, qdd None).
+    """
+    plan = _plan(model, walls, pairs, velocities)
+    out, r = _terms(model, q, qd, Q, plan)
+    return _constraint_data(model, out, r, plan)
+
+
+def _constraint_data(model, out, r, plan: _Plan) -> ConstraintData:
+    """ConstraintData as views of the two outputs of _terms."""
+    N, k, o, off = model.n_dof, len(plan.pairs), plan.o, plan.off
     W, MinvW = r[o[0]:o[1]].reshape(N, k), r[o[1]:o[2]].reshape(N, k)
     G, c, g, v = r[o[2]:o[3]].reshape(k, k), r[o[3]:o[4]], r[o[4]:o[5]], r[o[5]:o[6]]
     nrm, pd, a0 = r[o[6]:o[7]].reshape(k, 3), r[o[7]:o[8]].reshape(k, 3), r[o[8]:o[9]].reshape(k, 3)
     M = out[off[2]:off[3]].reshape(N, N)
-    Jp = out[off[8]:off[9]].reshape(-1, 3, N)[pairs[:, 1]]  # (k, 3, N)
-    qdd = out[off[1] + N:off[1] + 2 * N].copy() if velocities else np.zeros(N)
-    if not velocities:
-        pd = a0 = None
-    return ConstraintData(qdd, MinvW, W, G, c, g, v, M, Jp, nrm, pd, a0)
+    Jp = out[off[8]:off[9]].reshape(-1, 3, N)[plan.pairs[:, 1]]  # (k, 3, N)
+    if plan.vel:
+        qdd, lam, qdd3 = out[off[1] + N:off[1] + 2 * N].copy(), r[o[9]:o[10]], r[o[10]:o[11]]
+    else:
+        qdd, lam, qdd3, pd, a0 = np.zeros(N), None, None, None, None
+    return ConstraintData(qdd, MinvW, W, G, c, g, v, M, Jp, nrm, pd, a0, lam, qdd3)
 
 
 _PACKED: dict = {}
@@ -255,8 +289,8 @@ class RestingContacts:
         k = len(pairs)
         mu = self.mu[pairs[:, 0]] if k else np.zeros(0)
         if not (mu > 0).any():
-            lam = _solve_sym(d.G, -(d.W.T @ d.qdd_free + d.c))
-            return d.qdd_free + d.MinvW @ lam, lam, np.zeros((k, 3)), np.zeros((k, 2)), np.zeros(k)
+            # (3), solved by the compiled contact terms (constraint_data).
+            return d.qdd.copy(), d.lam.copy(), np.zeros((k, 3)), np.zeros((k, 2)), np.zeros(k)
         # (6): constraint rows C (normal gaps; tangential accelerations of sticking points) and
         # force columns B (normal; slip friction -mu n_s along the slip; sticking tangents).
         C, B, c = [d.W], [d.W.copy()], [d.c]
@@ -289,16 +323,32 @@ class RestingContacts:
     def acceleration(self, q, qd, Q=None):
         """Equations (3)/(6) for the active pairs at (q, qd) with forces Q (N,) or None, cached per state:
         (qddot (N,), lambda_n (k,) [N], F_t (k, 3) [N], friction power (k,) [W], lambda_t (k, 2) [N]
-        of sticking pairs in their tangent basis, the ConstraintData)."""
+        of sticking pairs in their tangent basis, the ConstraintData (None when no active pair
+        has friction: that right-hand side is one kernel and one contact_terms call, no views))."""
         key = (q.tobytes(), qd.tobytes(), None if Q is None else Q.tobytes())
         if self._cache[0] == key:
             return self._cache[1]
         # The active set and its stick / slip data change only at mode decisions: read once per set.
         mode = (self.active.tobytes(), self.stick.tobytes(), self.slip_dir.tobytes())
         if self._mode[0] != mode:
-            self._mode = (mode, (self.pairs, self.stick[self.active], self.slip_dir[self.active]))
-        pairs, stick, sdir = self._mode[1]
-        d = constraint_data(self.model, self.walls, q, qd, Q, pairs)
+            pairs = self.pairs
+            k = len(pairs)
+            plan = _plan(self.model, self.walls, pairs)
+            frictionless = not np.any(self.mu[pairs[:, 0]] > 0)
+            zeros = tuple(np.zeros(shape) for shape in ((k, 3), (k,), (k, 2)))
+            for z in zeros:
+                z.flags.writeable = False  # shared by every right-hand side of the set
+            self._mode = (mode, (pairs, self.stick[self.active], self.slip_dir[self.active], plan, frictionless,
+                                 zeros))
+        pairs, stick, sdir, plan, frictionless, zeros = self._mode[1]
+        if frictionless:
+            # Equation (3) from the compiled contact terms' lambda and qddot sections.
+            r = _terms(self.model, q, qd, Q, plan)[1]
+            o = plan.o
+            res = (r[o[10]:o[11]], r[o[9]:o[10]], zeros[0], zeros[1], zeros[2], None)
+            self._cache = (key, res)
+            return res
+        d = _constraint_data(self.model, *_terms(self.model, q, qd, Q, plan), plan)
         qdd, lam, F_t, lam_t, power = self._solve(d, pairs, stick, sdir)
         res = (qdd, lam, F_t, power, lam_t, d)
         self._cache = (key, res)
