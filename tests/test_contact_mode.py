@@ -79,6 +79,13 @@ def test_compiled_contact_terms_are_the_walls_geometry(wall):
                                atol=1e-13)
     np.testing.assert_allclose(d.v, np.sum(wall.normal(p) * pd, axis=1), rtol=1e-14, atol=1e-15)
     np.testing.assert_allclose(d.W, np.einsum("kcn,kc->nk", J[pairs[:, 1]], wall.normal(p)), rtol=1e-14, atol=1e-15)
+    # The event layer's compiled joint gaps (kernel.event_gaps) at every contact point, and one by one.
+    from gibbsimpact.contacts import Contacts
+
+    ct = Contacts(model, [wall])
+    np.testing.assert_allclose(ct.gaps(q)[0, :model.n_joints], wall.gap(P), rtol=0, atol=1e-15)
+    for j in range(model.n_joints):
+        assert ct.gap_single(q, 0, j) == ct.gaps(q)[0, j]
 
 
 @pytest.mark.parametrize("which", ["circle", "sphere"])

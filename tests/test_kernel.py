@@ -10,8 +10,8 @@ checks that what numba compiles is that same source:
    kernel source as plain Python on nine chains (planar and spatial, rigid,
    modal and finite-element, free, planar and fixed base, 1 to 16 links, R, Pa
    and Pb joints, a carriage on a sliding link; two random states each, built
-   from one seed) and saves every public quantity (585 arrays, the resting-contact
-   terms and their solve included); this process
+   from one seed) and saves every public quantity (657 arrays, the resting-contact
+   terms, their solves and the event layer's gaps and skip rule included); this process
    computes them compiled. Each must agree to 1e-13 relative,
    max|a - b| / max|a| per quantity. Measured (numba 0.68, x86-64) on the
    first seven chains: all 301 arrays bit-identical, qddot of the modal 8-link
@@ -186,15 +186,18 @@ CONTACT_WALLS = (gi.Circle(1.7, (0.1, -0.2)), gi.Sphere(2.1, (0.2, -0.1, 0.3)), 
 def contact_quantities(model, q, qd, Q):
     """kernel.contact_terms (through resting.constraint_data) for every frame origin on every wall
     of CONTACT_WALLS, and the compiled symmetric solve on its G (k up to 51: singular)."""
+    from gibbsimpact.contacts import Contacts
     from gibbsimpact.resting import _solve_sym, constraint_data
 
     pairs = [(w, j) for w in range(len(CONTACT_WALLS)) for j in range(model.n_links + 1)]
+    ct = Contacts(model, CONTACT_WALLS)  # kernel.event_gaps: joint gaps and the link skip rule
     d = constraint_data(model, CONTACT_WALLS, q, qd, Q, pairs)
     p = constraint_data(model, CONTACT_WALLS, q, None, None, pairs, velocities=False)
     return {"contact_W": d.W, "contact_MinvW": d.MinvW, "contact_G": d.G, "contact_c": d.c, "contact_g": d.g,
             "contact_v": d.v, "contact_n": d.n, "contact_pd": d.pd, "contact_a0": d.a0,
             "contact_G_positions": p.G, "contact_lambda": _solve_sym(d.G, -(d.W.T @ d.qdd_free + d.c)),
-            "contact_lambda_compiled": d.lam, "contact_qdd": d.qdd}
+            "contact_lambda_compiled": d.lam, "contact_qdd": d.qdd, "event_gaps": ct.gaps(q),
+            "event_skipped": ct.skipped(q).astype(float)}
 
 
 def compute_all(seed=SEED):

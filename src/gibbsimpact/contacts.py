@@ -6,17 +6,16 @@ The rules are stated in gibbsimpact.simulate's module docstring; simulate.py dri
 
 from __future__ import annotations
 
-from math import sqrt
-
 import numpy as np
 
+from . import kernel as _k
 from .dynamics import energy, mass_matrix
 from .flight import EventSpec
 from .friction import solve_frictional_impulses
 from .impact import solve_impulses
 from .kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
 from .results import ImpactRecord
-from .walls import tangent_basis
+from .walls import packed_walls, tangent_basis
 
 
 def flexible_links(model) -> list:
@@ -26,36 +25,6 @@ def flexible_links(model) -> list:
 
 #: Gap [m] of a link candidate whose closest point is at an end of the link (its end joint stands for it).
 NOT_INTERIOR = 1e300
-
-
-def _skipped(kind, R, gA, gB, lam, D2, r, pts, ab) -> bool:
-    """The skip rule of one (wall, link) pair (Contacts docstring), in plain floats.
-
-    kind : 0 plane, 1 circle, 2 sphere; R [m] the radius; gA, gB [m] the end joints' gaps;
-    lam = Lam, D2 = 2 D_i [m]; r = refine_below [m]; pts the joint positions (P, 3) [m] (used
-    for a circle or a sphere) and ab the end joints' indices in them.
-    """
-    m = min(gA, gB)
-    if m - D2 > r:                                   # (1)
-        return True
-    t = min(m, r)
-    hA, hB = gA - t, gB - t                          # >= 0
-    if kind == 0:
-        # (3): (sqrt(h_A) + sqrt(h_B))^2 > Lam
-        S = sqrt(hA) + sqrt(hB)
-        return S * S > lam
-    # (4): 4 T > Lam and S^2 + L^2 > 2 T Lam, T = R - t, S = sqrt(h_A (2 T - h_A)) + sqrt(h_B (2 T - h_B))
-    T2 = 2.0 * (R - t)
-    if not 2.0 * T2 > lam:
-        return False
-    pA, pB = pts[ab[0]], pts[ab[1]]
-    dx, dy = pB[0] - pA[0], pB[1] - pA[1]
-    L2 = dx * dx + dy * dy                           # |P (B - A)|^2: P drops X3 for a circle
-    if kind == 2:
-        dz = pB[2] - pA[2]
-        L2 += dz * dz
-    S = sqrt(max(hA * (T2 - hA), 0.0)) + sqrt(max(hB * (T2 - hB), 0.0))
-    return S * S + L2 > T2 * lam
 
 
 class Contacts:
@@ -138,7 +107,14 @@ class Contacts:
         # Link minima farther than this from a wall are not refined (a sample's gap: sign exact).
         self.refine_below = 0.01 * (1.0 + sum(ld.length for ld in model.link_data))
         self._key, self._g = None, None
-        self._pkey, self._p = None, None
+        self._pkey, self._pg = None, None
+        # The compiled event gaps (kernel.event_gaps): packed walls, and the skip rule's (link,
+        # wall) pairs (f, w, a, b) with their tables (_bound_tables).
+        for w in walls:
+            if not hasattr(w, "packed"):
+                raise TypeError(f"wall {w!r}: the event layer needs gibbsimpact Plane, Circle or Sphere walls")
+        self._wk, self._wp = packed_walls(walls)
+        self._rules = np.zeros((0, 4), dtype=np.int64)
         if self.flex:
             self._bound_tables()
 
@@ -146,10 +122,10 @@ class Contacts:
         """Tables of the skip rule (class docstring).
 
         _table (N, 2 F) [m per unit of e_k]: lam_k of link f in column f, 2 max_x |psi_k(x)|
-        in column F + f (each 1.1 times its sampled maximum); _rules: per (link f, wall w) pair
-        (f, w, wall kind (0 plane, 1 circle, 2 sphere), R [m], the link's end joints (a, b) or
-        None for a link without an end point (searched always)); _pb_slopes: (slope indices,
-        d index, l_i) of the Pb links (e_k = delta_k d / l_i for a slope).
+        in column F + f (each 1.1 times its sampled maximum); _rules (F W, 4) int64: per (link f,
+        wall w) pair (f, w, the link's end joints a, b, or -1, -1 for a link without an end
+        point: searched always); _pb_slopes: (slope indices, d index, l_i) of the Pb links
+        (e_k = delta_k d / l_i for a slope).
         """
         from .linkpoints import end_joints
         from .model import link_deflection
@@ -177,73 +153,60 @@ class Contacts:
                 table[c, F + f] = 2.0 * 1.1 * float(np.max(np.hypot(v, w)))
         self._table = table
         ends = end_joints(model)[self.flex]
-        pairs = [None if (a < 0 or b < 0) else (int(a), int(b)) for a, b in ends]
-        # Wall kinds as the compiled contact terms number them (Wall.packed(): 0 plane, 1 circle,
-        # 2 sphere; a circle's or a sphere's first parameter is R).
-        kinds = []
-        for w in self.walls:
-            if not hasattr(w, "packed"):
-                raise TypeError(f"wall {w!r}: link contacts need gibbsimpact Plane, Circle or Sphere walls")
-            kind, par = w.packed()
-            kinds.append((kind, float(par[0]) if kind else 0.0))
-        # The (link, wall) pairs of the skip rule, flat: (f, w, kind, R, (a, b)), (a, b) None for a
-        # link without an end joint (never skipped).
-        self._rules = [(f, w, kind, R, ab) for f, ab in enumerate(pairs) for w, (kind, R) in enumerate(kinds)]
-        self._need_points = any(k > 0 for k, _ in kinds)
+        # The (link, wall) pairs of the skip rule: (f, w, a, b), a = b = -1 for a link without an
+        # end joint (never skipped).
+        self._rules = np.array([(f, w, a, b) if (a >= 0 and b >= 0) else (f, w, -1, -1)
+                                for f, (a, b) in enumerate(ends) for w in range(len(self.walls))],
+                               dtype=np.int64).reshape(-1, 4)
 
-    def _link_bounds(self, qs, g_joints, points):
-        """Inputs of the skip rule as Python lists: Lam and 2 D_i [m] (K, 2 F), the joint gaps
-        g_joints (K, W, P) [m] and positions points (K, P, 3) [m] (None without a curved wall)."""
+    def _bounds(self, qs) -> np.ndarray:
+        """Lam and 2 D_i [m] (K, 2 F) of the states qs (K, N) (class docstring)."""
         # |e_k| = |delta_k| (a Pb link's slope coordinate: |delta_k| d / l_i); Lam = sum_k |e_k| lam_k,
         # 2 D_i = sum_k |e_k| 2 max|psi_k|.
         e = np.abs(qs)
         for slopes, jd, length in self._pb_slopes:
             e[:, slopes] *= np.abs(qs[:, jd, None]) / length
-        return (e @ self._table).tolist(), g_joints.tolist(), points.tolist() if self._need_points else None
+        return e @ self._table
 
-    def _searched(self, qs, g_joints, points) -> np.ndarray:
-        """(K,) bool: the states qs (K, N) with a (wall, link) pair that the skip rule (class
-        docstring) does not skip: they need a link search. g_joints (K, W, P) [m] and points
-        (K, P, 3) [m] are the joint gaps and positions of the same states.
+    def _event_gaps(self, qs, points, rules=True):
+        """The compiled kernel.event_gaps for the states qs (K, N) with contact points (K, P, 3) [m]:
+        their joint gaps (K, W, P) [m], and the rest of its output (rules=True: the skip rule of
+        the pairs of _rules, then the states that need a link search; see skipped, gaps_batch)."""
+        K, W, P = len(qs), len(self.walls), self.n_joints
+        if rules and self.flex:
+            E, R = self._bounds(qs), self._rules
+        else:
+            E, R = np.zeros((K, 0)), self._rules[:0]
+        r = _k.lazy("event_gaps")(np.ascontiguousarray(points, dtype=float).reshape(-1), P, self._wk, self._wp,
+                                  E, R, self.refine_below)
+        return r[:K * W * P].reshape(K, W, P), r[K * W * P:]
 
-        Plain float arithmetic per pair (a few pairs per state: cheaper than numpy calls); a
-        state's pairs stop at the first that is not skipped.
-        """
-        E, G, Pts = self._link_bounds(qs, g_joints, points)
-        return np.array([not all(self._pair_skipped(rule, Ek, Gk, Pts[k] if Pts is not None else None)
-                                 for rule in self._rules) for k, (Ek, Gk) in enumerate(zip(E, G))], dtype=bool)
-
-    def _pair_skipped(self, rule, Ek, Gk, Pk) -> bool:
-        """The skip rule of one pair of _rules for one state: Ek, Gk, Pk its rows of _link_bounds
-        (Lam and 2 D_i, joint gaps (W, P), joint positions or None)."""
-        f, w, kind, R, ab = rule
-        return ab is not None and _skipped(kind, R, Gk[w][ab[0]], Gk[w][ab[1]], Ek[f], Ek[len(self.flex) + f],
-                                           self.refine_below, Pk, ab)
+    def _link_bounds(self, qs, g_joints, points):
+        """The skip rule's inputs as Python lists: Lam and 2 D_i [m] (K, 2 F), the joint gaps
+        g_joints (K, W, P) [m] and positions points (K, P, 3) [m] (the skip-rule tests read them)."""
+        return self._bounds(qs).tolist(), np.asarray(g_joints).tolist(), np.asarray(points).tolist()
 
     def skipped(self, q) -> np.ndarray:
         """(W, F) bool, or (K, W, F) for q (K, N): the (wall, link) pairs that the skip rule
         (class docstring) proves to have a link column of NOT_INTERIOR or above refine_below."""
         qs = np.atleast_2d(np.asarray(q, dtype=float))
-        pts = joint_positions_batch(self.model, qs)
-        g = np.stack([w.gap(pts) for w in self.walls], axis=1)
-        E, G, Pts = self._link_bounds(qs, g, pts)
-        out = np.zeros((len(qs), len(self.walls), len(self.flex)), dtype=bool)
-        for k, (Ek, Gk) in enumerate(zip(E, G)):
-            for rule in self._rules:
-                out[k, rule[1], rule[0]] = self._pair_skipped(rule, Ek, Gk, Pts[k] if Pts is not None else None)
+        K = len(qs)
+        rest = self._event_gaps(qs, joint_positions_batch(self.model, qs))[1]
+        out = np.zeros((K, len(self.walls), len(self.flex)), dtype=bool)
+        out[:, self._rules[:, 1], self._rules[:, 0]] = rest[:K * len(self._rules)].reshape(K, -1) != 0.0
         return out if np.ndim(q) == 2 else out[0]
 
-    def _link_gaps(self, qs, g_joints=None, points=None, out=None):
+    def _link_gaps(self, qs, need=None, out=None):
         """Link columns (K, W, F) [m], the closest points' abscissae x (K, W, F) [m], their normals
         (K, W, F, 3) and whether they are interior (K, W, F), for the states qs (K, N).
 
-        g_joints, points : (K, W, P) [m] and (K, P, 3) [m], the joint gaps and positions of the
-        same states, for the skip rule (class docstring); None searches every link.
+        need : (K,) bool, the states with a pair that the skip rule does not skip (the others
+        hold NOT_INTERIOR without a search); None searches every state.
         out : None, or a (K, W, F) array that receives the link columns (then only they are
-        computed, and None is returned: gaps, gaps_batch).
+        computed, and None is returned: gaps_batch).
         """
         K, W, F = len(qs), len(self.walls), len(self.flex)
-        need = np.ones(K, dtype=bool) if g_joints is None else self._searched(qs, g_joints, points)
+        need = np.ones(K, dtype=bool) if need is None else need
         details = out is None
         if details:
             out = np.full((K, W, F), NOT_INTERIOR)
@@ -268,8 +231,11 @@ class Contacts:
         if w < len(self.walls) and c < self.n_joints:
             key = q.tobytes()
             if key != self._pkey:
-                self._p, self._pkey = joint_positions(self.model, q), key
-            return float(self.walls[w].gap(self._p[c:c + 1])[0])
+                p = joint_positions(self.model, q)
+                # The joint gaps of the same compiled code as gaps_batch (the root search brackets
+                # a sign change that gaps_batch found: the same round-off).
+                self._pg, self._pkey = self._event_gaps(q[None, :], p[None], rules=False)[0][0], key
+            return float(self._pg[w, c])
         return float((self.gaps if full is None else full)(q)[w, c])
 
     @property
@@ -281,28 +247,27 @@ class Contacts:
         """g (W, C) [m]; cached per q (every event function of a step sees the same q)."""
         key = q.tobytes()
         if key != self._key:
-            p = joint_positions(self.model, q)
-            P = self.n_joints
-            g = np.empty((len(self.walls), self.n_cols))
-            for w_i, w in enumerate(self.walls):
-                g[w_i, :P] = w.gap(p)
-            if self.flex:
-                self._link_gaps(q[None, :], g[None, :, :P], p[None], out=g[None, :, P:])
-            self._g = g
+            self._g = self.gaps_batch(np.asarray(q, dtype=float).reshape(1, -1))[0]
             self._key = key
         return self._g
 
     def gaps_batch(self, qs: np.ndarray) -> np.ndarray:
-        """g (K, W, C) [m] of the states qs (K, N): one kernel call for all of them."""
+        """g (K, W, C) [m] of the states qs (K, N): one kernel call and one kernel.event_gaps call
+        for all of them (joint gaps and the skip rule), link searches only where it cannot skip."""
         if not self.walls:
             return np.zeros((len(qs), 0, self.n_cols))
-        pts = joint_positions_batch(self.model, qs)  # (K, J, 3)
+        pts = joint_positions_batch(self.model, qs)  # (K, P, 3)
         P = self.n_joints
+        g_joints, rest = self._event_gaps(qs, pts)
+        if not self.flex:
+            return g_joints
         g = np.empty((len(qs), len(self.walls), self.n_cols))
-        for w_i, w in enumerate(self.walls):
-            g[:, w_i, :P] = w.gap(pts)
-        if self.flex:
-            self._link_gaps(qs, g[:, :, :P], pts, out=g[:, :, P:])
+        g[:, :, :P] = g_joints
+        search = rest[len(qs) * len(self._rules):] != 0.0  # (K,) states that need a link search
+        if search.any():
+            self._link_gaps(qs, search, out=g[:, :, P:])
+        else:
+            g[:, :, P:] = NOT_INTERIOR
         return g
 
     def full(self, q: np.ndarray):
@@ -318,7 +283,8 @@ class Contacts:
         if self.flex:
             from .linkpoints import material_jacobian
 
-            gl, x, nl, inside = (a[0] for a in self._link_gaps(q[None, :], g[None], p[None]))
+            search = self._event_gaps(q[None, :], p[None])[1][len(self._rules):] != 0.0
+            gl, x, nl, inside = (a[0] for a in self._link_gaps(q[None, :], search))
             F = len(self.flex)
             Jl, pl = np.zeros((W, F, 3, self.N)), np.full((W, F, 3), np.nan)
             for w, f in np.argwhere(inside):

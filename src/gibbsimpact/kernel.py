@@ -1577,6 +1577,93 @@ def contact_layout(N, k):
     return o
 
 
+def _wall_gap(wk, wp, w, p0, p1, p2):
+    """Gap g [m] of the point (p0, p1, p2) [m] on wall w of the packed walls (wk, wp: contact_terms),
+    with d = p - c (its X1-X2 part for a circle; 0 for a plane) and r = |d| [m]:
+
+        g = n_w . (p - p_w) (plane),   g = R - |d| (circle, sphere)
+    """
+    kind = wk[w]
+    if kind == WALL_PLANE:
+        return (p0 - wp[w, 0]) * wp[w, 3] + (p1 - wp[w, 1]) * wp[w, 4] + (p2 - wp[w, 2]) * wp[w, 5], 0.0, 0.0, 0.0, 0.0
+    d0 = p0 - wp[w, 1]
+    d1 = p1 - wp[w, 2]
+    if kind == WALL_CIRCLE:
+        r = math.hypot(d0, d1)
+        return wp[w, 0] - r, d0, d1, 0.0, r
+    d2 = p2 - wp[w, 3]
+    r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    return wp[w, 0] - r, d0, d1, d2, r
+
+
+def _skip_pair(kind, R, gA, gB, lam, D2, r, pts, oa, ob):
+    """The skip rule of one (wall, link) pair (contacts.Contacts' docstring: rules (1), (3), (4)).
+
+    kind: WALL_*; R [m] a circle's or a sphere's radius; gA, gB [m] the end joints' gaps; lam =
+    Lam, D2 = 2 D_i [m]; r = refine_below [m]; pts: joint positions, the end joints' at
+    offsets oa, ob. True when the link column is NOT_INTERIOR or above r.
+    """
+    m = min(gA, gB)
+    if m - D2 > r:                                   # (1)
+        return True
+    t = min(m, r)
+    hA = gA - t                                      # >= 0
+    hB = gB - t
+    if kind == WALL_PLANE:
+        # (3): (sqrt(h_A) + sqrt(h_B))^2 > Lam
+        S = math.sqrt(hA) + math.sqrt(hB)
+        return S * S > lam
+    # (4): 4 T > Lam and S^2 + L^2 > 2 T Lam, T = R - t, S = sqrt(h_A (2 T - h_A)) + sqrt(h_B (2 T - h_B))
+    T2 = 2.0 * (R - t)
+    if not 2.0 * T2 > lam:
+        return False
+    dx = pts[ob] - pts[oa]
+    dy = pts[ob + 1] - pts[oa + 1]
+    L2 = dx * dx + dy * dy                           # |P (B - A)|^2: P drops X3 for a circle
+    if kind == WALL_SPHERE:
+        dz = pts[ob + 2] - pts[oa + 2]
+        L2 += dz * dz
+    S = math.sqrt(max(hA * (T2 - hA), 0.0)) + math.sqrt(max(hB * (T2 - hB), 0.0))
+    return S * S + L2 > T2 * lam
+
+
+def event_gaps(pts, P, wk, wp, E, rules, refine):
+    """The event layer's gaps of K states (contacts.Contacts.gaps_batch): every joint point on
+    every wall, and the link skip rule of every (link, wall) pair.
+
+    pts (K P 3,) [m]: the P contact points of each state (the kernel's JOB_POINTS section);
+    wk (W,), wp (W, 6): the packed walls (contact_terms); E (K, 2 F) [m]: Lam of link column f
+    in column f, 2 D_f in column F + f; rules (R, 4) int64: (f, w, a, b) per (link, wall) pair,
+    a, b its end joints (-1: a link without one, never skipped); refine [m]: refine_below.
+    Returns g (K W P,) [m], then skip (K R,): 1.0 where _skip_pair skips the pair, else 0.0,
+    then search (K,): 1.0 for a state with a pair that is not skipped (it needs a link search).
+    """
+    W = wk.shape[0]
+    K = pts.shape[0] // (3 * P)
+    R = rules.shape[0]
+    F = E.shape[1] // 2
+    res = np.zeros(K * W * P + K * R + K)
+    for k in range(K):
+        for w in range(W):
+            o = (k * W + w) * P
+            for j in range(P):
+                res[o + j] = _wall_gap(wk, wp, w, pts[3 * (P * k + j)], pts[3 * (P * k + j) + 1],
+                                       pts[3 * (P * k + j) + 2])[0]
+        for i in range(R):
+            f = rules[i, 0]
+            w = rules[i, 1]
+            a = rules[i, 2]
+            b = rules[i, 3]
+            if a >= 0 and b >= 0:
+                o = (k * W + w) * P
+                if _skip_pair(wk[w], wp[w, 0], res[o + a], res[o + b], E[k, f], E[k, F + f], refine, pts,
+                              3 * (P * k + a), 3 * (P * k + b)):
+                    res[K * W * P + k * R + i] = 1.0
+                    continue
+            res[K * W * P + K * R + k] = 1.0
+    return res
+
+
 def contact_terms(out, off, qd, pairs, wk, wp, vel):
     """Equations (1)-(2) of resting.py for k (wall, point) pairs, from one kernel output.
 
@@ -1630,6 +1717,8 @@ def contact_terms(out, off, qd, pairs, wk, wp, vel):
         p0 = out[oP + 3 * j]
         p1 = out[oP + 3 * j + 1]
         p2 = out[oP + 3 * j + 2]
+        gap, d0, d1, d2, dist = _wall_gap(wk, wp, w, p0, p1, p2)
+        res[og + a] = gap
         if vel:
             for r in range(3):
                 s = 0.0
@@ -1649,25 +1738,14 @@ def contact_terms(out, off, qd, pairs, wk, wp, vel):
             n0 = wp[w, 3]
             n1 = wp[w, 4]
             n2 = wp[w, 5]
-            res[og + a] = (p0 - wp[w, 0]) * n0 + (p1 - wp[w, 1]) * n1 + (p2 - wp[w, 2]) * n2
         else:
-            d0 = p0 - wp[w, 1]
-            d1 = p1 - wp[w, 2]
-            d2 = 0.0
-            vz = 0.0
-            if kind == WALL_CIRCLE:
-                r = math.hypot(d0, d1)
-            else:
-                d2 = p2 - wp[w, 3]
-                vz = v2
-                r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            res[og + a] = wp[w, 0] - r
-            if r > 0.0:
-                n0 = -(d0 / r)
-                n1 = -(d1 / r)
-                n2 = -(d2 / r)
+            vz = v2 if kind == WALL_SPHERE else 0.0
+            if dist > 0.0:
+                n0 = -(d0 / dist)
+                n1 = -(d1 / dist)
+                n2 = -(d2 / dist)
                 dv = d0 * v0 + d1 * v1 + d2 * vz
-                curv = -((v0 * v0 + v1 * v1 + vz * vz) - dv * dv / (r * r)) / r
+                curv = -((v0 * v0 + v1 * v1 + vz * vz) - dv * dv / (dist * dist)) / dist
         res[on + 3 * a] = n0
         res[on + 3 * a + 1] = n1
         res[on + 3 * a + 2] = n2
@@ -1821,7 +1899,7 @@ _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_sk
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
             "_joint_field", "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
             "_sd_stride", "_own", "_link_body", "_tr_sps", "_e_sy", "_extra_points", "_mmax", "assemble", "_cholesky_solve",
-            "_cholesky_factor", "_cholesky_apply", "_link_observables", "layout", "contact_layout", "_sym_solve")
+            "_cholesky_factor", "_cholesky_apply", "_link_observables", "layout", "contact_layout", "_sym_solve", "_wall_gap", "_skip_pair")
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
@@ -1831,9 +1909,15 @@ _VARIANT_NAME = {RIGID_ENDS: "revolute joints and rigid link ends", REVOLUTE: "r
                  PRISMATIC: "prismatic joints"}
 _VARIANT_COST = {RIGID_ENDS: "about 15-20 s", REVOLUTE: "about 20-25 s", PRISMATIC: "about 30 s"}
 _ENTRY_SIG = f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64, {{}}, {{}})"
-#: Entry points compiled together at the first contact phase, apart from the kernel: their signatures.
+#: Entry points apart from the kernel, compiled on first use: their signatures ...
 _LAZY = {"contact_terms": f"{_A1}({_A1}, {_I1}, {_A1}, int64[:, ::1], {_I1}, {_A2}, int64)",
-         "sym_solve": f"{_A1}({_A2}, {_A1})"}
+         "sym_solve": f"{_A1}({_A2}, {_A1})",
+         "event_gaps": f"{_A1}({_A1}, int64, {_I1}, {_A2}, {_A2}, int64[:, ::1], float64)"}
+#: ... in groups compiled together (a contact phase needs both of its entries), with what the
+#: notice calls them and when they are needed.
+_LAZY_GROUP = {"contact_terms": "resting", "sym_solve": "resting", "event_gaps": "events"}
+_LAZY_NOTICE = {"resting": ("the resting-contact code", "first contact phase"),
+                "events": ("the wall-gap code", "first run with walls")}
 
 
 def _signature_args(v) -> tuple:
@@ -1886,7 +1970,7 @@ def _jit_helpers():
         # Compiled inside the entry points that call them (no wrapper, no separate finalisation).
         numba.extending.register_jitable(g[name])
     g["kernel"] = jit(g["kernel"])
-    for name in _LAZY:  # their own dispatchers: compiled at the first contact phase
+    for name in _LAZY:  # their own dispatchers: compiled on first use (lazy)
         g[name] = jit(g[name])
     _state["cached"] = cached
 
@@ -1919,13 +2003,14 @@ def compiled(v=PRISMATIC):
 
 
 def lazy(name):
-    """The entry point ``name`` of _LAZY (contact_terms, sym_solve), compiled (or loaded from
-    numba's cache) on first use.
+    """The entry point ``name`` of _LAZY (contact_terms, sym_solve, event_gaps), compiled (or
+    loaded from numba's cache) on first use.
 
-    They have their own dispatchers, so that runs without resting contact never compile them;
-    the first request compiles all of them (a contact phase needs both): ~2-4 s of CPU, with
-    one notice on stderr when it takes more than NOTICE_AFTER_S. Call with contiguous arrays
-    of the signature's types (resting.py).
+    They have their own dispatchers, so that a run that needs none of them (no walls, no
+    resting contact) never compiles them; the first request compiles its group of
+    _LAZY_GROUP (resting: ~3-6 s of CPU; events: ~1-2 s), with one notice on stderr when that
+    takes more than NOTICE_AFTER_S. Call with contiguous arrays of the signature's types
+    (resting.py, contacts.py).
     """
     f = _state["lazy"].get(name)
     if f is not None:
@@ -1937,11 +2022,13 @@ def lazy(name):
                 _state["jitted"] = True
             t0 = time.perf_counter()
             shown = []
+            group = _LAZY_GROUP[name]
+            what, when = _LAZY_NOTICE[group]
 
             def notice():
                 shown.append(True)
-                print("gibbsimpact: compiling the resting-contact code (first contact phase; a few seconds of "
-                      "CPU) ...", file=sys.stderr, flush=True)
+                print(f"gibbsimpact: compiling {what} ({when}; a few seconds of CPU) ...", file=sys.stderr,
+                      flush=True)
 
             timer = None if jit_disabled() else threading.Timer(NOTICE_AFTER_S, notice)
             if timer is not None:
@@ -1949,6 +2036,8 @@ def lazy(name):
                 timer.start()
             try:
                 for entry, sig in _LAZY.items():
+                    if _LAZY_GROUP[entry] != group:
+                        continue
                     d = globals()[entry]
                     if hasattr(d, "disable_compile"):
                         d.compile(sig)
@@ -1958,8 +2047,7 @@ def lazy(name):
                 if timer is not None:
                     timer.cancel()
             if shown:
-                print(f"gibbsimpact: resting-contact code ready in {time.perf_counter() - t0:.1f} s",
-                      file=sys.stderr, flush=True)
+                print(f"gibbsimpact: {what} ready in {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
     return _state["lazy"][name]
 
 

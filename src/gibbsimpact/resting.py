@@ -93,7 +93,7 @@ from . import kernel as _k
 from .dynamics import _raise_singular
 from .impact import _solve_lcp
 from .kinematics import as_vector, run_kernel, states
-from .walls import tangent_basis
+from .walls import packed_walls, tangent_basis
 
 _JOB = _k.JOB_SOLVE | _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS | _k.JOB_FRAMES
 _JOB_POS = _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS
@@ -161,7 +161,7 @@ class _Plan(NamedTuple):
 def _plan(model, walls, pairs, velocities=True) -> _Plan:
     job = _JOB if velocities else _JOB_POS
     pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
-    wk, wp = _packed_walls(walls)
+    wk, wp = packed_walls(walls)
     o = _k.contact_layout(model.n_dof, len(pairs)).tolist()  # section starts, then the end
     return _Plan(pairs, wk, wp, job, _offsets(model, job), 2 if velocities else 0, o)
 
@@ -204,21 +204,6 @@ def _constraint_data(model, out, r, plan: _Plan) -> ConstraintData:
     else:
         qdd, lam, qdd3, pd, a0 = np.zeros(N), None, None, None, None
     return ConstraintData(qdd, MinvW, W, G, c, g, v, M, Jp, nrm, pd, a0, lam, qdd3)
-
-
-_PACKED: dict = {}
-
-
-def _packed_walls(walls):
-    """(kinds (W,) int64, parameters (W, 6)) of the walls for kernel.contact_terms, cached per walls."""
-    key = tuple(walls)
-    got = _PACKED.get(key)
-    if got is None:
-        kinds, pars = zip(*(w.packed() for w in walls)) if walls else ((), ())
-        got = (np.array(kinds, dtype=np.int64), np.array(pars, dtype=float).reshape(-1, 6))
-        if len(_PACKED) < 64:
-            _PACKED[key] = got
-    return got
 
 
 _OFFSETS: dict = {}

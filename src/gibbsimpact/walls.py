@@ -233,6 +233,21 @@ class Plane:
 
 WALL_TYPES = (Circle, Sphere, Plane)
 
+_PACKED: dict = {}
+
+
+def packed_walls(walls):
+    """(kinds (W,) int64, parameters (W, 6)) of the walls for the compiled code (Wall.packed():
+    kernel.contact_terms, kernel.event_gaps), cached per walls."""
+    key = tuple(walls)
+    got = _PACKED.get(key)
+    if got is None:
+        kinds, pars = zip(*(w.packed() for w in walls)) if walls else ((), ())
+        got = (np.array(kinds, dtype=np.int64), np.array(pars, dtype=float).reshape(-1, 6))
+        if len(_PACKED) < 64:
+            _PACKED[key] = got
+    return got
+
 
 def describe(wall) -> str:
     """One-line description of a wall, for messages and summaries."""
