@@ -175,3 +175,26 @@ def test_examined_step_skips_the_minimisation_only_without_a_possible_dip(monkey
     assert t_root == pytest.approx(0.5 - depth ** 0.5, abs=1e-12)
     # The same parabola staying above zero: examined, no crossing.
     assert crossing(lambda t: (t - 0.5) ** 2 + depth) is None
+
+
+def test_contact_mode_events_see_an_excursion_between_the_samples_of_a_long_step():
+    # A sticking contact does not change the state, so the solver's steps grow far beyond the time
+    # scale of the applied force: in test_resting_friction's oscillating push a step ran from
+    # t = 0.529 to 1.993 s, and mu N - |F_t| = 2.943 - 4.4145 |sin 2 pi t| [N] was positive at
+    # its first two samples (t = 0.529, 0.895) while the force left the cone in between
+    # (0.616 ... 0.884); the earliest sign change among the samples was the next excursion
+    # (t = 1.116). The samples' dip bound sends that interval to a finer sampling.
+    from gibbsimpact.flight import _earliest_bracket
+
+    def v(t):
+        return 2.943 - 4.4145 * abs(np.sin(2.0 * np.pi * t))
+
+    ts = np.linspace(0.52889039, 1.99255551, 5)
+    vs = [v(t) for t in ts]
+    assert vs[0] > 0 and vs[1] > 0 and vs[2] < 0  # the samples alone bracket the later excursion
+    lo, hi = _earliest_bracket(v, ts, vs)
+    first = 0.5 + np.arcsin(2.943 / 4.4145) / (2.0 * np.pi)  # 0.6161 s
+    assert lo <= first <= hi and hi - lo < 0.05
+    # Well-sampled values keep their own bracket (no refinement), and no fall gives None.
+    assert _earliest_bracket(v, np.array([0.6, 0.62]), [v(0.6), v(0.62)]) == (0.6, 0.62)
+    assert _earliest_bracket(v, np.array([0.9, 0.95, 1.0]), [v(0.9), v(0.95), v(1.0)]) is None

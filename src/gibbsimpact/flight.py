@@ -207,6 +207,32 @@ def _interpolant(solver):
     return dense
 
 
+def _earliest_bracket(v, ts, vs, depth: int = 3) -> tuple | None:
+    """(t_lo, t_hi) around the earliest fall of v(t) from >= 0 to <= 0 among the uniform samples
+    ts (m,) [s] with values vs (m,), or None.
+
+    Between two samples that do not bracket a fall, v can still dip below zero and come back
+    when the samples' dip bound allows it (as check 2 of the gaps: v >= min of the two ends
+    minus max |second difference| / 2): such an interval is sampled again at _N_DENSE + 1
+    points, up to ``depth`` levels (1 / 17^3 of the step). A contact phase whose state does
+    not change (a sticking contact) lets the solver take steps far longer than the time scale
+    of the applied forces; without this an excursion of a sticking force beyond the friction
+    cone between the step's samples went unseen.
+    """
+    vs = np.asarray(vs, dtype=float)
+    allowance = 0.5 * float(np.max(np.abs(vs[:-2] - 2.0 * vs[1:-1] + vs[2:]))) if vs.size > 2 else 0.0
+    for m in range(ts.size - 1):
+        if vs[m] >= 0.0 >= vs[m + 1]:
+            return float(ts[m]), float(ts[m + 1])
+        if depth > 0 and vs[m] > 0.0 and vs[m + 1] > 0.0 and min(vs[m], vs[m + 1]) - allowance < 0.0:
+            sub = np.linspace(ts[m], ts[m + 1], _N_DENSE + 1)
+            sv = np.array([vs[m]] + [v(t) for t in sub[1:-1]] + [vs[m + 1]])
+            got = _earliest_bracket(v, sub, sv, depth - 1)
+            if got is not None:
+                return got
+    return None
+
+
 def _first_crossing(fun, sol, t_a: float, t_b: float, E_a: float, E_b: float, fun_batch) -> float | None:
     """First t in [t_a, t_b] where fun(t, sol(t)) falls through zero, or None.
 
@@ -389,12 +415,13 @@ def integrate_phase(
                 ts = np.concatenate(([t_a], t_a + _S_CHECK * h, [t_b]))
                 Xs = [X_prev] + [np.asarray(x_fun(tk, dense(tk)), dtype=float) for tk in ts[1:-1]] + [X_b]
                 for i in range(len(x_dir)):
-                    for m in range(len(ts) - 1):
-                        lo, hi = Xs[m][i], Xs[m + 1][i]
-                        if (x_dir[i] < 0 and lo >= 0 >= hi) or (x_dir[i] > 0 and lo <= 0 <= hi):
-                            roots[n_gap + i] = brentq(lambda t: float(x_fun(t, dense(t))[i]), ts[m], ts[m + 1],
-                                                      xtol=4 * _EPS, rtol=4 * _EPS)
-                            break
+                    def x_i(t, i=i):
+                        return float(x_fun(t, dense(t))[i])
+
+                    sgn = -float(x_dir[i])  # v = sgn X_i falls from >= 0 to <= 0 at a crossing
+                    bracket = _earliest_bracket(lambda t: sgn * x_i(t), ts, [sgn * X[i] for X in Xs])
+                    if bracket is not None:
+                        roots[n_gap + i] = brentq(x_i, *bracket, xtol=4 * _EPS, rtol=4 * _EPS)
             if np.any(crossed) or np.any(examine):
                 if dense is None:
                     dense = _interpolant(solver)
