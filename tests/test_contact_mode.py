@@ -122,6 +122,63 @@ def test_compiled_frictionless_solve_stops_the_contact_accelerations(which):
     assert not F_t.any() and not power.any() and not lam_t.any()
 
 
+def test_compiled_friction_solve_meets_the_constraints_and_coulombs_law():
+    # Equations (6)-(7) solved by kernel.friction_solve (the right-hand side of a frictional
+    # contact phase), checked with numpy and walls.tangent_basis: the normal accelerations vanish,
+    # a sticking point's tangential acceleration vanishes, a slipping point's friction is
+    # -mu lambda_n s (s from (7)), and M qddot = M qdd_free + W lambda_n + sum J^T F_t.
+    from gibbsimpact import kernel as _k
+    from gibbsimpact.walls import tangent_basis
+
+    model = single_link_sphere_model()
+    q, _ = single_link_sphere_state(model)
+    rng = np.random.default_rng(11)
+    q = q + 0.1 * rng.normal(size=model.n_dof)
+    qd = rng.normal(size=model.n_dof)
+    wall = gi.Sphere(1.0, friction=0.4)
+    pairs = np.array([[0, 0], [0, 1]])
+    d = constraint_data(model, [wall], q, qd, None, pairs)
+    M = model.mass_matrix(q)
+    # (Both ends of this link sticking at these random velocities would ask the rigid link for zero
+    # acceleration at both ends while they move apart tangentially: no consistent solution.)
+    for stick in ([1, 0], [0, 1], [0, 0]):
+        stick = np.array(stick, dtype=np.int64)
+        sdir = rng.normal(size=(2, 3))
+        mu = np.array([0.4, 0.4])
+        r = _k.lazy("friction_solve")(d.M, d.W, d.J, d.n, d.pd, d.a0, d.c, d.qdd_free, mu, stick, sdir, 1e-6)
+        N, k = model.n_dof, 2
+        qdd, lam, F_t, lam_t, power = (r[:N], r[N:N + k], r[N + k:N + 4 * k].reshape(k, 3),
+                                       r[N + 4 * k:N + 6 * k].reshape(k, 2), r[N + 6 * k:])
+        acc = np.einsum("kcn,n->kc", d.J, qdd) + d.a0  # point accelerations J qddot + Jdot qdot
+        scale = np.abs(acc).max()
+        np.testing.assert_allclose(d.W.T @ qdd + d.c, 0.0, atol=1e-10 * scale)
+        for a in range(k):
+            if stick[a]:
+                np.testing.assert_allclose(tangent_basis(d.n[a])[0] @ acc[a], 0.0, atol=1e-10 * scale)
+                np.testing.assert_allclose(F_t[a], lam_t[a] @ tangent_basis(d.n[a])[0], rtol=1e-12, atol=1e-12)
+            else:
+                vt = d.pd[a] - (d.pd[a] @ d.n[a]) * d.n[a]
+                s = (vt + 1e-6 * sdir[a]) / np.linalg.norm(vt + 1e-6 * sdir[a])
+                np.testing.assert_allclose(F_t[a], -mu[a] * lam[a] * s, rtol=1e-12, atol=1e-12)
+                assert not lam_t[a].any()
+        np.testing.assert_allclose(power, np.sum(F_t * d.pd, axis=1), rtol=1e-12, atol=1e-12)
+        force = d.W @ lam + np.einsum("kcn,kc->n", d.J, F_t)
+        np.testing.assert_allclose(M @ qdd, M @ d.qdd_free + force, rtol=1e-10, atol=1e-10 * np.abs(force).max())
+
+
+def test_svd_solve_is_lstsq_with_its_cut():
+    # kernel._svd_solve (one-sided Jacobi SVD: friction's nonsymmetric solve) against numpy's lstsq
+    # with rcond 1e-10 on square matrices of full and deficient rank, up to m = 20.
+    from gibbsimpact import kernel as _k
+
+    rng = np.random.default_rng(5)
+    for m, rank in [(1, 1), (2, 2), (3, 2), (5, 5), (6, 3), (8, 8), (12, 7), (20, 20), (20, 9)]:
+        A = rng.normal(size=(m, rank)) @ rng.normal(size=(rank, m))
+        b = rng.normal(size=m)
+        ref = np.linalg.lstsq(A, b, rcond=1e-10)[0]
+        assert np.allclose(_k._svd_solve(A, b), ref, rtol=0, atol=1e-11 * (1 + np.abs(ref).max()))
+
+
 def test_symmetric_solve_is_lstsq_with_its_cut():
     # _solve_sym (compiled Jacobi eigenpairs, kernel.sym_solve) against numpy's lstsq with rcond
     # 1e-10 on symmetric matrices: regular, rank-deficient (a redundant contact) and indefinite,

@@ -196,8 +196,19 @@ def contact_quantities(model, q, qd, Q):
     return {"contact_W": d.W, "contact_MinvW": d.MinvW, "contact_G": d.G, "contact_c": d.c, "contact_g": d.g,
             "contact_v": d.v, "contact_n": d.n, "contact_pd": d.pd, "contact_a0": d.a0,
             "contact_G_positions": p.G, "contact_lambda": _solve_sym(d.G, -(d.W.T @ d.qdd_free + d.c)),
-            "contact_lambda_compiled": d.lam, "contact_qdd": d.qdd, "event_gaps": ct.gaps(q),
+            "contact_lambda_compiled": d.lam, "contact_qdd": d.qdd, "contact_friction": _friction(d),
+            "event_gaps": ct.gaps(q),
             "event_skipped": ct.skipped(q).astype(float)}
+
+
+def _friction(d):
+    """kernel.friction_solve on constraint data d: every pair on a wall with mu = 0.3, sticking and
+    slipping alternately (k up to 51: singular C^T M^-1 B)."""
+    k = d.W.shape[1]
+    stick = (np.arange(k) % 2).astype(np.int64)
+    sdir = np.tile([0.3, -0.5, 0.8], (k, 1))
+    return _k.lazy("friction_solve")(d.M, d.W, d.J, d.n, d.pd, d.a0, d.c, d.qdd_free, np.full(k, 0.3), stick, sdir,
+                                     1e-6)
 
 
 def compute_all(seed=SEED):

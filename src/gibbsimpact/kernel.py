@@ -1803,6 +1803,206 @@ def contact_terms(out, off, qd, pairs, wk, wp, vel):
     return res
 
 
+def friction_solve(M, W, J, nrm, pd, a0, c, qf, mu, stick, sdir, v_tol):
+    """Equations (6)-(7) of resting.py: the accelerations and forces of k resting pairs of which
+    some are on walls with friction, from the contact terms of one state.
+
+    M (N, N); W (N, k); J (k, 3, N) the points' Jacobians; nrm, pd, a0 (k, 3): normals, point
+    velocities [m/s], Jdot qdot [m/s^2]; c (k,) [m/s^2]; qf (N,) = qdd_free; mu (k,) Coulomb's
+    coefficients; stick (k,) int64 (1: a frictional pair sticks, 0: it slips); sdir (k, 3) the
+    direction s0 of (7); v_tol [m/s].
+
+    Constraint rows C and force columns B: the normal columns W_a (for a slipping pair
+    B_a = W_a - mu_a J_a^T s_a, s_a = (v_t + v_tol s0) / |v_t + v_tol s0|, v_t = pd - (pd . n) n);
+    two tangent rows and columns J_a^T t_1, J_a^T t_2 per sticking pair (tangent basis as
+    walls.tangent_basis: t1 = e x n / |e x n|, e = e3, or e1 when |n_3| >= 0.9; t2 = n x t1),
+    c extended by t . a0. Then
+
+        (C^T M^-1 B) lambda = -(C^T qf + c)  (_svd_solve),   qddot = qf + M^-1 B lambda
+
+    Returns one float64 array: qddot (N), lambda_n (k) [N], F_t (k 3) [N] (slip: -mu lambda_n
+    s_a; stick: lambda_t . T), lambda_t (k 2) [N] of sticking pairs, friction power F_t . pd (k) [W].
+    """
+    N = M.shape[0]
+    k = W.shape[1]
+    ns = 0
+    for a in range(k):
+        if mu[a] > 0.0 and stick[a] != 0:
+            ns += 1
+    m = k + 2 * ns
+    C = np.zeros((N, m))
+    B = np.zeros((N, m))
+    cc = np.zeros(m)
+    s_hat = np.zeros((k, 3))
+    T = np.zeros((k, 2, 3))
+    for a in range(k):
+        for i in range(N):
+            C[i, a] = W[i, a]
+            B[i, a] = W[i, a]
+        cc[a] = c[a]
+    col = k
+    for a in range(k):
+        if not mu[a] > 0.0:
+            continue
+        n0 = nrm[a, 0]
+        n1 = nrm[a, 1]
+        n2 = nrm[a, 2]
+        if stick[a] == 0:
+            # (7): the slip direction, smooth through v_t = 0.
+            vn = pd[a, 0] * n0 + pd[a, 1] * n1 + pd[a, 2] * n2
+            s0 = pd[a, 0] - vn * n0 + v_tol * sdir[a, 0]
+            s1 = pd[a, 1] - vn * n1 + v_tol * sdir[a, 1]
+            s2 = pd[a, 2] - vn * n2 + v_tol * sdir[a, 2]
+            sn = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+            s_hat[a, 0] = s0 / sn
+            s_hat[a, 1] = s1 / sn
+            s_hat[a, 2] = s2 / sn
+            for i in range(N):
+                B[i, a] -= (J[a, 0, i] * s_hat[a, 0] + J[a, 1, i] * s_hat[a, 1] + J[a, 2, i] * s_hat[a, 2]) * mu[a]
+            continue
+        # A sticking pair: t1 = e x n / |e x n|, t2 = n x t1.
+        e0 = 0.0
+        e2 = 1.0
+        if not abs(n2) < 0.9:
+            e0 = 1.0
+            e2 = 0.0
+        t0 = -e2 * n1
+        t1 = e2 * n0 - e0 * n2
+        t2 = e0 * n1
+        tn = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        T[a, 0, 0] = t0 / tn
+        T[a, 0, 1] = t1 / tn
+        T[a, 0, 2] = t2 / tn
+        T[a, 1, 0] = n1 * T[a, 0, 2] - n2 * T[a, 0, 1]
+        T[a, 1, 1] = n2 * T[a, 0, 0] - n0 * T[a, 0, 2]
+        T[a, 1, 2] = n0 * T[a, 0, 1] - n1 * T[a, 0, 0]
+        for r in range(2):
+            for i in range(N):
+                w = J[a, 0, i] * T[a, r, 0] + J[a, 1, i] * T[a, r, 1] + J[a, 2, i] * T[a, r, 2]
+                C[i, col] = w
+                B[i, col] = w
+            cc[col] = T[a, r, 0] * a0[a, 0] + T[a, r, 1] * a0[a, 1] + T[a, r, 2] * a0[a, 2]
+            col += 1
+    res = np.zeros(N + 7 * k)
+    L, status, dmin, dmax = _cholesky_factor(M)
+    if status == 1:
+        for i in range(N):
+            res[i] = math.nan
+        return res
+    MinvB = np.zeros((N, m))
+    colv = np.zeros(N)
+    for j in range(m):
+        for i in range(N):
+            colv[i] = B[i, j]
+        x = _cholesky_apply(L, colv)
+        for i in range(N):
+            MinvB[i, j] = x[i]
+    A = np.zeros((m, m))
+    rhs = np.zeros(m)
+    for r in range(m):
+        s1 = cc[r]
+        for i in range(N):
+            s1 += C[i, r] * qf[i]
+        rhs[r] = -s1
+        for j in range(m):
+            s2 = 0.0
+            for i in range(N):
+                s2 += C[i, r] * MinvB[i, j]
+            A[r, j] = s2
+    lam = _svd_solve(A, rhs)
+    for i in range(N):
+        s1 = qf[i]
+        for j in range(m):
+            s1 += MinvB[i, j] * lam[j]
+        res[i] = s1
+    oF = N + k
+    oT = N + 4 * k
+    oP = N + 6 * k
+    col = k
+    for a in range(k):
+        res[N + a] = lam[a]
+        if mu[a] > 0.0 and stick[a] != 0:
+            for r in range(2):
+                res[oT + 2 * a + r] = lam[col + r]
+            for d in range(3):
+                res[oF + 3 * a + d] = lam[col] * T[a, 0, d] + lam[col + 1] * T[a, 1, d]
+            col += 2
+        else:
+            for d in range(3):
+                res[oF + 3 * a + d] = -mu[a] * lam[a] * s_hat[a, d]
+        res[oP + a] = res[oF + 3 * a] * pd[a, 0] + res[oF + 3 * a + 1] * pd[a, 1] + res[oF + 3 * a + 2] * pd[a, 2]
+    return res
+
+
+def _svd_solve(A, b):
+    """x with A x = b for a square A (m, m): lstsq's solution (rcond = 1e-10), the least-squares
+    solution of smallest |x| with singular values below 1e-10 of the largest cut:
+
+        x = sum over sigma_j > 1e-10 max sigma of v_j (u_j . b) / sigma_j
+
+    The SVD by one-sided Jacobi rotations (Hestenes): orthogonalise the columns of U = A V
+    pairwise until every pair's cosine is below 1e-15; then sigma_j = |U_j|, u_j = U_j / sigma_j.
+    """
+    m = b.shape[0]
+    U = np.empty((m, m))
+    V = np.zeros((m, m))
+    for i in range(m):
+        V[i, i] = 1.0
+        for j in range(m):
+            U[i, j] = A[i, j]
+    for _ in range(100):
+        rotated = False
+        for p in range(m):
+            for q in range(p + 1, m):
+                alpha = 0.0
+                beta = 0.0
+                gamma = 0.0
+                for i in range(m):
+                    alpha += U[i, p] * U[i, p]
+                    beta += U[i, q] * U[i, q]
+                    gamma += U[i, p] * U[i, q]
+                if gamma == 0.0 or not abs(gamma) > 1e-15 * math.sqrt(alpha * beta):
+                    continue
+                rotated = True
+                # The rotation (c, s) that makes columns p, q orthogonal: t = tan, the smaller root
+                # of t^2 + 2 zeta t - 1 = 0, zeta = (beta - alpha) / (2 gamma).
+                zeta = (beta - alpha) / (2.0 * gamma)
+                t = 1.0 / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
+                if zeta < 0.0:
+                    t = -t
+                c = 1.0 / math.sqrt(1.0 + t * t)
+                s = c * t
+                for i in range(m):
+                    up = U[i, p]
+                    uq = U[i, q]
+                    U[i, p] = c * up - s * uq
+                    U[i, q] = s * up + c * uq
+                    vp = V[i, p]
+                    vq = V[i, q]
+                    V[i, p] = c * vp - s * vq
+                    V[i, q] = s * vp + c * vq
+        if not rotated:
+            break
+    sig = np.zeros(m)
+    big = 0.0
+    for j in range(m):
+        s2 = 0.0
+        for i in range(m):
+            s2 += U[i, j] * U[i, j]
+        sig[j] = math.sqrt(s2)
+        big = max(big, sig[j])
+    x = np.zeros(m)
+    for j in range(m):
+        if sig[j] > 1e-10 * big:
+            ub = 0.0
+            for i in range(m):
+                ub += U[i, j] * b[i]
+            f = ub / (sig[j] * sig[j])  # (u_j . b) / sigma_j with u_j = U_j / sigma_j
+            for i in range(m):
+                x[i] += V[i, j] * f
+    return x
+
+
 def sym_solve(G, b):
     """_sym_solve as an entry point of its own (resting.py's projections)."""
     return _sym_solve(G, b)
@@ -1899,7 +2099,7 @@ _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_sk
             "rodrigues_coefficients", "rodrigues_directional", "_rot_step", "_end_step", "_apply_local",
             "_joint_field", "_hermite_at", "_host_shapes", "_pa_step", "_pb_step", "_pb_moments", "chain_frames",
             "_sd_stride", "_own", "_link_body", "_tr_sps", "_e_sy", "_extra_points", "_mmax", "assemble", "_cholesky_solve",
-            "_cholesky_factor", "_cholesky_apply", "_link_observables", "layout", "contact_layout", "_sym_solve", "_wall_gap", "_skip_pair")
+            "_cholesky_factor", "_cholesky_apply", "_link_observables", "layout", "contact_layout", "_sym_solve", "_wall_gap", "_skip_pair", "_svd_solve")
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
@@ -1912,11 +2112,15 @@ _ENTRY_SIG = f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64, {{}}, {{}})"
 #: Entry points apart from the kernel, compiled on first use: their signatures ...
 _LAZY = {"contact_terms": f"{_A1}({_A1}, {_I1}, {_A1}, int64[:, ::1], {_I1}, {_A2}, int64)",
          "sym_solve": f"{_A1}({_A2}, {_A1})",
-         "event_gaps": f"{_A1}({_A1}, int64, {_I1}, {_A2}, {_A2}, int64[:, ::1], float64)"}
+         "event_gaps": f"{_A1}({_A1}, int64, {_I1}, {_A2}, {_A2}, int64[:, ::1], float64)",
+         "friction_solve": f"{_A1}({_A2}, {_A2}, float64[:, :, ::1], {_A2}, {_A2}, {_A2}, {_A1}, {_A1}, {_A1}, "
+                           f"{_I1}, {_A2}, float64)"}
 #: ... in groups compiled together (a contact phase needs both of its entries), with what the
 #: notice calls them and when they are needed.
-_LAZY_GROUP = {"contact_terms": "resting", "sym_solve": "resting", "event_gaps": "events"}
+_LAZY_GROUP = {"contact_terms": "resting", "sym_solve": "resting", "friction_solve": "friction",
+               "event_gaps": "events"}
 _LAZY_NOTICE = {"resting": ("the resting-contact code", "first contact phase"),
+                "friction": ("the frictional resting-contact code", "first contact phase with friction"),
                 "events": ("the wall-gap code", "first run with walls")}
 
 

@@ -135,14 +135,6 @@ def _solve_sym(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     return _k.lazy("sym_solve")(np.array(G, dtype=float, order="C"), np.array(b, dtype=float, order="C"))
 
 
-def _lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """_solve_sym for a general square A (k, k) (friction's C^T M^-1 B): lstsq, singular values
-    below 1e-10 of the largest cut."""
-    if A.size == 0:
-        return np.zeros(0)
-    return np.linalg.lstsq(A, b, rcond=1e-10)[0]
-
-
 class _Plan(NamedTuple):
     """What the compiled contact terms need besides the state, fixed for a set of pairs:
     pairs (k, 2) int64, packed walls (wk (W,), wp (W, 6)), the kernel job and its output's
@@ -276,34 +268,14 @@ class RestingContacts:
         if not (mu > 0).any():
             # (3), solved by the compiled contact terms (constraint_data).
             return d.qdd.copy(), d.lam.copy(), np.zeros((k, 3)), np.zeros((k, 2)), np.zeros(k)
-        # (6): constraint rows C (normal gaps; tangential accelerations of sticking points) and
-        # force columns B (normal; slip friction -mu n_s along the slip; sticking tangents).
-        C, B, c = [d.W], [d.W.copy()], [d.c]
-        slip = (mu > 0) & ~stick
-        s_hat = np.zeros((k, 3))
-        if np.any(slip):
-            vt = d.pd[slip] - np.sum(d.pd[slip] * d.n[slip], axis=1)[:, None] * d.n[slip]
-            s = vt + self.v_tol * sdir[slip]  # (7): the slip direction, smooth through v_t = 0
-            s_hat[slip] = s / np.linalg.norm(s, axis=1, keepdims=True)
-            B[0] = B[0] - np.einsum("kcn,kc->nk", d.J, s_hat) * mu
-        st = np.nonzero((mu > 0) & stick)[0]
-        if st.size:
-            T = tangent_basis(d.n[st])  # (s, 2, 3)
-            Wt = np.einsum("sac,scn->nsa", T, d.J[st]).reshape(d.W.shape[0], -1)
-            C.append(Wt)
-            B.append(Wt)
-            c.append(np.einsum("sac,sc->sa", T, d.a0[st]).ravel())
-        C, B, c = np.hstack(C), np.hstack(B), np.concatenate(c)
-        MinvB = np.linalg.solve(d.M, B)
-        lam = _lstsq(C.T @ MinvB, -(C.T @ d.qdd_free + c))
-        lam_n = lam[:k]
-        F_t = -mu[:, None] * lam_n[:, None] * s_hat
-        lam_t = np.zeros((k, 2))
-        if st.size:
-            lam_t[st] = lam[k:].reshape(-1, 2)
-            F_t[st] = np.einsum("sa,sac->sc", lam_t[st], T)
-        power = np.einsum("kc,kc->k", F_t, d.pd)
-        return d.qdd_free + MinvB @ lam, lam_n, F_t, lam_t, power
+        # (6)-(7): constraint rows C (normal gaps; tangential accelerations of sticking points) and
+        # force columns B (normal; slip friction -mu n_s along the slip; sticking tangents), compiled.
+        r = _k.lazy("friction_solve")(d.M, d.W, d.J, d.n, d.pd, d.a0, d.c, d.qdd_free, mu,
+                                      np.ascontiguousarray(stick, dtype=np.int64), np.ascontiguousarray(sdir, dtype=float),
+                                      float(self.v_tol))
+        N = d.qdd_free.size
+        return (r[:N], r[N:N + k], r[N + k:N + 4 * k].reshape(k, 3), r[N + 4 * k:N + 6 * k].reshape(k, 2),
+                r[N + 6 * k:])
 
     def acceleration(self, q, qd, Q=None):
         """Equations (3)/(6) for the active pairs at (q, qd) with forces Q (N,) or None, cached per state:
