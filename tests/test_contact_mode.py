@@ -23,6 +23,15 @@ def second_derivative(f, h):
     return (4 * d(h / 2) - d(h)) / 3
 
 
+def chain_on_wall(which):
+    """(model, wall, q): case 1's chain on the unit circle, or case 2's link in the unit sphere."""
+    if which == "circle":
+        model = two_link_circle_model()
+        return model, gi.Circle(1.0), two_link_circle_state(model)[0]
+    model = single_link_sphere_model()
+    return model, gi.Sphere(1.0), single_link_sphere_state(model)[0]
+
+
 @pytest.mark.parametrize("wall", [gi.Circle(1.3, (0.2, -0.1)), gi.Sphere(1.1, (0.1, 0.2, -0.3)),
                                   gi.Plane((0, -1, 0), (0.3, 1.0, 0.2))])
 def test_wall_curvature_is_the_second_derivative_of_the_gap(wall):
@@ -94,12 +103,7 @@ def test_compiled_frictionless_solve_stops_the_contact_accelerations(which):
     # contact phase): lam is lstsq's solution of G lam = -(W^T qdd_free + c) from numpy, and the
     # constrained qddot has zero normal accelerations W^T qddot + c = 0 (G regular here), with M
     # qddot = M qdd_free + W lam, from the public mass matrix.
-    if which == "circle":
-        model, wall = two_link_circle_model(), gi.Circle(1.0)
-        q, _ = two_link_circle_state(model)
-    else:
-        model, wall = single_link_sphere_model(), gi.Sphere(1.0)
-        q, _ = single_link_sphere_state(model)
+    model, wall, q = chain_on_wall(which)
     rng = np.random.default_rng(8)
     q = q + 0.1 * rng.normal(size=model.n_dof)  # off the sphere's diameter, where G is singular
     qd = rng.normal(size=model.n_dof)
@@ -200,12 +204,7 @@ def test_symmetric_solve_is_lstsq_with_its_cut():
 def test_gap_acceleration_terms_match_differences_along_a_motion(which):
     # gddot = W^T qddot + c along q(t) = q0 + qdot t + qddot t^2 / 2: the gap of each joint
     # differenced twice in time, from joint positions and the wall's gap only.
-    if which == "circle":
-        model, wall = two_link_circle_model(), gi.Circle(1.0)
-        q0, _ = two_link_circle_state(model)
-    else:
-        model, wall = single_link_sphere_model(), gi.Sphere(1.0)
-        q0, _ = single_link_sphere_state(model)
+    model, wall, q0 = chain_on_wall(which)
     rng = np.random.default_rng(7)
     qd, qdd = rng.normal(size=model.n_dof), rng.normal(size=model.n_dof)
     pairs = np.array([[0, j] for j in range(model.n_links + 1)])
