@@ -19,7 +19,10 @@ In a temporary directory this script
 
 numba.pycc is marked for deprecation (numba's "Deprecation Notices"; a replacement is
 planned) and it links with the system C compiler, so a package route through it needs a
-fallback to the JIT. Usage: python benchmarks/aot_probe.py [--repeat R]
+fallback to the JIT. Its wrappers do not check argument types: measured, a strided float64
+array is read as if contiguous (wrong values) and a float32 one crashed the process, where
+the JIT's dispatcher raises TypeError; every call would need a checked wrapper.
+Usage: python benchmarks/aot_probe.py [--repeat R]
 """
 
 from __future__ import annotations
