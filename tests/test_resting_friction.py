@@ -111,6 +111,25 @@ def test_rod_sticks_on_an_incline_steeper_friction_than_slope():
                                rtol=0, atol=1e-8 * M * G * np.sin(ALPHA))
 
 
+@pytest.mark.parametrize("excess", [0.0, 1e-12, -1e-12])
+def test_rod_at_the_friction_angle_stays_at_rest(excess):
+    # mu = tan(alpha) (1 + excess): the friction force m g sin(alpha) sits at the cone's edge, and
+    # sticking or slipping both give zero acceleration. The rod stays where it is, with
+    # m g cos(alpha) / 2 normal and m g sin(alpha) / 2 friction at each end. (Before the slip
+    # offset of resting.py's "stick" event, the slip that starts from rest stopped at once and
+    # slipped again: "event loop stalled at t = 0 s".)
+    model = planar_rod()
+    q0 = model.state(theta_1=ALPHA)
+    res = gi.simulate(model, q0, np.zeros(6), (0.0, 1.0), walls=[incline(np.tan(ALPHA) * (1.0 + excess))],
+                      restitution=0.5, output_dt=1e-2)
+    assert res.status == "finished", res.message
+    assert np.max(np.abs(centre(model, res) - centre(model, res)[0])) <= 1e-9
+    N = res.contact_forces[:, 0, :2]
+    np.testing.assert_allclose(N, M * G * np.cos(ALPHA) / 2, rtol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(res.friction_forces[:, 0, :2], axis=-1), M * G * np.sin(ALPHA) / 2,
+                               rtol=1e-9)
+
+
 def test_rod_slides_down_an_incline_against_coulomb_friction():
     # mu = 0.2 < tan(20 deg): the cone cannot hold the rod; it slides down along its own axis
     # without turning. Slip down the slope (-u), so each end's friction is +mu N_j u:

@@ -72,7 +72,11 @@ direction s0 it had when the phase started,
 
 (v_tol = grazing_velocity). Events of a frictional contact phase: "slip" when a
 sticking force reaches the cone, mu lambda_n - |lambda_t| = 0; "stick" when a
-slip stops (or, in 3D, turns by 90 degrees), v_t . s0 = 0. At the mode decision
+slip stops (or, in 3D, turns by 90 degrees), v_t . s0 = 0, or v_t . s0 = -v_tol / 1000
+for a pair that starts to slip from rest (slower than v_tol): its event starts above
+zero, so that a force sitting exactly at the cone's edge (a rod on an incline with
+mu = tan alpha: zero acceleration either way) keeps slipping at zero speed instead of
+stopping at once and slipping again without end. At the mode decision
 a candidate slower than v_tol sticks (its slip is projected away with the
 normal velocity, equation (5) with its tangent rows), the others slip along
 their velocity; an active-set iteration then removes the most negative normal
@@ -226,6 +230,9 @@ class RestingContacts:
         self.active = np.zeros((len(walls), P), dtype=bool)
         self.stick = np.zeros((len(walls), P), dtype=bool)
         self.slip_dir = np.zeros((len(walls), P, 3))
+        # v_t . s0 at which a slipping pair's "stick" event fires, minus sign [m/s]: 0, or
+        # v_tol / 1000 for a pair that started to slip from rest (module docstring).
+        self.slip_offset = np.zeros((len(walls), P))
         self.mu = np.array([w.friction for w in walls], dtype=float)
         # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves.
         restable = np.arange(P) <= model.n_links  # link columns (contacts.py) never rest
@@ -254,6 +261,7 @@ class RestingContacts:
         self.active[:] = False
         self.stick[:] = False
         self.slip_dir[:] = 0.0
+        self.slip_offset[:] = 0.0
         self._cache = (None, None)
 
     # -- equations (1)-(3), (6) ------------------------------------------------------
@@ -412,7 +420,9 @@ class RestingContacts:
             w, j = candidates[a]
             self.active[w, j] = True
             self.stick[w, j] = stick[a]
-            self.slip_dir[w, j] = sdir[a] if mu[a] > 0 and not stick[a] else 0.0
+            slips = mu[a] > 0 and not stick[a]
+            self.slip_dir[w, j] = sdir[a] if slips else 0.0
+            self.slip_offset[w, j] = 1e-3 * self.v_tol if slips and speed[a] <= self.v_tol else 0.0
         return q, qd
 
     # -- the events and the candidates of a contact phase -----------------------------
@@ -427,7 +437,8 @@ class RestingContacts:
     def release_events(self, applied):
         """(fun(t, y) -> values (m,), directions (m,) = -1) and kinds of the events of a contact phase:
         "release" lambda_n = 0; "slip" mu lambda_n - |F_t| = 0 of a sticking pair; "stick"
-        v_t . s = 0 of a slipping pair (its slip stops or turns by 90 degrees).
+        v_t . s = 0 of a slipping pair (its slip stops or turns by 90 degrees; -v_tol / 1000
+        for a pair that started to slip from rest, slip_offset).
 
         applied(t, q, qd) -> (N,) or None: the generalised forces Q of equation (1).
         """
@@ -437,6 +448,7 @@ class RestingContacts:
         stick = self.stick[self.active] & (mu > 0)
         slip = ~self.stick[self.active] & (mu > 0)
         sdir = self.slip_dir[self.active]
+        offset = self.slip_offset[self.active]
 
         def fun(t, y):
             q, qd = y[:N], y[N:2 * N]
@@ -445,7 +457,7 @@ class RestingContacts:
             if stick.any():
                 out.append(mu[stick] * lam[stick] - np.linalg.norm(F_t[stick], axis=1))
             if slip.any():
-                out.append(np.sum(d.pd[slip] * sdir[slip], axis=1))
+                out.append(np.sum(d.pd[slip] * sdir[slip], axis=1) + offset[slip])
             return np.concatenate(out)
 
         kinds = [("release", int(w), int(j)) for w, j in pairs]
