@@ -148,7 +148,6 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
                 _raise_singular(model, q, out[0], out[1], out[2])
             return out[lo:hi]  # a view of a private array
     N = zeros.size
-    v = (v0, v1)
     q, qdot = as_vector(q), as_vector(qdot)
     if q.size != N or qdot.size != N:
         raise ValueError(f"forward_dynamics q, qdot have shapes {q.shape}, {qdot.shape}; this model needs "
@@ -160,10 +159,10 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
                              f"ordered as {', '.join(model.coordinate_names)}")
         if not Q.flags.writeable:
             Q = Q.copy()  # numba types a read-only array differently (no recompiles: a copy)
-    out = _k.compiled(v)(fdat, idat, q, qdot, zeros if Q is None else Q, _k.JOB_SOLVE, *v)
+    out = f(fdat, idat, q, qdot, zeros if Q is None else Q, _JOB_SOLVE, v0, v1)
     if out[0] != 0.0:
         _raise_singular(model, q, out[0], out[1], out[2])
-    return out[3 + N:3 + 2 * N]  # a view of a private array
+    return out[lo:hi]  # a view of a private array
 
 
 def energy(model, q: np.ndarray, qdot: np.ndarray) -> Energy:

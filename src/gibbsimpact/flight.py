@@ -220,7 +220,7 @@ def _earliest_bracket(v, ts, vs, depth: int = 3) -> tuple | None:
     cone between the step's samples went unseen.
     """
     vs = np.asarray(vs, dtype=float)
-    allowance = 0.5 * float(np.max(np.abs(vs[:-2] - 2.0 * vs[1:-1] + vs[2:]))) if vs.size > 2 else 0.0
+    allowance = float(dip_allowance(vs[None, :])[0]) if vs.size > 2 else 0.0
     for m in range(ts.size - 1):
         if vs[m] >= 0.0 >= vs[m + 1]:
             return float(ts[m]), float(ts[m + 1])
@@ -259,7 +259,7 @@ def _first_crossing(fun, sol, t_a: float, t_b: float, E_a: float, E_b: float, fu
         # (Cauchy-Schwarz, as in contacts.py's skip rule): no interval can reach zero when every
         # bracket is positive; typically a pair leaving the wall right after its impact.
         root = np.sqrt(Es)
-        if np.all((root[:-1] + root[1:]) ** 2 > 2.0 * float(np.max(np.abs(Es[:-2] - 2.0 * Es[1:-1] + Es[2:])))):
+        if np.all((root[:-1] + root[1:]) ** 2 > 4.0 * float(dip_allowance(Es[None, :])[0])):  # 2 max|D|
             return None
         i = int(np.argmin(Es))
         lo_b, hi_b = ts[max(i - 1, 0)], ts[min(i + 1, ts.size - 1)]
