@@ -67,10 +67,12 @@ case = gi.load_case(sys.argv[2])
 m, q, qd = case.model, case.q0.copy(), case.qdot0.copy() + 0.3
 fdat, idat, zeros, v = m.kernel_data
 N = q.size
-a = gi_aot_probe.kernel_rigid(fdat, idat, q, qd, zeros, k.JOB_SOLVE, None, None)[3 + N:3 + 2 * N]
+out = k.output(idat, 1, k.JOB_SOLVE)
+gi_aot_probe.kernel_rigid(fdat, idat, q, qd, zeros, k.JOB_SOLVE, None, None, out)
+a = out[3 + N:3 + 2 * N]
 b = forward_dynamics(m, q, qd)
 jit = k.compiled(v)
-per = lambda f: min(timeit.repeat(lambda: f(fdat, idat, q, qd, zeros, k.JOB_SOLVE, None, None), number=20000,
+per = lambda f: min(timeit.repeat(lambda: f(fdat, idat, q, qd, zeros, k.JOB_SOLVE, None, None, out), number=20000,
                                   repeat=7)) / 20000 * 1e6
 print(json.dumps({"import_s": t_import, "numba_loaded": numba_loaded, "identical": bool(np.array_equal(a, b)),
                   "aot_us": per(gi_aot_probe.kernel_rigid), "jit_us": per(jit)}))

@@ -385,7 +385,9 @@ fdat, idat, zeros, v = m.kernel_data
 N = m.n_dof
 kern = K.compiled(v)
 def f(t, y):
-    return kern(fdat, idat, y[:N], y[N:], zeros, K.JOB_SOLVE, *v)[3:3 + 2 * N]
+    out = K.output(idat, 1, K.JOB_SOLVE)
+    kern(fdat, idat, y[:N], y[N:], zeros, K.JOB_SOLVE, *v, out)
+    return out[3:3 + 2 * N]
 kw = case.simulate_kwargs()
 y0 = np.concatenate((case.q0, case.qdot0))
 plain = []

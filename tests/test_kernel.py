@@ -312,8 +312,8 @@ def test_pruned_variants_equal_the_full_one(chain, compiled):
     rng = np.random.default_rng(11)
     qs, qds, Qs = (np.concatenate(a) for a in zip(*_states(model, rng)))
     job = ALL_OBSERVABLES | _k.JOB_SOLVE | _k.JOB_M | _k.JOB_H
-    a = _k.compiled(v)(fdat, idat, qs, qds, Qs[:model.n_dof].copy(), job, *v)
-    b = _k.compiled(_k.PRISMATIC)(fdat, idat, qs, qds, Qs[:model.n_dof].copy(), job, *_k.PRISMATIC)
+    a = _k.run(v, fdat, idat, qs, qds, Qs[:model.n_dof].copy(), job)
+    b = _k.run(_k.PRISMATIC, fdat, idat, qs, qds, Qs[:model.n_dof].copy(), job)
     assert a.shape == b.shape
     assert _rel(b, a) <= RTOL
 
@@ -352,13 +352,19 @@ def test_one_signature_and_no_recompiles(compiled):
     fdat, idat, zeros, v = model.kernel_data
     assert v == _k.RIGID_ENDS
     qs, qds = kin.states(q, qd)
-    assert np.all(np.isfinite(kernel(fdat, idat, qs, qds, zeros, _k.JOB_SOLVE, *v)))
+    out = _k.output(idat, 1, _k.JOB_SOLVE)
+    assert kernel(fdat, idat, qs, qds, zeros, _k.JOB_SOLVE, *v, out) == 0.0 and np.all(np.isfinite(out))
+    # An output of the wrong size is refused before anything is written (status -1).
+    short = np.full(out.size - 1, 7.0)
+    assert kernel(fdat, idat, qs, qds, zeros, _k.JOB_SOLVE, *v, short) == -1.0 and np.all(short == 7.0)
+    m_out = _k.output(idat, 1, _k.JOB_M)
     bad_calls = {
-        "float32 states": (fdat, idat, qs.astype(np.float32), qds, zeros, _k.JOB_SOLVE, *v),
-        "non-contiguous states": (fdat, idat, np.repeat(qs, 2)[::2], qds, zeros, _k.JOB_SOLVE, *v),
-        "non-contiguous fdat": (np.repeat(fdat, 2)[::2], idat, qs, qds, zeros, _k.JOB_M, *v),
-        "int32 idat": (fdat, idat.astype(np.int32), qs, qds, zeros, _k.JOB_M, *v),
-        "2-d states": (fdat, idat, qs.reshape(1, -1), qds, zeros, _k.JOB_M, *v),
+        "float32 states": (fdat, idat, qs.astype(np.float32), qds, zeros, _k.JOB_SOLVE, *v, out),
+        "non-contiguous states": (fdat, idat, np.repeat(qs, 2)[::2], qds, zeros, _k.JOB_SOLVE, *v, out),
+        "non-contiguous fdat": (np.repeat(fdat, 2)[::2], idat, qs, qds, zeros, _k.JOB_M, *v, m_out),
+        "int32 idat": (fdat, idat.astype(np.int32), qs, qds, zeros, _k.JOB_M, *v, m_out),
+        "2-d states": (fdat, idat, qs.reshape(1, -1), qds, zeros, _k.JOB_M, *v, m_out),
+        "non-contiguous output": (fdat, idat, qs, qds, zeros, _k.JOB_M, *v, np.repeat(m_out, 2)[::2]),
     }
     for what, args in bad_calls.items():
         try:

@@ -103,15 +103,18 @@ def _raise_singular(model, q, status, dmin, dmax):
 
 
 _NDARRAY = np.ndarray
+_EMPTY = np.empty
 _JOB_SOLVE = _k.JOB_SOLVE
 
 
 def _solve_call(model) -> tuple:
     """What forward_dynamics' hot path needs, unpacked once per model (it saves ~2 us a call):
-    (compiled kernel, fdat, idat, zeros (N,), variant pair, (N,), qddot's slice of the output)."""
+    (compiled kernel, fdat, idat, zeros (N,), variant pair, (N,), the output's size and
+    qddot's slice of it)."""
     fdat, idat, zeros, v = model.kernel_data
     N = zeros.size
-    call = model._solve_call = (_k.compiled(v), fdat, idat, zeros, v[0], v[1], (N,), 3 + N, 3 + 2 * N)
+    size = _k.output(idat, 1, _JOB_SOLVE).size
+    call = model._solve_call = (_k.compiled(v), fdat, idat, zeros, v[0], v[1], (N,), size, 3 + N, 3 + 2 * N)
     return call
 
 
@@ -134,17 +137,18 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
     # read-only one; only then are they converted. The kernel does not check bounds: shapes are.
     # (A read-only array is screened out here: numba's TypeError for it costs ~0.3 ms.)
     try:
-        f, fdat, idat, zeros, v0, v1, shape, lo, hi = model._solve_call
+        f, fdat, idat, zeros, v0, v1, shape, size, lo, hi = model._solve_call
     except AttributeError:
-        f, fdat, idat, zeros, v0, v1, shape, lo, hi = _solve_call(model)
+        f, fdat, idat, zeros, v0, v1, shape, size, lo, hi = _solve_call(model)
     if Q is None and q.__class__ is _NDARRAY and qdot.__class__ is _NDARRAY and q.shape == shape \
             and qdot.shape == shape and q.flags.writeable and qdot.flags.writeable:
+        out = _EMPTY(size)
         try:
-            out = f(fdat, idat, q, qdot, zeros, _JOB_SOLVE, v0, v1)
+            status = f(fdat, idat, q, qdot, zeros, _JOB_SOLVE, v0, v1, out)
         except TypeError:
             pass
         else:
-            if out[0]:
+            if status:
                 _raise_singular(model, q, out[0], out[1], out[2])
             return out[lo:hi]  # a view of a private array
     N = zeros.size
@@ -159,8 +163,8 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
                              f"ordered as {', '.join(model.coordinate_names)}")
         if not Q.flags.writeable:
             Q = Q.copy()  # numba types a read-only array differently (no recompiles: a copy)
-    out = f(fdat, idat, q, qdot, zeros if Q is None else Q, _JOB_SOLVE, v0, v1)
-    if out[0] != 0.0:
+    out = _EMPTY(size)
+    if f(fdat, idat, q, qdot, zeros if Q is None else Q, _JOB_SOLVE, v0, v1, out) != 0.0:
         _raise_singular(model, q, out[0], out[1], out[2])
     return out[lo:hi]  # a view of a private array
 

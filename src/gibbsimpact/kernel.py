@@ -83,6 +83,7 @@ call passes few arguments (numba's dispatch cost grows with their number).
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import sys
@@ -1394,12 +1395,13 @@ def layout(n, N, K, job, npts):
     return off
 
 
-def kernel(fdat, idat, qs, qds, Q, job, pris, ends):
+def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
     """The one compiled entry point: everything the package computes from states.
 
     qs, qds: K states q and qdot one after the other, (K N,) each; Q: applied
-    forces (N,) (with JOB_SOLVE, for the first state); job: a bit mask of JOB_*. Returns one float64
-    array laid out as ``layout(n, N, K, job, n + 1 + X)``:
+    forces (N,) (with JOB_SOLVE, for the first state); job: a bit mask of JOB_*; out: the output,
+    a float64 array of ``layout(n, N, K, job, n + 1 + X)[10]`` entries (``output``), all of them
+    written, laid out as that layout says:
 
     * status (3,): Cholesky status of M (0 solved; 1 not positive definite;
       2 pivots spread beyond 1e7) and its smallest and largest pivot;
@@ -1414,15 +1416,23 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends):
       when f_c <= j, else 0 (a tip of link h: f_c <= h, and R_h end_t_k for h's own delta_k);
       JOB_FRAMES: T, Tdot, Tddot0 (K 3 (n+1) 16,).
 
+    Returns the status (out[0]), or -1.0 when out has the wrong size (then nothing is written:
+    the kernel does not check bounds otherwise).
+
     One entry point, because numba links and optimises every entry point with
-    all the code it calls: one entry compiles in about half the time of two.
+    all the code it calls: one entry compiles in about half the time of two. The output is
+    an argument, not a return value: numba boxes a returned array at ~1.3 us a call (a quarter
+    of forward_dynamics on case 1), a returned float costs nothing.
     """
     n = idat[0]
     N = idat[1]
     K = qs.shape[0] // N
     npts = n + 1 + idat[3]
     L = layout(n, N, K, job, npts)
-    out = np.zeros(L[10])
+    if out.shape[0] != L[10]:
+        return -1.0
+    for i in range(L[10]):
+        out[i] = 0.0
     q = np.zeros(N)
     qd = np.zeros(N)
     if job & (JOB_M | JOB_H | JOB_SOLVE):
@@ -1458,7 +1468,7 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends):
                 out[o + N + i] = x[i] if status == 0 else math.nan
     obs = job & (JOB_ENERGY | JOB_MOMENTUM | JOB_POINTS | JOB_JACOBIANS | JOB_FRAMES)
     if obs == 0:
-        return out
+        return out[0]
     vel = (job & (JOB_ENERGY | JOB_MOMENTUM | JOB_FRAMES)) != 0
     TS = 0
     TDS = n + 1
@@ -1512,7 +1522,7 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends):
                             out[o + N * a + c] = s
         if pris is not None and job & (JOB_POINTS | JOB_JACOBIANS):
             _extra_points(fdat, idat, q, B, TS, SS, out, L[_S_PTS], L[_S_JAC], job, npts, k)
-    return out
+    return out[0]
 
 
 def _extra_points(fdat, idat, q, B, ts, ss, out, o_pts, o_jac, job, npts, k):
@@ -2108,7 +2118,7 @@ RIGID_ENDS, REVOLUTE, PRISMATIC = (None, None), (None, 1), (1, 1)
 _VARIANT_NAME = {RIGID_ENDS: "revolute joints and rigid link ends", REVOLUTE: "revolute joints",
                  PRISMATIC: "prismatic joints"}
 _VARIANT_COST = {RIGID_ENDS: "about 15-20 s", REVOLUTE: "about 20-25 s", PRISMATIC: "about 30 s"}
-_ENTRY_SIG = f"{_A1}({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64, {{}}, {{}})"
+_ENTRY_SIG = f"float64({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64, {{}}, {{}}, {_A1})"
 #: Entry points apart from the kernel, compiled on first use: their signatures ...
 _LAZY = {"contact_terms": f"{_A1}({_A1}, {_I1}, {_A1}, int64[:, ::1], {_I1}, {_A2}, int64)",
          "sym_solve": f"{_A1}({_A2}, {_A1})",
@@ -2197,13 +2207,35 @@ def _compile_variant(v):
 def compiled(v=PRISMATIC):
     """The entry point ``kernel`` with variant ``v`` compiled (or loaded) on first use.
 
-    Call it as ``compiled(v)(fdat, idat, qs, qds, Q, job, *v)``, v = variant(idat).
+    Call it as ``compiled(v)(fdat, idat, qs, qds, Q, job, *v, out)``, v = variant(idat), with
+    out = ``output(idat, K, job)``; or let ``run`` do both.
     """
     f = _state["kernel"]
     if f is None or v not in _state["ready"]:
         ensure_compiled(v)
         f = _state["kernel"] = globals()["kernel"]
     return f
+
+
+@functools.lru_cache(maxsize=256)
+def _output_size(n, N, K, job, npts) -> int:
+    return int(layout(n, N, K, job, npts)[10])
+
+
+def output(idat, K, job) -> np.ndarray:
+    """An (uninitialised) output array of ``kernel`` for K states of the packed model idat and
+    the JOB_* bits ``job``: layout(n, N, K, job, n + 1 + X)[10] float64 entries."""
+    return np.empty(_output_size(int(idat[0]), int(idat[1]), int(K), int(job), int(idat[0] + 1 + idat[3])))
+
+
+def run(v, fdat, idat, qs, qds, Q, job) -> np.ndarray:
+    """The output of variant v of ``kernel`` (compiled on first use) for the K = qs.size / N
+    states qs, qds (K N,), forces Q (N,) and the JOB_* bits ``job``, in a new array
+    (``layout``). The arguments must have the entry point's types (``as_vector``)."""
+    out = output(idat, qs.shape[0] // idat[1], job)
+    if compiled(v)(fdat, idat, qs, qds, Q, job, v[0], v[1], out) < 0.0:  # pragma: no cover - sized above
+        raise RuntimeError(f"kernel output of {out.size} entries does not fit its layout")
+    return out
 
 
 def lazy(name):
@@ -2264,9 +2296,9 @@ def _cache_is_warm(v):
         probe = numba.njit(cache=True)(_PY_KERNEL)
         # The index is keyed by the source file's stamp: a stale one loads as empty.
         index = probe._cache._cache_file._load_index()
-        # Keys: (signature text, codegen's magic tuple, ...); the variant is the last argument.
-        want = ", {}, {})".format(*_signature_args(v))
-        return any(str(key[0]).endswith(want) for key in index)
+        # Keys: (signature text as compiled, codegen's magic tuple, ...).
+        want = _ENTRY_SIG.format(*_signature_args(v)).replace(" ", "")
+        return any(str(key[0]).replace(" ", "") == want for key in index)
     except Exception:  # no cache location, numba internals changed, JIT disabled ...
         return None
 

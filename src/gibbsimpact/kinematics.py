@@ -51,7 +51,7 @@ def run_kernel(model, st, job: int, Q: np.ndarray | None = None) -> np.ndarray:
     if qs.size != qds.size or qs.size == 0 or qs.size % N:
         raise ValueError(f"states of shapes {qs.shape}, {qds.shape}: this model needs q and qdot of {N} entries "
                          f"each ({', '.join(model.coordinate_names)})")
-    return _k.compiled(v)(fdat, idat, qs, qds, zeros if Q is None else Q, job, *v)
+    return _k.run(v, fdat, idat, qs, qds, zeros if Q is None else Q, job)
 
 
 def section(model, out: np.ndarray, K: int, job: int, name: str) -> np.ndarray:

@@ -363,10 +363,10 @@ def _state(model, tab: _Tables, qs) -> _State:
     # One kernel call (the compiled entry point directly: as_vector gives it the array type it
     # was compiled for, and the frames section's offset is cached for K = 1).
     if K == 1:
-        out = _k.compiled(v)(fdat, idat, as_vector(qs), tab.qdot1, zeros, job, *v)
+        out = _k.run(v, fdat, idat, as_vector(qs), tab.qdot1, zeros, job)
         o0 = tab.frames_offset
     else:
-        out = _k.compiled(v)(fdat, idat, as_vector(qs), np.zeros(K * N), zeros, job, *v)
+        out = _k.run(v, fdat, idat, as_vector(qs), np.zeros(K * N), zeros, job)
         o0 = int(_k.layout(n, N, K, job, model.n_joints)[_k.SECTIONS.index("frames")])
     T = out[o0:o0 + 48 * (n + 1) * K].reshape(K, n + 1, 3, 4, 4)[:, :n, 0]
     qe = np.concatenate((qs, np.zeros((K, 1))), axis=1)
