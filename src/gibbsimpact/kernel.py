@@ -464,8 +464,7 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
     kGdd = w + 9
     kL = w + 10
     kdRk = w + 11
-    kTn = w + 12
-    kTdn = w + 13
+    kTn = w + 12   # w+12 .. w+14: T, Td, Tdd0 scratch of _apply_local
     kTddn = w + 14
     ku = w + 15    # row 0: u
     ks = w + 16    # w+16 .. w+18: Rodrigues scratch; w+19: _conjugate scratch

@@ -100,7 +100,6 @@ import itertools
 import json
 import math
 import re
-import sys
 import tempfile
 import tomllib
 from collections.abc import Mapping
