@@ -360,8 +360,8 @@ def _state(model, tab: _Tables, qs) -> _State:
     K, N, n = qs.shape[0], tab.N, tab.n
     job = _k.JOB_FRAMES
     fdat, idat, zeros, v = model.kernel_data
-    # One kernel call (the compiled entry point directly: as_vector gives it the array type it
-    # was compiled for, and the frames section's offset is cached for K = 1).
+    # One kernel call (kernel.run, no run_kernel checks: as_vector gives the entry point the array
+    # type it was compiled for, and the frames section's offset is cached for K = 1).
     if K == 1:
         out = _k.run(v, fdat, idat, as_vector(qs), tab.qdot1, zeros, job)
         o0 = tab.frames_offset
