@@ -354,6 +354,14 @@ def test_one_signature_and_no_recompiles(compiled):
     qs, qds = kin.states(q, qd)
     out = _k.output(idat, 1, _k.JOB_SOLVE)
     assert kernel(fdat, idat, qs, qds, zeros, _k.JOB_SOLVE, *v, out) == 0.0 and np.all(np.isfinite(out))
+    # Read-only states and forces are taken as they are (same numbers, no new signature).
+    ro = [a.copy() for a in (qs, qds, zeros)]
+    for a in ro:
+        a.setflags(write=False)
+    out_ro = _k.output(idat, 1, _k.JOB_SOLVE)
+    assert kernel(fdat, idat, *ro, _k.JOB_SOLVE, *v, out_ro) == 0.0
+    np.testing.assert_array_equal(out_ro, out)
+    np.testing.assert_array_equal(dy.forward_dynamics(model, ro[0], ro[1]), out[3 + N:3 + 2 * N])
     # An output of the wrong size is refused before anything is written (status -1).
     short = np.full(out.size - 1, 7.0)
     assert kernel(fdat, idat, qs, qds, zeros, _k.JOB_SOLVE, *v, short) == -1.0 and np.all(short == 7.0)
@@ -381,8 +389,9 @@ def test_one_signature_and_no_recompiles(compiled):
 
 @needs_jit
 def test_read_only_applied_forces_and_wrong_sizes():
-    # The kernel is frozen to writable float64 arrays and does not check bounds: the wrappers
-    # copy a read-only Q and refuse arrays of the wrong size (a short Q once read past its end).
+    # The kernel takes read-only states and forces as they are (its signature types them
+    # read-only) and does not check bounds: the wrappers refuse arrays of the wrong size (a short
+    # Q once read past its end).
     model = two_link_circle_model()
     q, qd = random_state(model, np.random.default_rng(2))
     Q = np.ones(model.n_dof)

@@ -104,18 +104,23 @@ def _raise_singular(model, q, status, dmin, dmax):
 
 _NDARRAY = np.ndarray
 _EMPTY = np.empty
-_JOB_SOLVE = _k.JOB_SOLVE
+_JOB_QDDOT = _k.JOB_QDDOT
 
 
 def _solve_call(model) -> tuple:
     """What forward_dynamics' hot path needs, unpacked once per model (it saves ~2 us a call):
-    (compiled kernel, fdat, idat, zeros (N,), variant pair, (N,), the output's size and
-    qddot's slice of it)."""
+    (compiled kernel, fdat, idat, zeros (N,), variant pair, (N,), N)."""
     fdat, idat, zeros, v = model.kernel_data
     N = zeros.size
-    size = _k.output(idat, 1, _JOB_SOLVE).size
-    call = model._solve_call = (_k.compiled(v), fdat, idat, zeros, v[0], v[1], (N,), size, 3 + N, 3 + 2 * N)
+    call = model._solve_call = (_k.compiled(v), fdat, idat, zeros, v[0], v[1], (N,), N)
     return call
+
+
+def _singular(model, q, qdot, Q):
+    """Raise SingularMassMatrixError for the state where the kernel's q̈ found M singular (its
+    pivots from a JOB_SOLVE call)."""
+    out = run_kernel(model, states(q, qdot), _k.JOB_SOLVE, Q)
+    _raise_singular(model, q, out[0], out[1], out[2])
 
 
 def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | None = None) -> np.ndarray:
@@ -133,25 +138,24 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
         1e7 (condition beyond 1e14); the message names the likely cause.
     """
     # The hot path of every simulation (one call per RHS): float64 arrays of the right shape go
-    # straight to the kernel, which refuses (TypeError, no recompile) a non-contiguous or
-    # read-only one; only then are they converted. The kernel does not check bounds: shapes are.
-    # (A read-only array is screened out here: numba's TypeError for it costs ~0.3 ms.)
+    # straight to the kernel, which refuses (TypeError, no recompile) a non-contiguous one or one
+    # of another type; only then are they converted. It takes read-only arrays (its signature
+    # types q, qdot and Q read-only). The kernel does not check bounds: shapes are.
     try:
-        f, fdat, idat, zeros, v0, v1, shape, size, lo, hi = model._solve_call
+        f, fdat, idat, zeros, v0, v1, shape, N = model._solve_call
     except AttributeError:
-        f, fdat, idat, zeros, v0, v1, shape, size, lo, hi = _solve_call(model)
+        f, fdat, idat, zeros, v0, v1, shape, N = _solve_call(model)
     if Q is None and q.__class__ is _NDARRAY and qdot.__class__ is _NDARRAY and q.shape == shape \
-            and qdot.shape == shape and q.flags.writeable and qdot.flags.writeable:
-        out = _EMPTY(size)
+            and qdot.shape == shape:
+        out = _EMPTY(N)
         try:
-            status = f(fdat, idat, q, qdot, zeros, _JOB_SOLVE, v0, v1, out)
+            status = f(fdat, idat, q, qdot, zeros, _JOB_QDDOT, v0, v1, out)
         except TypeError:
             pass
         else:
             if status:
-                _raise_singular(model, q, out[0], out[1], out[2])
-            return out[lo:hi]  # a view of a private array
-    N = zeros.size
+                _singular(model, q, qdot, None)
+            return out
     q, qdot = as_vector(q), as_vector(qdot)
     if q.size != N or qdot.size != N:
         raise ValueError(f"forward_dynamics q, qdot have shapes {q.shape}, {qdot.shape}; this model needs "
@@ -161,12 +165,10 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
         if Q.shape != (N,):
             raise ValueError(f"forward_dynamics Q has shape {Q.shape}; this model needs ({N},) generalised forces "
                              f"ordered as {', '.join(model.coordinate_names)}")
-        if not Q.flags.writeable:
-            Q = Q.copy()  # numba types a read-only array differently (no recompiles: a copy)
-    out = _EMPTY(size)
-    if f(fdat, idat, q, qdot, zeros if Q is None else Q, _JOB_SOLVE, v0, v1, out) != 0.0:
-        _raise_singular(model, q, out[0], out[1], out[2])
-    return out[lo:hi]  # a view of a private array
+    out = _EMPTY(N)
+    if f(fdat, idat, q, qdot, zeros if Q is None else Q, _JOB_QDDOT, v0, v1, out) != 0.0:
+        _singular(model, q, qdot, Q)
+    return out
 
 
 def energy(model, q: np.ndarray, qdot: np.ndarray) -> Energy:

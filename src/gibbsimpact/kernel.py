@@ -1367,6 +1367,9 @@ def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out, SD, pris):
 
 # Bits of ``job`` in ``kernel``.
 JOB_M, JOB_H, JOB_SOLVE, JOB_ENERGY, JOB_MOMENTUM, JOB_POINTS, JOB_JACOBIANS, JOB_FRAMES = 1, 2, 4, 8, 16, 32, 64, 128
+#: q̈ only: alone, the whole output is q̈ (N,) (forward_dynamics returns it as it is; a slice of
+#: a larger output costs ~0.3 us a call). Its status is the return value.
+JOB_QDDOT = 256
 
 
 # Sections of ``kernel``'s output, in order (``layout`` gives their offsets).
@@ -1379,8 +1382,9 @@ def layout(n, N, K, job, npts):
     npts contact points (n + 1 frame origins and the extra tips)."""
     hv = (job & JOB_H) != 0
     off = np.zeros(11, dtype=np.int64)
-    off[_S_STATUS + 1] = 3
-    off[_S_YDOT + 1] = 2 * N if job & JOB_SOLVE else 0
+    # status: always but for JOB_QDDOT alone; ydot: (qdot, qddot) with JOB_SOLVE, else qddot with JOB_QDDOT
+    off[_S_STATUS + 1] = 0 if job == JOB_QDDOT else 3
+    off[_S_YDOT + 1] = 2 * N if job & JOB_SOLVE else (N if job & JOB_QDDOT else 0)
     off[_S_M + 1] = N * N if job & JOB_M else 0
     off[_S_H + 1] = N if hv else 0
     off[_S_DV + 1] = N if hv else 0
@@ -1407,6 +1411,8 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
     * JOB_SOLVE: ydot (2N,) = (qdot, qddot), M qddot = Q - h - dV/dq (NaN when
       status != 0, so that an integrator rejects the step); add JOB_M, JOB_H for M, h, dV
       (not copied out otherwise: the right-hand side of an ODE needs ydot only);
+      JOB_QDDOT (without JOB_SOLVE): qddot (N,) in ydot's place, and no status section when it
+      is the only bit (the output is qddot alone; the pivots need JOB_SOLVE);
     * JOB_M: M (N N,) row-major; JOB_H: h (N,), dV/dq (N,)  (the first state);
     * JOB_ENERGY: (K 3,) kinetic, gravity, strain [J]; JOB_MOMENTUM: (K 9,) as in
       _link_observables (L, H0, first moment); JOB_POINTS: contact points (K P 3,) [m], P = n + 1 + X:
@@ -1415,8 +1421,8 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
       when f_c <= j, else 0 (a tip of link h: f_c <= h, and R_h end_t_k for h's own delta_k);
       JOB_FRAMES: T, Tdot, Tddot0 (K 3 (n+1) 16,).
 
-    Returns the status (out[0]), or -1.0 when out has the wrong size (then nothing is written:
-    the kernel does not check bounds otherwise).
+    Returns the status of M's Cholesky factor (0.0 without JOB_SOLVE, JOB_QDDOT), or -1.0 when
+    out has the wrong size (then nothing is written: the kernel does not check bounds otherwise).
 
     One entry point, because numba links and optimises every entry point with
     all the code it calls: one entry compiles in about half the time of two. The output is
@@ -1434,14 +1440,15 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
         out[i] = 0.0
     q = np.zeros(N)
     qd = np.zeros(N)
-    if job & (JOB_M | JOB_H | JOB_SOLVE):
+    st = 0.0
+    if job & (JOB_M | JOB_H | JOB_SOLVE | JOB_QDDOT):
         for i in range(N):
             q[i] = qs[i]
             qd[i] = qds[i]
         M = np.zeros((N, N))
         h = np.zeros(N)
         dV = np.zeros(N)
-        assemble(fdat, idat, q, qd, (job & (JOB_H | JOB_SOLVE)) != 0, M, h, dV, pris, ends)
+        assemble(fdat, idat, q, qd, (job & (JOB_H | JOB_SOLVE | JOB_QDDOT)) != 0, M, h, dV, pris, ends)
         o = L[_S_M]
         if L[_S_M + 1] > o:
             for i in range(N):
@@ -1453,21 +1460,26 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
             for i in range(N):
                 out[o + i] = h[i]
                 out[o2 + i] = dV[i]
-        if job & JOB_SOLVE:
+        if job & (JOB_SOLVE | JOB_QDDOT):
             rhs = np.zeros(N)
             for i in range(N):
                 rhs[i] = Q[i] - h[i] - dV[i]
             x, status, dmin, dmax = _cholesky_solve(M, rhs)
-            out[0] = status
-            out[1] = dmin
-            out[2] = dmax
+            st = float(status)
+            if L[_S_STATUS + 1] > 0:
+                out[0] = status
+                out[1] = dmin
+                out[2] = dmax
             o = L[_S_YDOT]
+            if job & JOB_SOLVE:
+                for i in range(N):
+                    out[o + i] = qd[i]
+                o += N
             for i in range(N):
-                out[o + i] = qd[i]
-                out[o + N + i] = x[i] if status == 0 else math.nan
+                out[o + i] = x[i] if status == 0 else math.nan
     obs = job & (JOB_ENERGY | JOB_MOMENTUM | JOB_POINTS | JOB_JACOBIANS | JOB_FRAMES)
     if obs == 0:
-        return out[0]
+        return st
     vel = (job & (JOB_ENERGY | JOB_MOMENTUM | JOB_FRAMES)) != 0
     TS = 0
     TDS = n + 1
@@ -1521,7 +1533,7 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
                             out[o + N * a + c] = s
         if pris is not None and job & (JOB_POINTS | JOB_JACOBIANS):
             _extra_points(fdat, idat, q, B, TS, SS, out, L[_S_PTS], L[_S_JAC], job, npts, k)
-    return out[0]
+    return st
 
 
 def _extra_points(fdat, idat, q, B, ts, ss, out, o_pts, o_jac, job, npts, k):
@@ -2112,12 +2124,15 @@ _HELPERS = ("_mm", "_copy4", "_zero4", "_mm_add", "_mmt", "_conjugate", "_put_sk
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
+#: The states and forces the entry point only reads: typed read-only, so that a read-only array
+#: (e.g. Case.q0) is taken as it is, and a writable one converts to it at no cost (~0.02 us).
+_R1 = "Array(float64, 1, 'C', readonly=True)"
 #: The variants (pris, ends): the values of the entry point's last two arguments.
 RIGID_ENDS, REVOLUTE, PRISMATIC = (None, None), (None, 1), (1, 1)
 _VARIANT_NAME = {RIGID_ENDS: "revolute joints and rigid link ends", REVOLUTE: "revolute joints",
                  PRISMATIC: "prismatic joints"}
 _VARIANT_COST = {RIGID_ENDS: "about 15-20 s", REVOLUTE: "about 20-25 s", PRISMATIC: "about 30 s"}
-_ENTRY_SIG = f"float64({_A1}, {_I1}, {_A1}, {_A1}, {_A1}, int64, {{}}, {{}}, {_A1})"
+_ENTRY_SIG = f"float64({_A1}, {_I1}, {_R1}, {_R1}, {_R1}, int64, {{}}, {{}}, {_A1})"
 #: Entry points apart from the kernel, compiled on first use: their signatures ...
 _LAZY = {"contact_terms": f"{_A1}({_A1}, {_I1}, {_A1}, int64[:, ::1], {_I1}, {_A2}, int64)",
          "sym_solve": f"{_A1}({_A2}, {_A1})",

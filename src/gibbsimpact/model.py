@@ -737,7 +737,8 @@ class Model:
             from .kernel import pack, variant
 
             fdat, idat = pack(self)
-            # Writable on purpose: numba types read-only arrays differently (a recompile).
+            # Writable on purpose: numba types read-only arrays differently, and contact_terms
+            # (resting.py) takes these zeros as a writable array (the kernel takes either).
             zeros = np.zeros(self.n_dof)
             data = self._kernel_data = (fdat, idat, zeros, variant(idat))
         return data
