@@ -387,6 +387,28 @@ def test_one_signature_and_no_recompiles(compiled):
         assert len(getattr(_k, name).signatures) == 1, (name, getattr(_k, name).signatures)
 
 
+def test_qddot_job_is_the_solve_jobs_qddot():
+    # JOB_QDDOT alone writes q̈ (N,) and nothing else and returns the status; with other bits
+    # the status section comes back. Checked against JOB_SOLVE's (qdot, q̈) section, and on a
+    # singular M (theta_0 = pi/2: gimbal lock) against its status and NaNs.
+    model = two_link_circle_model()
+    fdat, idat, zeros, v = model.kernel_data
+    N = model.n_dof
+    q, qd = random_state(model, np.random.default_rng(5))
+    Q = np.linspace(-1.0, 1.0, N)
+    assert _k.output(idat, 1, _k.JOB_QDDOT).size == N
+    assert _k.output(idat, 1, _k.JOB_QDDOT | _k.JOB_M).size == 3 + N + N * N
+    for state, want_status in ((q, 0.0), (np.where(np.arange(N) == 4, np.pi / 2, q), 1.0)):
+        solve = _k.run(v, fdat, idat, state, qd, Q, _k.JOB_SOLVE)
+        out = _k.output(idat, 1, _k.JOB_QDDOT)
+        assert _k.compiled(v)(fdat, idat, state, qd, Q, _k.JOB_QDDOT, *v, out) == want_status == solve[0]
+        np.testing.assert_array_equal(out, solve[3 + N:3 + 2 * N])
+        both = _k.run(v, fdat, idat, state, qd, Q, _k.JOB_QDDOT | _k.JOB_M)
+        np.testing.assert_array_equal(both[:3], solve[:3])
+        np.testing.assert_array_equal(both[3:3 + N], out)
+    assert np.all(np.isnan(out))  # the singular state
+
+
 @needs_jit
 def test_read_only_applied_forces_and_wrong_sizes():
     # The kernel takes read-only states and forces as they are (its signature types them
