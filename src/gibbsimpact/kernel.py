@@ -1402,7 +1402,7 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
     """The one compiled entry point: everything the package computes from states.
 
     qs, qds: K states q and qdot one after the other, (K N,) each; Q: applied
-    forces (N,) (with JOB_SOLVE, for the first state); job: a bit mask of JOB_*; out: the output,
+    forces (N,) (with JOB_SOLVE or JOB_QDDOT, for the first state); job: a bit mask of JOB_*; out: the output,
     a float64 array of ``layout(n, N, K, job, n + 1 + X)[10]`` entries (``output``), all of them
     written, laid out as that layout says:
 
