@@ -300,24 +300,6 @@ def modes_scaling(cfg, rigid):
     return out
 
 
-def oracle_links(model):
-    """The RefLinks of tests/reference/sympy_chain.py for a free-flying assumed-mode model."""
-    sys.path.insert(0, str(ROOT / "tests"))
-    from reference.sympy_chain import RefLink, RefMode
-
-    if model.chain.base != "free":
-        raise RuntimeError("the sympy oracle models free-flying chains only")
-    out = []
-    for lk in model.chain.links:
-        ei = lk.EI if isinstance(lk.EI, tuple) else (lk.EI, lk.EI)
-        if callable(lk.mass_per_length) or any(callable(e) for e in ei) or lk.elements:
-            raise RuntimeError("the sympy oracle takes uniform assumed-mode links only")
-        out.append(RefLink(length=lk.length, mu=lk.mass_per_length, EI_y=ei[0], EI_z=ei[1],
-                           modes=tuple(RefMode(m.kind, m.direction, m.number) for m in lk.modes),
-                           rotary_inertia=tuple(lk.rotary_inertia)))
-    return tuple(out)
-
-
 def case1_vs_sympy(cfg):
     """Section 3: case 1, forward_dynamics against the test oracle's lambdified sympy equations (the
     target's reference) and against the package's own symbolic route."""
@@ -326,19 +308,19 @@ def case1_vs_sympy(cfg):
     model, q, qd = case.model, case.q0.copy(), case.qdot0.copy()
     rng = np.random.default_rng(3)
     qd = qd + rng.normal(size=qd.size)  # the case starts at rest: give the velocity terms some work
-    links = oracle_links(model)  # (puts tests/ on the path)
-    from reference.sympy_chain import derive
+    from bench_cases import symbolic_rhs  # the oracle of the same chain (puts tests/ on the path)
+
     t0 = time.perf_counter()
-    oracle = derive(links, tuple(model.gravity))[1]
+    oracle_fd = symbolic_rhs(model)
     t_oracle = time.perf_counter() - t0
     t0 = time.perf_counter()
     num = gi.derive_equations(model).numeric()
     t_derive = time.perf_counter() - t0
     a_gi = forward_dynamics(model, q, qd)
-    err_o = float(np.abs(oracle.forward_dynamics(q, qd) - a_gi).max() / np.abs(a_gi).max())
+    err_o = float(np.abs(oracle_fd(q, qd) - a_gi).max() / np.abs(a_gi).max())
     err_s = float(np.abs(num.forward_dynamics(q, qd) - a_gi).max() / np.abs(a_gi).max())
     t_gi = per_call_us(partial(forward_dynamics, model, q, qd), cfg.repeats, cfg.budget)
-    t_orc = per_call_us(partial(oracle.forward_dynamics, q, qd), cfg.repeats, cfg.budget)
+    t_orc = per_call_us(partial(oracle_fd, q, qd), cfg.repeats, cfg.budget)
     t_sym = per_call_us(partial(num.forward_dynamics, q, qd), cfg.repeats, cfg.budget)
     speedup, speedup_pkg = t_orc / t_gi, t_sym / t_gi
     print(f"test oracle (sympy Kane, tests/reference/sympy_chain.py): derived in {t_oracle:.1f} s, qddot agree "
