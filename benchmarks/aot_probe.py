@@ -62,7 +62,7 @@ t_import = time.perf_counter() - t
 numba_loaded = "numba" in sys.modules
 import gibbsimpact as gi
 from gibbsimpact import kernel as k
-from gibbsimpact.dynamics import forward_dynamics
+from gibbsimpact.dynamics.gibbs_appell import forward_dynamics
 case = gi.load_case(sys.argv[2])
 m, q, qd = case.model, case.q0.copy(), case.qdot0.copy() + 0.3
 fdat, idat, zeros, v = m.kernel_data
@@ -86,7 +86,7 @@ if sys.argv[1] != "jit":
     from gibbsimpact import kernel as k
     k.compiled = lambda v=None: gi_aot_probe.kernel_rigid
     k.lazy = lambda name: getattr(gi_aot_probe, name)
-from gibbsimpact import cli
+from gibbsimpact.cli import commands as cli
 sys.argv = ["gibbsimpact", "run", sys.argv[2], "--no-plots", "--quiet", "--out", sys.argv[3]]
 try:
     cli.main()

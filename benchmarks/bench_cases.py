@@ -55,7 +55,7 @@ import sys
 import numpy as np
 
 import gibbsimpact as gi
-from gibbsimpact.dynamics import forward_dynamics
+from gibbsimpact.dynamics.gibbs_appell import forward_dynamics
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = ROOT / "cases"

@@ -91,7 +91,7 @@ from pathlib import Path
 import numpy as np
 
 import gibbsimpact as gi
-from gibbsimpact.dynamics import forward_dynamics
+from gibbsimpact.dynamics.gibbs_appell import forward_dynamics
 
 ROOT = Path(__file__).resolve().parent.parent
 CASE1 = ROOT / "cases" / "circle_two_link.toml"

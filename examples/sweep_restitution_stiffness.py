@@ -28,7 +28,7 @@ import tempfile
 from pathlib import Path
 
 import gibbsimpact as gi
-from gibbsimpact.sweep import sweep
+from gibbsimpact.study.sweep import sweep
 
 CASE = Path(__file__).resolve().parent.parent / "cases" / "circle_two_link.toml"
 T_END = min(0.6, float(os.environ.get("GIBBSIMPACT_EXAMPLE_T_END", "inf")))

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.kinematics import transforms
+from gibbsimpact.dynamics.kinematics import transforms
 
 
 def two_link_circle_model():

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.case import RANGES, CaseError, _Reader, case_from_dict
+from gibbsimpact.case.reader import RANGES, CaseError, _Reader, case_from_dict
 from conftest import PB_DROP_CASE
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
@@ -991,8 +991,8 @@ def test_joint_coordinate_names_and_units(tmp_path):
 
 
 def test_joint_limit_solver_keys(tmp_path):
-    from gibbsimpact.case import _SOLVER_CHOICES
-    from gibbsimpact.limits import JOINT_LIMIT_MODES
+    from gibbsimpact.case.reader import _SOLVER_CHOICES
+    from gibbsimpact.simulation.joint_limits import JOINT_LIMIT_MODES
 
     assert tuple(_SOLVER_CHOICES["joint_limit"]) == JOINT_LIMIT_MODES
     case = gi.load_case(write(tmp_path, DROP + '\n[solver]\njoint_limit = "impact"\njoint_restitution = 1.0\n'))

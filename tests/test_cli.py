@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact import cli
-from gibbsimpact import io as gio
+from gibbsimpact.cli import commands as cli
+from gibbsimpact.io import result_files as gio
 from gibbsimpact import load_result
-from gibbsimpact.plotting import FIGURES
+from gibbsimpact.plotting.figures import FIGURES
 from conftest import PB_DROP_CASE
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
@@ -342,7 +342,7 @@ def test_options_held_to_the_case_ranges(tmp_path, capsys, opts, message):
                                        ("output_dt", "--output-dt")])
 def test_option_bounds_are_the_case_file_ranges(kw, option):
     from gibbsimpact import load_case
-    from gibbsimpact.case import OVERRIDE_KEYS, RANGES
+    from gibbsimpact.case.reader import OVERRIDE_KEYS, RANGES
 
     case = load_case(CASES / "circle_two_link.toml")
     rng = RANGES[OVERRIDE_KEYS[kw]]
@@ -358,7 +358,7 @@ def test_option_bounds_are_the_case_file_ranges(kw, option):
 
 
 def test_run_warnings_are_summed_up_after_the_error_line(tmp_path, capsys, monkeypatch):
-    from gibbsimpact.case import Case
+    from gibbsimpact.case.reader import Case
 
     real = Case.simulate
 
@@ -433,7 +433,7 @@ def test_equations_prints_counts_and_writes_latex_and_python(tmp_path, capsys):
 # -- --method, several case files, exit codes in --help, signal handlers -----------------------------
 
 def test_method_option(tmp_path, capsys):
-    from gibbsimpact.flight import SOLVERS
+    from gibbsimpact.simulation.flight import SOLVERS
 
     code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--method", "RK45", "--t-end", "0.02",
                                "--no-plots", "-q", "--out", tmp_path / "o"], capsys)
@@ -507,9 +507,9 @@ def test_sigterm_during_a_run_in_process_exit_130(tmp_path, capsys, monkeypatch)
     import os
     import signal
 
-    from gibbsimpact.case import Case
+    from gibbsimpact.case.reader import Case
 
-    gsim = importlib.import_module("gibbsimpact.simulate")
+    gsim = importlib.import_module("gibbsimpact.simulation.simulate")
     clock = gsim.Clock
     monkeypatch.setattr(gsim, "Clock", lambda progress: clock(progress, every=0.0))  # report at every RHS
     real = Case.simulate

@@ -8,11 +8,11 @@ from conftest import single_link_sphere_model, single_link_sphere_state, two_lin
 
 import gibbsimpact as gi
 from test_cli import ZENO
-from gibbsimpact import cli
-from gibbsimpact import io as gio
-from gibbsimpact.dynamics import forward_dynamics
-from gibbsimpact.kinematics import joint_positions
-from gibbsimpact.resting import RestingContacts, constraint_data
+from gibbsimpact.cli import commands as cli
+from gibbsimpact.io import result_files as gio
+from gibbsimpact.dynamics.gibbs_appell import forward_dynamics
+from gibbsimpact.dynamics.kinematics import joint_positions
+from gibbsimpact.contact.resting import RestingContacts, constraint_data
 
 G = 9.81
 
@@ -69,7 +69,7 @@ def test_wall_geometry_is_gap_gradient_and_curvature(wall):
 def test_compiled_contact_terms_are_the_walls_geometry(wall):
     # constraint_data's compiled wall terms (kernel.contact_terms) against walls.py's numpy
     # gap, normal and curvature at the joint points, their velocities J qdot and Tddot0's a0.
-    from gibbsimpact.kinematics import frames, joint_positions_and_jacobians
+    from gibbsimpact.dynamics.kinematics import frames, joint_positions_and_jacobians
 
     model = single_link_sphere_model() if isinstance(wall, gi.Sphere) else two_link_circle_model()
     rng = np.random.default_rng(4)
@@ -89,7 +89,7 @@ def test_compiled_contact_terms_are_the_walls_geometry(wall):
     np.testing.assert_allclose(d.v, np.sum(wall.normal(p) * pd, axis=1), rtol=1e-14, atol=1e-15)
     np.testing.assert_allclose(d.W, np.einsum("kcn,kc->nk", J[pairs[:, 1]], wall.normal(p)), rtol=1e-14, atol=1e-15)
     # The event layer's compiled joint gaps (kernel.event_gaps) at every contact point, and one by one.
-    from gibbsimpact.contacts import Contacts
+    from gibbsimpact.simulation.contacts import Contacts
 
     ct = Contacts(model, [wall])
     np.testing.assert_allclose(ct.gaps(q)[0, :model.n_joints], wall.gap(P), rtol=0, atol=1e-15)
@@ -132,7 +132,7 @@ def test_compiled_friction_solve_meets_the_constraints_and_coulombs_law():
     # a sticking point's tangential acceleration vanishes, a slipping point's friction is
     # -mu lambda_n s (s from (7)), and M qddot = M qdd_free + W lambda_n + sum J^T F_t.
     from gibbsimpact import kernel as _k
-    from gibbsimpact.walls import tangent_basis
+    from gibbsimpact.contact.walls import tangent_basis
 
     model = single_link_sphere_model()
     q, _ = single_link_sphere_state(model)
@@ -187,7 +187,7 @@ def test_symmetric_solve_is_lstsq_with_its_cut():
     # _solve_sym (compiled Jacobi eigenpairs, kernel.sym_solve) against numpy's lstsq with rcond
     # 1e-10 on symmetric matrices: regular, rank-deficient (a redundant contact) and indefinite,
     # up to k = 30; and G of size 0.
-    from gibbsimpact.resting import _solve_sym
+    from gibbsimpact.contact.resting import _solve_sym
 
     rng = np.random.default_rng(3)
     for k, rank in [(1, 1), (3, 3), (3, 2), (5, 3), (4, 4), (12, 12), (12, 7), (30, 9)]:

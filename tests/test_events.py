@@ -6,8 +6,8 @@ import pytest
 import gibbsimpact as gi
 from scipy.integrate import DOP853, RK45
 
-from gibbsimpact import flight
-from gibbsimpact.flight import _Dop853Interpolant, _first_crossing, _interpolant, dip_allowance, hermite_positions
+from gibbsimpact.simulation import flight
+from gibbsimpact.simulation.flight import _Dop853Interpolant, _first_crossing, _interpolant, dip_allowance, hermite_positions
 
 L_ROD = 1.0
 
@@ -184,7 +184,7 @@ def test_contact_mode_events_see_an_excursion_between_the_samples_of_a_long_step
     # its first two samples (t = 0.529, 0.895) while the force left the cone in between
     # (0.616 ... 0.884); the earliest sign change among the samples was the next excursion
     # (t = 1.116). The samples' dip bound sends that interval to a finer sampling.
-    from gibbsimpact.flight import _earliest_bracket
+    from gibbsimpact.simulation.flight import _earliest_bracket
 
     def v(t):
         return 2.943 - 4.4145 * abs(np.sin(2.0 * np.pi * t))

@@ -5,8 +5,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import gibbsimpact as gi
-from gibbsimpact.dynamics import momentum
-from gibbsimpact.kinematics import rodrigues
+from gibbsimpact.dynamics.gibbs_appell import momentum
+from gibbsimpact.dynamics.kinematics import rodrigues
 
 from conftest import random_state, two_link_circle_model
 
@@ -122,9 +122,9 @@ def test_momentum_conserved_without_gravity():
 
 def test_momentum_against_quadrature(rng):
     # L and H from the modal moments vs direct sampling of p(x), pdot(x) along each link.
-    from gibbsimpact.kinematics import frames
-    from gibbsimpact.model import gauss_legendre
-    from gibbsimpact.modes import shape
+    from gibbsimpact.dynamics.kinematics import frames
+    from gibbsimpact.model.model import gauss_legendre
+    from gibbsimpact.model.modes import shape
 
     model = spatial_chain()
     q, qd = random_state(model, rng)
@@ -148,7 +148,7 @@ def test_momentum_against_quadrature(rng):
         L += (w * mu) @ pd[:, :3]
         H += (w * mu) @ np.cross(p[:, :3], pd[:, :3])
         R = fr.T[i][:3, :3]
-        from gibbsimpact.dynamics import _vee_skew
+        from gibbsimpact.dynamics.gibbs_appell import _vee_skew
         H += R @ ld.J_body @ _vee_skew(R.T @ fr.Td[i][:3, :3])
     L2, H2, _ = momentum(model, q, qd)
     np.testing.assert_allclose(L2, L, rtol=1e-12, atol=1e-13)

@@ -5,8 +5,8 @@ import pytest
 import scipy.linalg as sl
 
 import gibbsimpact as gi
-from gibbsimpact.forces import damping_matrix
-from gibbsimpact.modes import natural_frequency
+from gibbsimpact.dynamics.forces import damping_matrix
+from gibbsimpact.model.modes import natural_frequency
 
 from conftest import random_state
 

@@ -18,11 +18,11 @@ import pytest
 from scipy.linalg import cho_factor
 
 import gibbsimpact as gi
-from gibbsimpact import friction
-from gibbsimpact.dynamics import mass_matrix
-from gibbsimpact.friction import lemke, solve_frictional_impulses
-from gibbsimpact.impact import solve_impulses
-from gibbsimpact.kinematics import joint_positions_and_jacobians
+from gibbsimpact.contact import friction
+from gibbsimpact.dynamics.gibbs_appell import mass_matrix
+from gibbsimpact.contact.friction import lemke, solve_frictional_impulses
+from gibbsimpact.contact.impact import solve_impulses
+from gibbsimpact.dynamics.kinematics import joint_positions_and_jacobians
 
 # ---------------------------------------------------------------------------
 # 1. Rigid rod, closed forms

@@ -5,10 +5,10 @@ import pytest
 from conftest import single_link_sphere_model, two_link_circle_model
 
 import gibbsimpact as gi
-from gibbsimpact.dynamics import mass_matrix
-from gibbsimpact.friction import solve_frictional_impulses
-from gibbsimpact.kinematics import joint_positions_and_jacobians
-from gibbsimpact.walls import tangent_basis
+from gibbsimpact.dynamics.gibbs_appell import mass_matrix
+from gibbsimpact.contact.friction import solve_frictional_impulses
+from gibbsimpact.dynamics.kinematics import joint_positions_and_jacobians
+from gibbsimpact.contact.walls import tangent_basis
 
 G = 9.81
 
@@ -150,7 +150,7 @@ def test_friction_is_checked_and_stored(tmp_path):
 def test_case_file_friction_key(tmp_path):
     from pathlib import Path
 
-    from gibbsimpact.case import CaseError
+    from gibbsimpact.case.reader import CaseError
 
     text = (Path(__file__).resolve().parents[1] / "cases" / "circle_two_link.toml").read_text()
     assert text.count('type = "circle"') == 1

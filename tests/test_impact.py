@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.impact import solve_impulses
+from gibbsimpact.contact.impact import solve_impulses
 
 from conftest import random_state
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact import io
+from gibbsimpact.io import result_files as io
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 

@@ -43,9 +43,9 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact import dynamics as dy
+from gibbsimpact.dynamics import gibbs_appell as dy
 from gibbsimpact import kernel as _k
-from gibbsimpact import kinematics as kin
+from gibbsimpact.dynamics import kinematics as kin
 
 from conftest import random_state, two_link_circle_model, two_link_circle_state
 
@@ -186,8 +186,8 @@ CONTACT_WALLS = (gi.Circle(1.7, (0.1, -0.2)), gi.Sphere(2.1, (0.2, -0.1, 0.3)), 
 def contact_quantities(model, q, qd, Q):
     """kernel.contact_terms (through resting.constraint_data) for every frame origin on every wall
     of CONTACT_WALLS, and the compiled symmetric solve on its G (k up to 51: singular)."""
-    from gibbsimpact.contacts import Contacts
-    from gibbsimpact.resting import _solve_sym, constraint_data
+    from gibbsimpact.simulation.contacts import Contacts
+    from gibbsimpact.contact.resting import _solve_sym, constraint_data
 
     pairs = [(w, j) for w in range(len(CONTACT_WALLS)) for j in range(model.n_links + 1)]
     ct = Contacts(model, CONTACT_WALLS)  # kernel.event_gaps: joint gaps and the link skip rule
@@ -436,7 +436,7 @@ def test_no_compile_notice_when_the_cache_is_warm(compiled):
         pytest.skip("numba has no cache location here")
     assert all(_k._cache_is_warm(v) is True for v in (_k.RIGID_ENDS, _k.REVOLUTE, _k.PRISMATIC))
     code = ("import sys; sys.path.insert(0, %r); import numpy as np, test_kernel as tk; "
-            "from gibbsimpact import dynamics as dy; "
+            "from gibbsimpact.dynamics import gibbs_appell as dy; "
             "[dy.forward_dynamics(m, *tk.random_state(m, np.random.default_rng(0))) "
             "for m in (tk.two_link_circle_model(), tk.CHAINS['spatial_two_link'](), "
             "tk.CHAINS['prismatic_planar']())]" % str(TESTS_DIR))
@@ -454,7 +454,7 @@ import json, sys
 import numpy as np
 import gibbsimpact as gi
 from gibbsimpact import kernel as k
-from gibbsimpact.dynamics import forward_dynamics
+from gibbsimpact.dynamics.gibbs_appell import forward_dynamics
 link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")])
 model = gi.Model(gi.Chain([link, link]), gravity=(0.0, -9.81, 0.0))
 q, qd = (np.array([float.fromhex(x) for x in v]) for v in json.loads(sys.argv[1]))

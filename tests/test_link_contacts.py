@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.kinematics import transforms
+from gibbsimpact.dynamics.kinematics import transforms
 
 G = 9.81
 
@@ -94,7 +94,7 @@ def test_link_impacts_are_stored_and_drawn(tmp_path):
     for a, b in zip(res.impacts, back.impacts):
         assert a.joints == b.joints
         np.testing.assert_array_equal(a.points, b.points)
-    from gibbsimpact.plotting import _contacts_text
+    from gibbsimpact.plotting.figures import _contacts_text
 
     assert _contacts_text(res, res.impacts[0]) == "link 1"
     fig = res.plot("configurations")
@@ -105,9 +105,9 @@ def test_link_impacts_are_stored_and_drawn(tmp_path):
 
 from test_linkpoints import MODELS, _state, _walls_hugging, _walls_near  # noqa: E402
 
-from gibbsimpact import linkpoints as lp  # noqa: E402  (search_interval, end_joints only)
-from gibbsimpact.contacts import Contacts  # noqa: E402
-from gibbsimpact.kinematics import joint_positions  # noqa: E402
+from gibbsimpact.contact import candidates as lp  # noqa: E402  (search_interval, end_joints only)
+from gibbsimpact.simulation.contacts import Contacts  # noqa: E402
+from gibbsimpact.dynamics.kinematics import joint_positions  # noqa: E402
 
 
 def _interior_gaps(model, q, wall, i, n=2001):

@@ -24,8 +24,8 @@ from scipy.linalg import eigh
 from scipy.optimize import minimize_scalar
 
 import gibbsimpact as gi
-from gibbsimpact import linkpoints as lp
-from gibbsimpact.kinematics import joint_positions
+from gibbsimpact.contact import candidates as lp
+from gibbsimpact.dynamics.kinematics import joint_positions
 
 from conftest import random_state
 

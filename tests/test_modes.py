@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.modes import frequency_root, shape
+from gibbsimpact.model.modes import frequency_root, shape
 
 # Roots of cos z cosh z = +-1 (Blevins, Formulas for natural frequency and mode shape, table 8-1).
 CC = [4.730040744862704, 7.853204624095838, 10.995607838001671, 14.137165491257464]

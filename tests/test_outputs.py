@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact import cli
-from gibbsimpact import io as gio
+from gibbsimpact.cli import commands as cli
+from gibbsimpact.io import result_files as gio
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
-gsim = importlib.import_module("gibbsimpact.simulate")
+gsim = importlib.import_module("gibbsimpact.simulation.simulate")
 
 
 def run_main(argv, capsys):
@@ -157,7 +157,7 @@ def test_interrupt_between_phases_keeps_impacts_and_samples(monkeypatch):
     assert_consistent(res)
     monkeypatch.setattr(gsim, "impact_stage", real_stage)
 
-    import gibbsimpact.recorder as grec  # the recorder's stage evaluates the energies of a phase
+    import gibbsimpact.simulation.recorder as grec  # the recorder's stage evaluates the energies of a phase
 
     real_energies = grec.energies
     n = []
@@ -193,7 +193,7 @@ def test_progress_true_shows_a_tqdm_bar(capsys):
 
 @pytest.fixture
 def no_simulation(monkeypatch):
-    from gibbsimpact.case import Case
+    from gibbsimpact.case.reader import Case
 
     def refuse(self, **kw):
         raise AssertionError("simulated although the output folder is unusable")
@@ -217,7 +217,7 @@ def test_unwritable_out_fails_before_simulating(tmp_path, capsys, no_simulation)
 
 
 def test_out_is_created_and_probed_before_simulating(tmp_path, capsys, monkeypatch):
-    from gibbsimpact.case import Case
+    from gibbsimpact.case.reader import Case
 
     out = tmp_path / "a" / "b" / "c"
     seen = {}
@@ -258,7 +258,7 @@ def test_stale_files_of_a_run_with_figures_are_removed(tmp_path, capsys):
     out = tmp_path / "o"
     code, _, _ = run_main(["run", case, "--out", out, "--t-end", "0.05", "--animate", "-q"], capsys)
     assert code == 0 and (out / "angles.png").exists() and (out / "animation.gif").exists()
-    from gibbsimpact.plotting import FIGURES
+    from gibbsimpact.plotting.figures import FIGURES
 
     assert {p.name for p in out.iterdir()} == {"timeseries.csv", "impacts.csv", "summary.json", "result.npz",
                                                "animation.gif"} | {f"{k}.png" for k in FIGURES}

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact import plotting
+from gibbsimpact.plotting import figures as plotting
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 
@@ -242,7 +242,7 @@ def test_early_stop_status_is_on_every_figure(planar):
 
 
 def _still(model, q, walls, status="finished"):
-    from gibbsimpact.results import Result
+    from gibbsimpact.simulation.results import Result
 
     Q = np.array([q, q])
     return Result(model=model, walls=tuple(walls), t=np.array([0.0, 0.1]), q=Q, qdot=np.zeros_like(Q),
@@ -420,7 +420,7 @@ def test_prismatic_variable_is_in_metres_with_its_range(prismatic):
 
 @pytest.mark.parametrize("name", PRISMATIC)
 def test_deflection_figure_is_the_tip_deflection(prismatic, name):
-    from gibbsimpact.model import link_deflection
+    from gibbsimpact.model.model import link_deflection
 
     res, figs = prismatic[name]
     model = res.model
@@ -444,7 +444,7 @@ def test_deflection_figure_is_the_tip_deflection(prismatic, name):
 
 def test_deflection_of_clamped_clamped_modes_is_at_mid_span(planar):
     # Clamped-clamped shapes vanish at the tip: the figure shows v(l/2) instead of a zero line.
-    from gibbsimpact.model import link_deflection
+    from gibbsimpact.model.model import link_deflection
 
     fig = plotting.plot_deflection(planar)
     ax = fig.axes[0]
@@ -479,7 +479,7 @@ def test_end_stop_impacts_are_labelled_as_stops(prismatic, tmp_path):
     # An end stop mixed with wall contacts in one record, and the animation, do not break either.
     import dataclasses
 
-    from gibbsimpact.results import ImpactRecord
+    from gibbsimpact.simulation.results import ImpactRecord
 
     rec = stops[0]
     mixed = ImpactRecord(rec.time, (3, 2), (0, -1), np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]),
@@ -503,7 +503,7 @@ def test_end_stop_impacts_are_labelled_as_stops(prismatic, tmp_path):
 def test_stop_message_loses_nested_remarks_whole():
     import dataclasses
 
-    from gibbsimpact.results import Result
+    from gibbsimpact.simulation.results import Result
 
     res = Result(model=None, walls=(), t=np.array([0.0, 0.25]), q=np.zeros((2, 1)), qdot=np.zeros((2, 1)),
                  phase=np.zeros(2, dtype=int), impacts=[], status="joint_limit",

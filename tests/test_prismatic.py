@@ -11,7 +11,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import gibbsimpact as gi
-from gibbsimpact.elements import assemble, element_mass, element_stiffness
+from gibbsimpact.model.elements import assemble, element_mass, element_stiffness
 
 G = 9.81
 BETA_L = np.array([1.8751040687, 4.6940911330, 7.8547574382])  # roots of 1 + cos cosh = 0
@@ -289,7 +289,7 @@ def test_damped_sliding_link_balance_closes():
 
 def test_result_files_keep_prismatic_joints_and_end_stops(tmp_path):
     # result.npz rebuilds the same model (joint parameters, planar base); impacts.csv marks end stops.
-    from gibbsimpact.io import load_result, model_from_dict, model_to_dict, read_csv, save_result, to_csv
+    from gibbsimpact.io.result_files import load_result, model_from_dict, model_to_dict, read_csv, save_result, to_csv
 
     model, q0, qd0, res = _limit_run(joint_limit="impact", joint_restitution=0.5)
     assert any(r.wall == (-1,) for r in res.impacts)
@@ -332,7 +332,7 @@ def test_host_tip_of_a_carriage_is_a_contact_point():
 def test_planar_base_gives_no_gimbal_warning_and_no_symbolic_equations():
     # q[4] of a planar-base chain is not theta_0: no gimbal-lock warning from it; the symbolic
     # route refuses prismatic and planar chains instead of deriving the wrong equations.
-    from gibbsimpact.validity import check_state
+    from gibbsimpact.simulation.validity import check_state
 
     host = gi.Link(1.0, 1.0, 10.0, elements=2)
     model = gi.Model(gi.Chain([host, gi.Link(0.6, 0.5, 4.0, elements=1)], joints=[gi.Revolute(), _pb()],

@@ -30,7 +30,7 @@ def test_mass_matrix_quadrature_converged(kind, rng):
 def test_modal_mass_closed_form(kind):
     # For these eigenfunctions int_0^l phi^2 dx = l when phi = cosh - cos - sigma (sinh - sin);
     # psi = C phi with C = 1/max|phi|, so int psi^2 = C^2 l.
-    from gibbsimpact.modes import _normalisation
+    from gibbsimpact.model.modes import _normalisation
 
     l, mu = 1.0, 1.0
     for k in range(1, 5):

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.sweep import RESULT_COLUMNS, add_parser, expand_runs, main, parse_vary, run_id, sweep
+from gibbsimpact.study.sweep import RESULT_COLUMNS, add_parser, expand_runs, main, parse_vary, run_id, sweep
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "circle_two_link.toml"
 GRID = {"restitution": [0.5, 0.75, 1.0], "initial.coordinates.theta_1_deg": [-36, -33, -30, -27]}

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.kinematics import _rodrigues_coefficients
-from gibbsimpact.symbolic import METHODS, rodrigues_coefficient
+from gibbsimpact.dynamics.kinematics import _rodrigues_coefficients
+from gibbsimpact.symbolic.derive import METHODS, rodrigues_coefficient
 
 from conftest import random_state, single_link_sphere_model, two_link_circle_model
 

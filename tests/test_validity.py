@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact import validity
-from gibbsimpact.results import Result
-from gibbsimpact.validity import ValidityWarning, check_state, check_stop, warn_state
+from gibbsimpact.simulation import validity
+from gibbsimpact.simulation.results import Result
+from gibbsimpact.simulation.validity import ValidityWarning, check_state, check_stop, warn_state
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 
@@ -139,7 +139,7 @@ def test_warnings_point_at_the_caller(circle):
 
 
 def test_simulate_warns_once_wired(circle):
-    import gibbsimpact.simulate as sim
+    import gibbsimpact.simulation.simulate as sim
 
     if "warn_state" not in inspect.getsource(sim):
         pytest.skip("simulate does not call gibbsimpact.validity.warn_state yet")

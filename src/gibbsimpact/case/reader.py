@@ -31,13 +31,13 @@ from pathlib import Path
 import numpy as np
 import scipy.linalg as sl
 
-from .dynamics import SingularMassMatrixError, forward_dynamics
-from .elements import MAX_ELEMENTS
-from .inputs import INPUT_KINDS, InputSpec, is_angle_coordinate, named_inputs
-from .limits import joint_limits, limit_gaps
-from .model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
-from .modes import MODE_DIRECTIONS, MODE_KINDS, Mode, natural_frequency
-from .walls import MAX_FRICTION, Circle, Plane, Sphere, describe
+from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics
+from ..model.elements import MAX_ELEMENTS
+from ..dynamics.inputs import INPUT_KINDS, InputSpec, is_angle_coordinate, named_inputs
+from ..simulation.joint_limits import joint_limits, limit_gaps
+from ..model.model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
+from ..model.modes import MODE_DIRECTIONS, MODE_KINDS, Mode, natural_frequency
+from ..contact.walls import MAX_FRICTION, Circle, Plane, Sphere, describe
 
 __all__ = ["Case", "CaseError", "load_case", "case_from_dict", "SOLVER_KEYS", "RANGES", "Range"]
 
@@ -594,7 +594,7 @@ class Case:
 
     def simulate(self, **overrides):
         """Run :func:`gibbsimpact.simulate` on this case; keyword arguments override the case's settings."""
-        from .simulate import simulate
+        from ..simulation.simulate import simulate
 
         return simulate(**self.simulate_kwargs(**overrides))
 

@@ -6,7 +6,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .dynamics import Energy, energies, energy
+from ..dynamics.gibbs_appell import Energy, energies, energy
 from .results import ImpactRecord
 
 

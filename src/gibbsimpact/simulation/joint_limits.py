@@ -24,9 +24,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .dynamics import energy, mass_matrix
+from ..dynamics.gibbs_appell import energy, mass_matrix
 from .flight import EventSpec
-from .impact import solve_impulses
+from ..contact.impact import solve_impulses
 from .results import ImpactRecord
 
 #: Status of a run stopped at a joint limit.

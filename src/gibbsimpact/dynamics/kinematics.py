@@ -26,7 +26,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import kernel as _k
+from .. import kernel as _k
 
 
 class Frames(NamedTuple):

@@ -672,7 +672,7 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
     if not isinstance(method, str) or method not in METHODS:
         raise ValueError(f"derive_equations method={method!r} is not supported; choose one of "
                          + ", ".join(repr(m) for m in METHODS))
-    from .model import Model
+    from ..model.model import Model
 
     if not isinstance(model, Model):
         raise ValueError(f"derive_equations model={model!r} must be a gibbsimpact.Model")

@@ -8,14 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import kernel as _k
-from .dynamics import energy, mass_matrix
+from .. import kernel as _k
+from ..dynamics.gibbs_appell import energy, mass_matrix
 from .flight import EventSpec
-from .friction import solve_frictional_impulses
-from .impact import solve_impulses
-from .kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
+from ..contact.friction import solve_frictional_impulses
+from ..contact.impact import solve_impulses
+from ..dynamics.kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
 from .results import ImpactRecord
-from .walls import packed_walls, tangent_basis
+from ..contact.walls import packed_walls, tangent_basis
 
 
 def flexible_links(model) -> list:
@@ -127,8 +127,8 @@ class Contacts:
         point: searched always); _pb_slopes: (slope indices, d index, l_i) of the Pb links
         (e_k = delta_k d / l_i for a slope).
         """
-        from .linkpoints import end_joints
-        from .model import link_deflection
+        from ..contact.candidates import end_joints
+        from ..model.model import link_deflection
 
         model, N, F = self.model, self.N, len(self.flex)
         u = np.linspace(0.0, 1.0, self._TABLE_SAMPLES)
@@ -214,7 +214,7 @@ class Contacts:
         else:
             out[...] = NOT_INTERIOR
         if need.any():
-            from .linkpoints import closest_points, interior
+            from ..contact.candidates import closest_points, interior
 
             cp = closest_points(self.model, qs[need], self.walls, refine_below=self.refine_below)
             ins = interior(self.model, qs[need], cp.x)[..., self.flex]
@@ -281,7 +281,7 @@ class Contacts:
         pts = np.broadcast_to(p, (W,) + p.shape)
         valid = np.ones((W, P), dtype=bool)
         if self.flex:
-            from .linkpoints import material_jacobian
+            from ..contact.candidates import material_jacobian
 
             search = self._event_gaps(q[None, :], p[None])[1][len(self._rules):] != 0.0
             gl, x, nl, inside = (a[0] for a in self._link_gaps(q[None, :], search))

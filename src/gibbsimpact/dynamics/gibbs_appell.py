@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import kernel as _k
+from .. import kernel as _k
 from .kinematics import as_vector, joint_positions, run_kernel, states
 
 

@@ -107,8 +107,8 @@ from dataclasses import dataclass
 from numbers import Integral, Real
 from pathlib import Path
 
-from .case import Case, CaseError, case_from_dict, load_case
-from .io import atomic_path
+from ..case.reader import Case, CaseError, case_from_dict, load_case
+from ..io.result_files import atomic_path
 
 __all__ = ["SweepResult", "sweep", "expand_runs", "run_id", "parse_vary", "add_parser", "main",
            "TABLE_NAME", "PARQUET_NAME", "RUNS_DIR", "RESULT_COLUMNS"]
@@ -428,7 +428,7 @@ def _drain(completed, futures: dict, tasks: list, on_done) -> None:
 def _kernel_variant(task: dict):
     """The kernel variant (gibbsimpact.kernel.variant) of a task's model; the prismatic one if
     the task's case is invalid (its run reports that itself)."""
-    from .kernel import PRISMATIC
+    from ..kernel import PRISMATIC
 
     try:
         case = _task_case(task)
@@ -441,7 +441,7 @@ def _execute_pool(tasks: list, pending: list, on_done, workers: int) -> None:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    from .kernel import ensure_compiled
+    from ..kernel import ensure_compiled
 
     # Compile (first use) or load the kernel's variant of these runs here once, so that the
     # workers load it from numba's on-disk cache instead of all compiling it at the same time.
@@ -493,7 +493,7 @@ def _write_atomic(path: Path, write) -> Path:
 
 def _row_from_file(path: Path, rid: str):
     """The result columns of a run from its NPZ file, or None when it is missing, unreadable or another run's."""
-    from .io import load_result
+    from ..io.result_files import load_result
 
     if not path.is_file():
         return None
@@ -838,7 +838,7 @@ def main(args) -> int:
     dask missing or unreachable); 3 some run stopped early, was invalid or failed
     (the table and every result are still written).
     """
-    from .cli import _error, _load  # the command line's own messages (cli imports this module lazily)
+    from ..cli.commands import _error, _load  # the command line's own messages (cli imports this module lazily)
 
     case, code = _load(args.case)
     if case is None:

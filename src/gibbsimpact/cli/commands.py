@@ -65,7 +65,7 @@ def _float(text: str) -> float:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from . import __version__
+    from .. import __version__
 
     p = argparse.ArgumentParser(
         prog="gibbsimpact",
@@ -116,7 +116,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="derivation route (default gibbs-appell; lagrange is the comparison route)")
     e.add_argument("--latex", metavar="FILE", help="write the equations as a LaTeX document")
     e.add_argument("--python", metavar="FILE", help="write a standalone module computing M and the forcing")
-    from .sweep import add_parser as add_sweep_parser
+    from ..study.sweep import add_parser as add_sweep_parser
 
     add_sweep_parser(sub)
     return p
@@ -124,7 +124,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _methods() -> tuple:
     """The solver names gibbsimpact.simulate accepts."""
-    from .flight import SOLVERS
+    from ..simulation.flight import SOLVERS
 
     return tuple(SOLVERS)
 
@@ -134,7 +134,7 @@ _GIVE_A_CASE = "give the path of a case file (e.g. cases/circle_two_link.toml)"
 
 def _load(path: str):
     """(case, None), or (None, exit code) after one error line naming the CASE.toml argument."""
-    from .case import CaseError, load_case
+    from ..case.reader import CaseError, load_case
 
     p = Path(path)
     if not path:
@@ -160,9 +160,9 @@ def describe_case(case) -> str:
     """The model of a case in words (what ``gibbsimpact show`` prints)."""
     import numpy as np
 
-    from .inputs import describe_input, is_angle_coordinate
-    from .modes import natural_frequency
-    from .walls import describe
+    from ..dynamics.inputs import describe_input, is_angle_coordinate
+    from ..model.modes import natural_frequency
+    from ..contact.walls import describe
 
     m = case.model
     lines = [f"case {case.name}" + (f" ({case.path})" if case.path else "")]
@@ -306,7 +306,7 @@ def _describe_elements(m, i: int, q0=None) -> list:
     """
     import numpy as np
 
-    from .modes import Mode, natural_frequency
+    from ..model.modes import Mode, natural_frequency
 
     lk, ld, idx = m.chain.links[i - 1], m.link_data[i - 1], m.delta_index[i - 1]
     jt = m.chain.joints[i - 1]
@@ -366,7 +366,7 @@ def cmd_show(args) -> int:
         if shown:
             print()
         print(describe_case(case), flush=True)
-        from .validity import check_state
+        from ..simulation.validity import check_state
 
         for msg in check_state(case.model, case.q0, case.qdot0, case.walls):
             print(f"gibbsimpact: {path}: validity warning: {msg}", file=sys.stderr)
@@ -378,7 +378,7 @@ def cmd_equations(args) -> int:
     case, code = _load(args.case)
     if case is None:
         return code
-    from .symbolic import derive_equations
+    from ..symbolic.derive import derive_equations
 
     for option in ("latex", "python"):
         target = getattr(args, option)
@@ -405,7 +405,7 @@ def cmd_equations(args) -> int:
 
 def output_names() -> tuple:
     """Every file name ``gibbsimpact run`` may write into an output folder."""
-    from .plotting import FIGURES, OPTIONAL_FIGURES
+    from ..plotting.figures import FIGURES, OPTIONAL_FIGURES
 
     return OUTPUT_FILES + tuple(f"{k}.png" for k in FIGURES + OPTIONAL_FIGURES)
 
@@ -413,7 +413,7 @@ def output_names() -> tuple:
 def clear_outputs(out: Path) -> list:
     """Remove from ``out`` the files of an earlier run: every name of output_names() and their
     leftover temporary files (io.atomic_path). Other files are kept. Returns the paths removed."""
-    from .io import TEMP_MARK
+    from ..io.result_files import TEMP_MARK
 
     removed = []
     for name in output_names():
@@ -427,8 +427,8 @@ def clear_outputs(out: Path) -> list:
 
 def _save_figure(fig, path: Path, dpi: int) -> Path:
     """Save one figure as ``path`` (.png) atomically, with plotting.save_figures' settings; closes it."""
-    from .io import atomic_path
-    from .plotting import save_figures
+    from ..io.result_files import atomic_path
+    from ..plotting.figures import save_figures
 
     with atomic_path(path) as tmp:
         save_figures({tmp.stem: fig}, tmp.parent, dpi=dpi)  # writes <stem>.png, i.e. tmp
@@ -442,7 +442,7 @@ def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None)
     holds this run's files only. Each file is written atomically (io.atomic_path);
     summary.json comes last, so when it is there every other file of the run is too.
     """
-    from .io import atomic_path, save_result, to_csv, write_summary_json
+    from ..io.result_files import atomic_path, save_result, to_csv, write_summary_json
 
     log = log or (lambda s: None)
     out.mkdir(parents=True, exist_ok=True)
@@ -452,14 +452,14 @@ def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None)
     paths["result"] = save_result(result, out / "result.npz", metadata={"case": case.name, "case_toml": source})
     if plots:
         log("drawing figures ...")
-        from .plotting import plot_result
+        from ..plotting.figures import plot_result
 
         figs = plot_result(result, case_name=case.name, n_points=case.output["points_per_link"])
         for name, fig in figs.items():
             paths[name] = _save_figure(fig, out / f"{name}.png", case.output["dpi"])
     if animate:
         log("writing animation.gif ...")
-        from .plotting import animate as make_animation
+        from ..plotting.figures import animate as make_animation
 
         with atomic_path(out / "animation.gif") as tmp:
             make_animation(result, tmp, fps=case.output["animation_fps"], speed=case.output["animation_speed"],
@@ -523,7 +523,7 @@ def _held_signals(out: Path):
 
 def _check_output(out: Path, label: str) -> int | None:
     """None when ``out`` exists (created here if needed) and takes files, else 2 after one error line."""
-    from .io import check_directory
+    from ..io.result_files import check_directory
 
     try:
         check_directory(out)
@@ -539,7 +539,7 @@ def cmd_run(args) -> int:
     Nothing runs unless every input is good (exit code 2). The exit code is then the
     worst of the runs; an interrupted run (130) ends the command.
     """
-    from .case import CaseError
+    from ..case.reader import CaseError
 
     several = len(args.case) > 1
     # Options override case-file keys and are held to the same ranges (case.RANGES).
@@ -605,7 +605,7 @@ def _run_one(path, case, args, overrides, out) -> int:
         except Exception as exc:  # noqa: BLE001 - one line instead of a traceback; the other cases still run
             code = _error(f"{path}: unexpected {type(exc).__name__}: {exc} (please report this)", EXIT_INTERNAL)
     # Validity warnings (model used outside its assumptions) each get their own line.
-    from .validity import ValidityWarning
+    from ..simulation.validity import ValidityWarning
 
     for w in caught:
         if issubclass(w.category, ValidityWarning):
@@ -627,8 +627,8 @@ def _isatty(stream) -> bool:
 
 
 def _simulate_and_write(path, case, args, overrides, out, progress, say) -> int:
-    from .dynamics import SingularMassMatrixError
-    from .simulate import STATUS_INTERRUPTED
+    from ..dynamics.gibbs_appell import SingularMassMatrixError
+    from ..simulation.simulate import STATUS_INTERRUPTED
 
     try:
         result = case.simulate(progress=progress, **overrides)
@@ -674,7 +674,7 @@ def main(argv=None) -> int:
     """Entry point of the ``gibbsimpact`` console script and ``python -m gibbsimpact``."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    from .sweep import main as cmd_sweep
+    from ..study.sweep import main as cmd_sweep
 
     handler = {"run": cmd_run, "show": cmd_show, "equations": cmd_equations, "sweep": cmd_sweep}[args.command]
     try:

@@ -93,10 +93,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import kernel as _k
-from .dynamics import _raise_singular
+from .. import kernel as _k
+from ..dynamics.gibbs_appell import _raise_singular
 from .impact import _solve_lcp
-from .kinematics import as_vector, run_kernel, states
+from ..dynamics.kinematics import as_vector, run_kernel, states
 from .walls import packed_walls, tangent_basis
 
 _JOB = _k.JOB_SOLVE | _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS | _k.JOB_FRAMES

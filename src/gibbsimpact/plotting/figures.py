@@ -42,9 +42,9 @@ import textwrap
 
 import numpy as np
 
-from .kinematics import joint_positions, transforms
-from .model import link_deflection
-from .walls import Circle, Plane, Sphere, describe
+from ..dynamics.kinematics import joint_positions, transforms
+from ..model.model import link_deflection
+from ..contact.walls import Circle, Plane, Sphere, describe
 
 __all__ = [
     "FIGURES", "OPTIONAL_FIGURES", "animate", "camera", "is_planar", "link_points", "plot_angles", "plot_configurations",
@@ -406,7 +406,7 @@ def _stop_label(result, joint: int, q) -> str:
 def _point_name(model, j: int) -> str:
     """'O2' for contact point j (1-based) of model.contact_point_names; 'link 1' for the closest point
     of a flexible link (contacts.Contacts: the columns after the P points)."""
-    from .contacts import flexible_links
+    from ..simulation.contacts import flexible_links
 
     P = model.n_joints
     if j <= P:

@@ -40,11 +40,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .dynamics import Energy
-from .model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
-from .modes import Mode
-from .results import ImpactRecord, Result
-from .walls import Circle, Plane, Sphere, describe
+from ..dynamics.gibbs_appell import Energy
+from ..model.model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
+from ..model.modes import Mode
+from ..simulation.results import ImpactRecord, Result
+from ..contact.walls import Circle, Plane, Sphere, describe
 
 __all__ = [
     "FORMAT_VERSION", "atomic_path", "check_directory", "load_result", "model_from_dict", "model_to_dict",
@@ -262,7 +262,7 @@ def versions() -> dict:
     """Versions of the package, Python, numpy, scipy (and matplotlib if imported)."""
     import scipy
 
-    from . import __version__
+    from .. import __version__
 
     v = {"gibbsimpact": __version__, "python": platform.python_version(), "numpy": np.__version__,
          "scipy": scipy.__version__}

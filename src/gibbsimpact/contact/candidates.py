@@ -84,11 +84,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import kernel as _k
-from .elements import hermite_shape
-from .kinematics import as_vector, frames, run_kernel, section, states
-from .model import link_deflection, shape_functions
-from .modes import _normalisation, _sigma_terms, frequency_root
+from .. import kernel as _k
+from ..model.elements import hermite_shape
+from ..dynamics.kinematics import as_vector, frames, run_kernel, section, states
+from ..model.model import link_deflection, shape_functions
+from ..model.modes import _normalisation, _sigma_terms, frequency_root
 from .walls import Circle, Plane, Sphere
 
 #: Error left in s (relative to the search interval's length) at which the Newton refinement stops.

@@ -115,7 +115,7 @@ _GAUSS = 4  # Gauss-Legendre points per (stretching) element: exact for degree <
 
 def _pb_tables(link):
     """Unit-interval tables of a Pb link with n_e elements (formulation.md 10.3, 11)."""
-    from .elements import assemble as assemble_elements, element_stiffness, hermite_shape
+    from ..model.elements import assemble as assemble_elements, element_stiffness, hermite_shape
 
     ne = link.elements
     if ne == 0:

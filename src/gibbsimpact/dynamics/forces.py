@@ -33,7 +33,7 @@ import scipy.linalg as sl
 def _pb_stiffness(link, d: float) -> np.ndarray:
     """K(d) (m, m) of a link behind a FixedPrismatic guide with protruding length d [m]:
     K_kl = EI d^(a_k + a_l - 3) K^_kl (formulation.md 11; assembled eq. (27) with h = d / n_e)."""
-    from .elements import assemble, element_stiffness
+    from ..model.elements import assemble, element_stiffness
 
     return assemble(element_stiffness(link.EI_z, d / link.elements), link.elements)
 

@@ -90,14 +90,14 @@ import numpy as np
 
 from .accumulation import Accumulation
 from .contacts import Contacts, contact_band, event_spec, impact_stage, phase_events
-from .dynamics import SingularMassMatrixError, forward_dynamics, mass_matrix
+from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .flight import SOLVERS, integrate_phase
-from .forces import damping_depends_on_q, damping_matrix, generalized_force
-from .kinematics import joint_positions
-from .limits import JOINT_LIMIT_MODES, STATUS_JOINT_LIMIT, EndStops, check_initial, joint_limits
+from ..dynamics.forces import damping_depends_on_q, damping_matrix, generalized_force
+from ..dynamics.kinematics import joint_positions
+from .joint_limits import JOINT_LIMIT_MODES, STATUS_JOINT_LIMIT, EndStops, check_initial, joint_limits
 from .progress import Clock, progress_reporter
 from .recorder import Recorder
-from .resting import RestingContacts
+from ..contact.resting import RestingContacts
 from .results import (
     STATUS_FAILED,
     STATUS_FINISHED,
@@ -107,7 +107,7 @@ from .results import (
     Result,
 )
 from .validity import warn_result, warn_state
-from .walls import WALL_TYPES, describe
+from ..contact.walls import WALL_TYPES, describe
 
 _METHODS = tuple(SOLVERS)
 

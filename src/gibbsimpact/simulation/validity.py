@@ -28,8 +28,8 @@ import warnings
 
 import numpy as np
 
-from .model import link_deflection
-from .walls import describe
+from ..model.model import link_deflection
+from ..contact.walls import describe
 
 __all__ = [
     "DEFLECTION_LIMIT", "GIMBAL_MARGIN", "STRAIN_ENERGY_FACTOR", "ValidityWarning", "check_result", "check_state",
@@ -114,7 +114,7 @@ def check_state(model, q0, qdot0, walls=()) -> list[str]:
                 f"{GIMBAL_MARGIN:g} rad of the free base's rotations Rx(theta_-1) Ry(theta_0) Rz(theta_1), where "
                 "the mass matrix becomes singular; choose initial angles with theta_0 away from +-pi/2")
     if walls:
-        from .plotting import link_points  # geometry only: matplotlib is not imported
+        from ..plotting.figures import link_points  # geometry only: matplotlib is not imported
 
         pts = link_points(model, q0, _SAMPLES)
         for k, w in enumerate(walls, start=1):

@@ -734,7 +734,7 @@ class Model:
         except AttributeError:
             data = None
         if data is None:
-            from .kernel import pack, variant
+            from ..kernel import pack, variant
 
             fdat, idat = pack(self)
             # Writable on purpose: numba types read-only arrays differently, and contact_terms
@@ -811,43 +811,43 @@ class Model:
     # -- algorithms (thin delegations to pure functions) ---------------------
     def mass_matrix(self, q):
         """Mass matrix M(q), shape (N, N) [kg, kg m, kg m^2 by block]."""
-        from .dynamics import mass_matrix
+        from ..dynamics.gibbs_appell import mass_matrix
 
         return mass_matrix(self, self.check_state(q))
 
     def bias_forces(self, q, qdot):
         """Velocity-product terms h(q, qdot), shape (N,) [N, N m]."""
-        from .dynamics import bias_forces
+        from ..dynamics.gibbs_appell import bias_forces
 
         return bias_forces(self, *self.check_state(q, qdot))
 
     def potential_forces(self, q):
         """Gradient dV/dq of gravity plus strain energy, shape (N,) [N, N m]."""
-        from .dynamics import potential_forces
+        from ..dynamics.gibbs_appell import potential_forces
 
         return potential_forces(self, self.check_state(q))
 
     def forward_dynamics(self, q, qdot):
         """Generalised accelerations qddot, shape (N,): M qddot = -h - dV/dq."""
-        from .dynamics import forward_dynamics
+        from ..dynamics.gibbs_appell import forward_dynamics
 
         return forward_dynamics(self, *self.check_state(q, qdot))
 
     def energy(self, q, qdot):
         """Energy(kinetic, gravity, strain, total) in joules."""
-        from .dynamics import energy
+        from ..dynamics.gibbs_appell import energy
 
         return energy(self, *self.check_state(q, qdot))
 
     def joint_positions(self, q):
         """Inertial positions of O_1 ... O_(n+1), shape (n+1, 3) [m]."""
-        from .kinematics import joint_positions
+        from ..dynamics.kinematics import joint_positions
 
         return joint_positions(self, self.check_state(q))
 
     def joint_jacobians(self, q):
         """Jacobians d O_j / d q, shape (n+1, 3, N)."""
-        from .kinematics import joint_jacobians
+        from ..dynamics.kinematics import joint_jacobians
 
         return joint_jacobians(self, self.check_state(q))
 
@@ -858,13 +858,13 @@ class Model:
 
     def linear_momentum(self, q, qdot):
         """Total linear momentum, shape (3,) [kg m/s]."""
-        from .dynamics import momentum
+        from ..dynamics.gibbs_appell import momentum
 
         return momentum(self, *self.check_state(q, qdot))[0]
 
     def angular_momentum(self, q, qdot, about=None):
         """Angular momentum about ``about`` (3,) [m], default the mass centre; (3,) [kg m^2/s]."""
-        from .dynamics import momentum
+        from ..dynamics.gibbs_appell import momentum
 
         q, qdot = self.check_state(q, qdot)
         L, H0, c = momentum(self, q, qdot)
@@ -874,7 +874,7 @@ class Model:
 
     def center_of_mass(self, q):
         """Mass centre, shape (3,) [m]."""
-        from .dynamics import center_of_mass
+        from ..dynamics.gibbs_appell import center_of_mass
 
         return center_of_mass(self, self.check_state(q))
 

@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .dynamics import Energy, energies
+from ..dynamics.gibbs_appell import Energy, energies
 
 #: Status values of a Result.
 STATUS_FINISHED = "finished"  # reached t_span[1]
@@ -144,13 +144,13 @@ class Result:
 
     def joint_positions(self) -> np.ndarray:
         """O_1 ... O_(n+1) at every sample, shape (K, n+1, 3) [m]."""
-        from .kinematics import joint_positions_batch
+        from ..dynamics.kinematics import joint_positions_batch
 
         return joint_positions_batch(self.model, self.q)
 
     def joint_velocities(self) -> np.ndarray:
         """Absolute joint velocities at every sample, shape (K, n+1, 3) [m/s]."""
-        from .kinematics import joint_velocities_batch
+        from ..dynamics.kinematics import joint_velocities_batch
 
         return joint_velocities_batch(self.model, self.q, self.qdot)
 
@@ -165,19 +165,19 @@ class Result:
 
         See :func:`gibbsimpact.io.to_csv` for the columns.
         """
-        from .io import to_csv
+        from ..io.result_files import to_csv
 
         return to_csv(self, directory)
 
     def save(self, path, metadata: dict | None = None):
         """Store everything in an NPZ archive; ``gibbsimpact.load_result(path)`` reads it back exactly."""
-        from .io import save_result
+        from ..io.result_files import save_result
 
         return save_result(self, path, metadata)
 
     def summary(self, case=None) -> dict:
         """JSON-ready summary: versions, settings, impacts, energies, status, counters."""
-        from .io import summary
+        from ..io.result_files import summary
 
         return summary(self, case)
 
@@ -200,7 +200,7 @@ class Result:
         repeated calls (a notebook cell run again and again) leave nothing open; in Jupyter
         a returned Figure is shown inline.
         """
-        from .plotting import plot_one, plot_result, save_figures
+        from ..plotting.figures import plot_one, plot_result, save_figures
 
         if kinds is not None:
             if which is not None:

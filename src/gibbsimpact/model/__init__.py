@@ -1,0 +1,7 @@
+"""What is simulated: links, modes, finite elements, the chain and the immutable Model."""
+
+# The public names of gibbsimpact.model as it was one module (documented paths keep working).
+from .model import (  # noqa: F401
+    DEFAULT_QUADRATURE, Link, Revolute, FixedBase, SlidingPrismatic, FixedPrismatic, JOINT_TYPES,
+    Chain, gauss_legendre, LinkData, shape_functions, link_deflection, link_integrals, Model,
+)

@@ -1,0 +1,1 @@
+"""The one event loop (simulate) over named stages, and its records (Result, ImpactRecord)."""

@@ -1,0 +1,1 @@
+"""Parameter studies: sweeps over case-file keys."""
