@@ -46,6 +46,6 @@ def test_api_reference_documents_the_public_api(site):
     names = {i.rsplit(".", 1)[-1] for i in ids}
     missing = [n for n in gibbsimpact.__all__ if n != "__version__" and n not in names]
     assert not missing, f"public names without an entry in docs/api.md: {missing}"
-    for required in ("gibbsimpact.dynamics.forward_dynamics", "gibbsimpact.kinematics.frames",
-                     "gibbsimpact.validity.check_state", "gibbsimpact.sweep.sweep"):
+    for required in ("gibbsimpact.dynamics.gibbs_appell.forward_dynamics", "gibbsimpact.dynamics.kinematics.frames",
+                     "gibbsimpact.simulation.validity.check_state", "gibbsimpact.study.sweep.sweep"):
         assert required in ids

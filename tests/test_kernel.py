@@ -45,6 +45,7 @@ import pytest
 import gibbsimpact as gi
 from gibbsimpact.dynamics import gibbs_appell as dy
 from gibbsimpact import kernel as _k
+from gibbsimpact.model.packing import pack
 from gibbsimpact.dynamics import kinematics as kin
 
 from conftest import random_state, two_link_circle_model, two_link_circle_state
@@ -268,13 +269,13 @@ def test_chains_cover_the_kernel_paths():
     kinds = set()
     for build in CHAINS.values():
         model = build()
-        idat = _k.pack(model)[1]
+        idat = pack(model)[1]
         n, N = int(idat[0]), int(idat[1])
         li = idat[_k._H + _k._CI * N:].reshape(n, _k._LI)
         kinds |= set(li[:, 4].tolist())
     # Rigid ends and moving (Rodrigues) ends.
     assert {_k.END_RIGID, _k.END_GENERAL} <= kinds
-    spatial = _k.pack(_spatial_two_link())[1]
+    spatial = pack(_spatial_two_link())[1]
     N = int(spatial[1])
     assert np.all(spatial[_k._H + _k._CI * N:].reshape(2, _k._LI)[:, 4] == _k.END_GENERAL)
 
@@ -481,8 +482,9 @@ def test_read_only_install_without_cache_directory(tmp_path):
     blocker = tmp_path / "afile"
     blocker.write_text("a regular file: nothing can be created under it\n")
     root = os.geteuid() == 0
-    if root:
-        (pkg / "__pycache__").write_text("not a directory\n")
+    if root:  # every package folder's (the kernel's cache would go to kernel/__pycache__)
+        for d in [pkg] + [d for d in pkg.rglob("*") if d.is_dir()]:
+            (d / "__pycache__").write_text("not a directory\n")
     home = tmp_path / "home"
     home.mkdir()
     before = {"pkg": _tree(pkg), "home": _tree(home)}

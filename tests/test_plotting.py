@@ -44,7 +44,7 @@ def test_import_does_not_load_matplotlib():
 
 def test_agg_backend_without_display():
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "MPLBACKEND")}
-    code = ("import matplotlib, gibbsimpact.plotting as p; p._pyplot(); "
+    code = ("import matplotlib, gibbsimpact.plotting.figures as p; p._pyplot(); "
             "print(matplotlib.get_backend().lower())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
     assert out.stdout.strip() == "agg"

@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.study.sweep import RESULT_COLUMNS, add_parser, expand_runs, main, parse_vary, run_id, sweep
+from gibbsimpact.cli.sweep import add_parser, main, parse_vary
+from gibbsimpact.study.sweep import RESULT_COLUMNS, expand_runs, run_id, sweep
 
 CASE = Path(__file__).resolve().parents[1] / "cases" / "circle_two_link.toml"
 GRID = {"restitution": [0.5, 0.75, 1.0], "initial.coordinates.theta_1_deg": [-36, -33, -30, -27]}

@@ -24,44 +24,14 @@ import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
-EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
-#: How bad an exit code is: with several case files the worst one is the command's.
-_SEVERITY = {EXIT_OK: 0, EXIT_STOPPED: 1, EXIT_BAD_INPUT: 2, EXIT_INTERNAL: 3, EXIT_INTERRUPTED: 4}
-
-EXIT_CODES = """exit codes:
-  0    every run finished
-  1    unexpected error (please report it)
-  2    bad input: case file, option, or an output folder that cannot be
-       written (one line names every problem); nothing is simulated
-  3    a simulation stopped early (zeno, max_impacts, penetration,
-       joint_limit: a prismatic joint reached an end of its range, failed);
-       its results up to there are written
-  130  interrupted by Ctrl-C or SIGTERM: the run stops with status
-       "interrupted" and its results up to there are written
-with several case files the worst code counts (130, 1, 2, 3, 0: worst first)"""
+from .common import (EXIT_BAD_INPUT, EXIT_CODES, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK,  # noqa: F401
+                     EXIT_STOPPED, _error, _float, _load, _worst)
 
 #: Files ``gibbsimpact run`` may write into its output folder, besides <figure>.png for
 #: every name in plotting.FIGURES and OPTIONAL_FIGURES. Before writing, a run removes those of them that are
 #: there (an earlier run's), and nothing else.
 OUTPUT_FILES = ("timeseries.csv", "impacts.csv", "contact_forces.csv", "summary.json", "result.npz",
                 "animation.gif")
-
-
-def _worst(a: int, b: int) -> int:
-    return a if _SEVERITY.get(a, 3) >= _SEVERITY.get(b, 3) else b
-
-
-def _error(msg: str, code: int) -> int:
-    print(f"gibbsimpact: error: {msg}", file=sys.stderr)
-    return code
-
-
-def _float(text: str) -> float:
-    # Only the syntax here; ranges are the case file's (case.RANGES), checked once the case is loaded.
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -116,7 +86,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="derivation route (default gibbs-appell; lagrange is the comparison route)")
     e.add_argument("--latex", metavar="FILE", help="write the equations as a LaTeX document")
     e.add_argument("--python", metavar="FILE", help="write a standalone module computing M and the forcing")
-    from ..study.sweep import add_parser as add_sweep_parser
+    from .sweep import add_parser as add_sweep_parser
 
     add_sweep_parser(sub)
     return p
@@ -127,30 +97,6 @@ def _methods() -> tuple:
     from ..simulation.flight import SOLVERS
 
     return tuple(SOLVERS)
-
-
-_GIVE_A_CASE = "give the path of a case file (e.g. cases/circle_two_link.toml)"
-
-
-def _load(path: str):
-    """(case, None), or (None, exit code) after one error line naming the CASE.toml argument."""
-    from ..case.reader import CaseError, load_case
-
-    p = Path(path)
-    if not path:
-        return None, _error(f"CASE.toml: '' is not a file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
-    if p.is_dir():
-        return None, _error(f"CASE.toml: {path!r} is a directory, not a case file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
-    if not p.exists():
-        return None, _error(f"CASE.toml: {path!r}: no such file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
-    if not p.is_file():
-        return None, _error(f"CASE.toml: {path!r} is not a regular file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
-    try:
-        return load_case(p), None
-    except CaseError as exc:
-        return None, _error(str(exc), EXIT_BAD_INPUT)
-    except OSError as exc:
-        return None, _error(f"CASE.toml: {path!r}: cannot read ({exc.strerror or exc})", EXIT_BAD_INPUT)
 
 
 # --------------------------------------------------------------------------
@@ -674,7 +620,7 @@ def main(argv=None) -> int:
     """Entry point of the ``gibbsimpact`` console script and ``python -m gibbsimpact``."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    from ..study.sweep import main as cmd_sweep
+    from .sweep import main as cmd_sweep
 
     handler = {"run": cmd_run, "show": cmd_show, "equations": cmd_equations, "sweep": cmd_sweep}[args.command]
     try:

@@ -18,8 +18,10 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ..kernel import variant
 from .elements import MAX_ELEMENTS, element_quadrature, hermite_shape
 from .modes import MODE_DIRECTIONS, Mode, shape
+from .packing import pack
 
 #: Axis index in the link frame of each mode direction.
 _AXIS = {"y": 1, "z": 2}
@@ -734,8 +736,6 @@ class Model:
         except AttributeError:
             data = None
         if data is None:
-            from ..kernel import pack, variant
-
             fdat, idat = pack(self)
             # Writable on purpose: numba types read-only arrays differently, and contact_terms
             # (resting.py) takes these zeros as a writable array (the kernel takes either).

@@ -43,6 +43,7 @@ import textwrap
 import numpy as np
 
 from ..dynamics.kinematics import joint_positions, transforms
+from ..dynamics.link_points import link_points, points_on_link
 from ..model.model import link_deflection
 from ..contact.walls import Circle, Plane, Sphere, describe
 
@@ -117,33 +118,6 @@ def _given_axes(ax, n_max: int, what: str) -> list:
 # --------------------------------------------------------------------------
 # Geometry
 
-def link_points(model, q, n_points: int = 41) -> np.ndarray:
-    """Points along every deformed link, shape (n_links, n_points, 3) [m].
-
-    p(x) = T_i r_i(x),  r_i(x) = (x, v(x), w(x), 1),  v = sum_k psi_k(x) delta_k over
-    the link's y-modes, w over its z-modes, x = 0 ... l_i (formulation.md section 2).
-    """
-    q = np.asarray(q, dtype=float)
-    T = transforms(model, q)
-    out = np.empty((model.n_links, n_points, 3))
-    for i, lk in enumerate(model.chain.links):
-        x = np.linspace(0.0, lk.length, n_points)
-        r = np.zeros((4, n_points))
-        r[0], r[3] = x, 1.0
-        r[1], r[2] = link_deflection(model, q, i, x)
-        out[i] = (T[i] @ r)[:3].T
-    return out
-
-
-def _points_on_link(model, q, T, i: int, x) -> np.ndarray:
-    """Points of link i (0-based) at abscissae x (m,) in its deformed shape, (m, 3) [m]."""
-    x = np.asarray(x, dtype=float)
-    r = np.zeros((4, x.size))
-    r[0], r[3] = x, 1.0
-    r[1], r[2] = link_deflection(model, q, i, x)
-    return (T[i] @ r)[:3].T
-
-
 def _link_parts(model, q, n_points: int = 41) -> list:
     """Per link (main (m, 3), rear (2, 3) or None) [m].
 
@@ -159,11 +133,11 @@ def _link_parts(model, q, n_points: int = 41) -> list:
         rear = None
         if model.chain.joints[i].kind == "Pb":
             s = min(max(lk.length - float(q[model.theta_index[i]]), 0.0), lk.length)
-            main = _points_on_link(model, q, T, i, np.linspace(s, lk.length, n_points))
+            main = points_on_link(model, q, T, i, np.linspace(s, lk.length, n_points))
             if s > 0.0:
-                rear = _points_on_link(model, q, T, i, np.array([0.0, s]))
+                rear = points_on_link(model, q, T, i, np.array([0.0, s]))
         else:
-            main = _points_on_link(model, q, T, i, np.linspace(0.0, lk.length, n_points))
+            main = points_on_link(model, q, T, i, np.linspace(0.0, lk.length, n_points))
         out.append((main, rear))
     return out
 

@@ -28,6 +28,7 @@ import warnings
 
 import numpy as np
 
+from ..dynamics.link_points import link_points
 from ..model.model import link_deflection
 from ..contact.walls import describe
 
@@ -114,8 +115,6 @@ def check_state(model, q0, qdot0, walls=()) -> list[str]:
                 f"{GIMBAL_MARGIN:g} rad of the free base's rotations Rx(theta_-1) Ry(theta_0) Rz(theta_1), where "
                 "the mass matrix becomes singular; choose initial angles with theta_0 away from +-pi/2")
     if walls:
-        from ..plotting.figures import link_points  # geometry only: matplotlib is not imported
-
         pts = link_points(model, q0, _SAMPLES)
         for k, w in enumerate(walls, start=1):
             gaps = w.gap(pts.reshape(-1, 3)).reshape(pts.shape[:2])

@@ -1,0 +1,63 @@
+"""What every command of the command line shares: the exit codes, the error line, loading a CASE.toml argument."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+#: How bad an exit code is: with several case files the worst one is the command's.
+_SEVERITY = {EXIT_OK: 0, EXIT_STOPPED: 1, EXIT_BAD_INPUT: 2, EXIT_INTERNAL: 3, EXIT_INTERRUPTED: 4}
+
+EXIT_CODES = """exit codes:
+  0    every run finished
+  1    unexpected error (please report it)
+  2    bad input: case file, option, or an output folder that cannot be
+       written (one line names every problem); nothing is simulated
+  3    a simulation stopped early (zeno, max_impacts, penetration,
+       joint_limit: a prismatic joint reached an end of its range, failed);
+       its results up to there are written
+  130  interrupted by Ctrl-C or SIGTERM: the run stops with status
+       "interrupted" and its results up to there are written
+with several case files the worst code counts (130, 1, 2, 3, 0: worst first)"""
+
+def _worst(a: int, b: int) -> int:
+    return a if _SEVERITY.get(a, 3) >= _SEVERITY.get(b, 3) else b
+
+
+def _error(msg: str, code: int) -> int:
+    print(f"gibbsimpact: error: {msg}", file=sys.stderr)
+    return code
+
+
+def _float(text: str) -> float:
+    # Only the syntax here; ranges are the case file's (case.RANGES), checked once the case is loaded.
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+
+
+_GIVE_A_CASE = "give the path of a case file (e.g. cases/circle_two_link.toml)"
+
+
+def _load(path: str):
+    """(case, None), or (None, exit code) after one error line naming the CASE.toml argument."""
+    from ..case.reader import CaseError, load_case
+
+    p = Path(path)
+    if not path:
+        return None, _error(f"CASE.toml: '' is not a file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
+    if p.is_dir():
+        return None, _error(f"CASE.toml: {path!r} is a directory, not a case file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
+    if not p.exists():
+        return None, _error(f"CASE.toml: {path!r}: no such file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
+    if not p.is_file():
+        return None, _error(f"CASE.toml: {path!r} is not a regular file; {_GIVE_A_CASE}", EXIT_BAD_INPUT)
+    try:
+        return load_case(p), None
+    except CaseError as exc:
+        return None, _error(str(exc), EXIT_BAD_INPUT)
+    except OSError as exc:
+        return None, _error(f"CASE.toml: {path!r}: cannot read ({exc.strerror or exc})", EXIT_BAD_INPUT)

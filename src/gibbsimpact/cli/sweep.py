@@ -1,0 +1,183 @@
+"""``gibbsimpact sweep CASE.toml --vary KEY=SPEC ...``: the command line of gibbsimpact.study.sweep."""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+
+from ..case.reader import CaseError
+from ..study.sweep import RESULT_COLUMNS, RUNS_DIR, _cell, sweep
+from .common import EXIT_BAD_INPUT, EXIT_OK, EXIT_STOPPED, _error, _float, _load
+
+
+class VaryError(ValueError):
+    """A --vary option that cannot be read."""
+
+
+def _split_list(spec: str) -> list[str]:
+    """Split at commas outside brackets and quotes: '[0,0],[1,0]' -> ['[0,0]', '[1,0]']."""
+    items, depth, quote, cur = [], 0, None, []
+    for ch in spec:
+        if quote:
+            quote = None if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "[":
+            depth += 1
+        elif ch == "]":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            items.append("".join(cur).strip())
+            cur = []
+            continue
+        cur.append(ch)
+    items.append("".join(cur).strip())
+    return items
+
+
+def _value(text: str):
+    """One value of a --vary list: a TOML value (10 -> int, 1e-3, inf, true, [0, 1], "RK45"), else a
+    number, else the bare text as a string (RK45)."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def parse_vary(option: str) -> tuple[str, list]:
+    """``KEY=SPEC`` of ``--vary`` -> (key, values).
+
+    SPEC is ``a:b:n`` (n values from a to b evenly spaced, both ends included,
+    rounded to 15 significant digits so that 0.5:1:6 gives 0.5, 0.6, ..., 1.0) or a
+    comma list of values (``10,20,40``; ``RK45,DOP853``; ``[0,0],[0.1,0]``).
+    """
+    key, eq, spec = option.partition("=")
+    key, spec = key.strip(), spec.strip()
+    if not eq or not key or not spec:
+        raise VaryError(f"--vary {option}: expected KEY=a:b:n or KEY=v1,v2,... "
+                        "(e.g. restitution=0.5:1:6 or links.1.EI_N_m2=10,20,40)")
+    m = re.fullmatch(r"([^:,\[\]]+):([^:,\[\]]+):([^:,\[\]]+)", spec)
+    if m:
+        try:
+            a, b = float(m.group(1)), float(m.group(2))
+            n = int(m.group(3))
+        except ValueError:
+            raise VaryError(f"--vary {option}: a:b:n needs numbers a, b and a whole number n >= 1") from None
+        if n < 1 or not (math.isfinite(a) and math.isfinite(b)):
+            raise VaryError(f"--vary {option}: a:b:n needs finite a, b and a whole number n >= 1")
+        if n == 1:
+            return key, [a]
+        # x_k = a + k (b - a) / (n - 1), the last exactly b (numpy.linspace's rule).
+        step = (b - a) / (n - 1)
+        return key, [float(f"{a + k * step:.15g}") for k in range(n - 1)] + [b]
+    items = _split_list(spec)
+    if any(not s for s in items):
+        raise VaryError(f"--vary {option}: an empty value in the list")
+    return key, [_value(s) for s in items]
+
+
+def _positive_int(text: str) -> int:
+    import argparse
+
+    try:
+        k = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if k < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {k}")
+    return k
+
+
+def add_parser(subparsers):
+    """Register the ``sweep`` subcommand on an argparse subparsers object; returns its parser."""
+    s = subparsers.add_parser(
+        "sweep", help="run a case over a grid of key values; one table of the runs",
+        description="Run CASE for every combination of the --vary values (the last varying fastest) and write "
+                    "sweep.csv (one row per run: its values, status, impacts, energy error, wall time, result "
+                    "file) and runs/<run id>.npz. Runs already in the output folder are not run again.",
+        epilog="Exit codes: 0 every run finished, 2 bad input, 3 some run stopped early or failed.")
+    s.add_argument("case", metavar="CASE.toml", help="case file")
+    s.add_argument("--vary", action="append", required=True, metavar="KEY=SPEC",
+                   help="a case-file key and its values: KEY=a:b:n (n values from a to b) or KEY=v1,v2,...; "
+                        "repeat for a grid, e.g. --vary restitution=0.5:1:6 --vary links.1.EI_N_m2=10,20,40")
+    s.add_argument("--workers", type=_positive_int, default=1, metavar="K",
+                   help="processes running the sweep (default 1: in this process)")
+    s.add_argument("--scheduler", metavar="ADDRESS",
+                   help='run on a dask.distributed cluster, e.g. tcp://host:8786 (pip install "gibbsimpact[dask]")')
+    s.add_argument("--out", metavar="DIR",
+                   help="sweep folder (default: <[output] directory, else out/<case name>>/sweep)")
+    s.add_argument("--t-end", type=_float, metavar="T", help="end time of every run in s (overrides [time] t_end_s)")
+    s.add_argument("--quiet", "-q", action="store_true", help="no line per run and no report on stdout")
+    return s
+
+
+def _describe_values(row: dict, keys) -> str:
+    return " ".join(f"{k}={_cell(row[k])}" for k in keys if row.get(k) is not None)
+
+
+def main(args) -> int:
+    """Run ``gibbsimpact sweep`` from parsed arguments (add_parser); returns the exit code.
+
+    0 every run finished; 2 bad input (case file, --vary, options, output folder,
+    dask missing or unreachable); 3 some run stopped early, was invalid or failed
+    (the table and every result are still written).
+    """
+    case, code = _load(args.case)
+    if case is None:
+        return code
+    grid = {}
+    try:
+        for option in args.vary:
+            key, values = parse_vary(option)
+            if key in grid:
+                raise VaryError(f"--vary {option}: {key} is already varied; give all its values in one --vary")
+            grid[key] = values
+    except VaryError as exc:
+        return _error(str(exc), EXIT_BAD_INPUT)
+    if args.t_end is not None:
+        problems = case.override_problems(names={"t_end": "--t-end"}, t_end=args.t_end)
+        if problems:
+            return _error(str(CaseError("options", problems)), EXIT_BAD_INPUT)
+    say = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
+
+    def progress(row, done, total):
+        varied = [c for c in row if c not in ("run", "run_id") and c not in RESULT_COLUMNS]
+        impacts = f", {row['n_impacts']} impacts" if row["n_impacts"] is not None else ""
+        took = f", {row['wall_time_s']:.2f} s" if row["wall_time_s"] is not None else ""
+        say(f"  [{done}/{total}] run {row['run']} ({row['run_id']}) {_describe_values(row, varied)}: "
+            f"{row['status']}{impacts}{took}")
+
+    route = (f"on the dask scheduler {args.scheduler}" if args.scheduler else
+             f"on {args.workers} processes" if args.workers > 1 else "in this process")
+    say(f"gibbsimpact: sweep of {case.name} over {', '.join(grid)}, {route}")
+    try:
+        result = sweep(case, grid, workers=args.workers, out=args.out, scheduler=args.scheduler,
+                       t_end=args.t_end, progress=progress)
+    except CaseError as exc:
+        if exc.source == "overrides":
+            exc = CaseError("--vary", exc.problems)
+        return _error(str(exc), EXIT_BAD_INPUT)
+    except ImportError as exc:
+        return _error(str(exc), EXIT_BAD_INPUT)
+    except KeyboardInterrupt:
+        return _error("interrupted; the runs done are kept: run the same command again to resume", 130)
+    except OSError as exc:
+        where = f"scheduler {args.scheduler}" if args.scheduler else "the output folder"
+        return _error(f"{where}: {exc.strerror or exc}", EXIT_BAD_INPUT)
+
+    counts = result.status_counts()
+    say(f"{len(result.rows)} runs: " + ", ".join(f"{n} {s}" for s, n in counts.items())
+        + f" ({result.n_run} run now, {result.n_skipped} already done)")
+    say(f"table: {result.table}" + (f" and {result.parquet}" if result.parquet else "")
+        + f"; results in {result.out / RUNS_DIR}")
+    if not result.all_finished:
+        bad = [r for r in result.rows if r["status"] != "finished"]
+        first = bad[0]
+        return _error(f"{len(bad)} of {len(result.rows)} runs did not finish (first: run {first['run']}, "
+                      f"{first['status']}: {first['message']}); see {result.table}", EXIT_STOPPED)
+    return EXIT_OK

@@ -1,0 +1,97 @@
+"""The model packed for the compiled kernel: one float64 and one int64 array (layout: gibbsimpact.kernel).
+
+``pack(model)`` is the one place where a Model becomes the kernel's data (fdat, idat); the
+layout constants and kind codes it writes are the kernel's own (``gibbsimpact.kernel``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import kernel as _k
+from .elements import assemble as assemble_elements, element_stiffness, hermite_shape
+
+
+def _pb_tables(link):
+    """Unit-interval tables of a Pb link with n_e elements (formulation.md 10.3, 11)."""
+    ne = link.elements
+    if ne == 0:
+        return []
+    t, wt = np.polynomial.legendre.leggauss(_k._GAUSS)
+    xi = ((np.arange(ne)[:, None] + 0.5 * (t[None, :] + 1.0)) / ne).ravel()
+    w = np.tile(0.5 * wt / ne, ne)
+    N = [hermite_shape(ne, 1.0, xi, k).T.ravel() for k in range(3)]  # (G, m) row-major
+    Kunit = assemble_elements(element_stiffness(1.0, 1.0 / ne), ne)
+    a = np.tile([0.0, 1.0], ne)  # a_k: 0 for a deflection dof, 1 for a slope dof
+    return [xi, w, *N, Kunit.ravel(), a]
+
+
+def pack(model):
+    """The model as (fdat float64 (F,), idat int64 (I,)) for the kernel."""
+    n, N = model.n_links, model.n_dof
+    free = model.free_base
+    base_kind = _k.BASE_FIXED if not free else (_k.BASE_PLANAR if model.chain.base == "planar" else _k.BASE_FREE)
+    idat = np.zeros(_k._H + _k._CI * N + _k._LI * n, dtype=np.int64)
+    idat[0], idat[1], idat[2] = n, N, base_kind
+    idat[3] = sum(1 for i, jt in enumerate(model.chain.joints) if i > 0 and jt.kind != "R")
+    idat[4] = int(any(jt.kind != "R" for jt in model.chain.joints))  # the kernel variant (variant())
+    idat[5] = int(any(not ld.end_is_rigid for ld in model.link_data))  # a link end moved by its modes
+    ci = idat[_k._H:_k._H + _k._CI * N].reshape(N, _k._CI)
+    li = idat[_k._H + _k._CI * N:].reshape(n, _k._LI) if n else np.zeros((0, _k._LI), dtype=np.int64)
+    ci[:, 3] = -1
+    if base_kind == _k.BASE_FREE:
+        for a in range(3):
+            ci[a, :3] = (_k.KIND_TRANSLATION, a, 0)
+        ci[3, :3] = (_k.KIND_ROTATION, 0, 0)
+        ci[4, :3] = (_k.KIND_ROTATION, 1, 0)
+    elif base_kind == _k.BASE_PLANAR:
+        for a in range(2):
+            ci[a, :3] = (_k.KIND_TRANSLATION, a, 0)
+    f = [np.eye(4).ravel() if free else np.asarray(model.base_transform, dtype=float).ravel(),
+         np.append(model.gravity, 0.0)]
+    off = _k._F_LINKS
+    axis_of = {"y": 1, "z": 2}
+    joint_of = {"R": _k.JOINT_R, "Pa": _k.JOINT_PA, "Pb": _k.JOINT_PB}
+    for i, (ld, lk, jt) in enumerate(zip(model.link_data, model.chain.links, model.chain.joints)):
+        th = model.theta_index[i]
+        idx = model.delta_index[i]
+        m = idx.size
+        jk = joint_of[jt.kind]
+        if jk == _k.JOINT_R:
+            ci[th, :3] = (_k.KIND_ROTATION, 2, i)
+        elif jk == _k.JOINT_PA:
+            ci[th, :3] = (_k.KIND_PA, 0, i)
+        else:
+            # d_i moves frames i.. by a translation and deforms link i (its own shape chi, slot m).
+            ci[th] = (_k.KIND_PB, 1, i, i, m, 0)
+        for l, c in enumerate(idx):
+            ci[c] = (_k.KIND_MODE, axis_of[ld.directions[l]], i + 1, i, l, 0)
+        # A moving end always takes the Rodrigues path (exact at phi = 0: R = I, dR[u] = a skew(u)).
+        end = _k.END_RIGID if ld.end_is_rigid else _k.END_GENERAL
+        li[i] = (m, idx[0] if m else 0, th, off, end, jk)
+        P0 = np.array(ld.P0, dtype=float)
+        J = ld.J_body
+        # Rotary inertia as a pseudo-inertia: Sigma = tr(J)/2 I - J (module docstring, item 5).
+        P0[:3, :3] += 0.5 * np.trace(J) * np.eye(3) - J
+        axes = np.array([axis_of[d] for d in ld.directions], dtype=int)
+        cx = ld.C[np.arange(m), 0, axes] if m else np.zeros(0)
+        c1 = ld.C[np.arange(m), 3, axes] if m else np.zeros(0)
+        Mpsi = ld.D[np.arange(m)[:, None], np.arange(m)[None, :], axes[:, None], axes[None, :]] if m else np.zeros((0, 0))
+        mu = lk.mass_per_length if not callable(lk.mass_per_length) else 0.0
+        ei = lk.EI_z if not callable(lk.EI_z) else 0.0
+        joint = [getattr(jt, "angle", 0.0), getattr(jt, "half_length", 0.0), lk.elements, mu, ei]
+        block = [P0.ravel(), ld.m_r0, [ld.length], cx, c1, Mpsi.ravel(), np.asarray(ld.K).ravel(),
+                 np.asarray(ld.end_t).ravel(), np.asarray(ld.end_phi).ravel(), joint]
+        if jk == _k.JOINT_PB:
+            block += _pb_tables(lk)
+        f += block
+        off += sum(np.size(b) for b in block)
+    # A second twist (B[ss + N + c]): the protruding length D of a flexible Pb link that carries
+    # a Pa carriage moves the carriage's frame i.. once more, through its deflection (_pa_step).
+    ci[:, 5] = -1
+    for i, jt in enumerate(model.chain.joints):
+        if i > 0 and jt.kind == "Pa" and model.chain.joints[i - 1].kind == "Pb" and model.delta_index[i - 1].size:
+            ci[model.theta_index[i - 1], 5] = i
+    fdat = np.ascontiguousarray(np.concatenate([np.ravel(np.asarray(b, dtype=float)) for b in f]))
+    assert fdat.size == off
+    return fdat, np.ascontiguousarray(idat)
