@@ -76,3 +76,36 @@ d_1_m = 0.2
 [time]
 t_end_s = 0.4
 """
+
+
+# A rod dropped flat with e = 0.5: its impacts accumulate (tests/cli, tests/contact).
+ZENO = """
+name = "zeno_drop"
+gravity_m_per_s2 = [0.0, -9.81, 0.0]
+restitution = 0.5
+
+[[links]]
+length_m = 1.0
+mass_per_length_kg_per_m = 1.0
+EI_N_m2 = 20.0
+cross_section_radius_m = 0.01
+
+[[walls]]
+type = "plane"
+point_m = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+
+[initial.coordinates]
+X1_m = -0.5
+X2_m = 0.01
+
+[time]
+t_end_s = 1.0
+
+[solver]
+rtol = 1e-8
+atol = 1e-10
+zeno_interval_s = 0.05
+zeno_count = 3
+accumulation = "stop"
+"""

@@ -8,7 +8,7 @@ import pytest
 import gibbsimpact as gi
 from gibbsimpact.contact.impact import solve_impulses
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 from conftest import (
     single_link_sphere_model,

@@ -103,7 +103,7 @@ def test_link_impacts_are_stored_and_drawn(tmp_path):
 
 # -- the skip rule of contacts.Contacts (a link is searched only where it can touch) ------------
 
-from test_linkpoints import MODELS, _state, _walls_hugging, _walls_near  # noqa: E402
+from link_models import MODELS, _state, _walls_hugging, _walls_near  # noqa: E402
 
 from gibbsimpact.contact import candidates as lp  # noqa: E402  (search_interval, end_joints only)
 from gibbsimpact.simulation.contacts import Contacts  # noqa: E402
@@ -201,7 +201,7 @@ def test_published_cases_with_link_contacts_are_the_joint_only_runs(name, monkey
     bound (1) searched 461 times in case 1)."""
     from pathlib import Path
 
-    case = gi.load_case(Path(__file__).resolve().parent.parent / "cases" / f"{name}.toml")
+    case = gi.load_case(Path(__file__).resolve().parents[2] / "cases" / f"{name}.toml")
     off = case.simulate(link_contacts=False)
     searches = []
     real = lp.closest_points

@@ -14,7 +14,7 @@ import pytest
 import gibbsimpact as gi
 from gibbsimpact.plotting import figures as plotting
 
-CASES = Path(__file__).resolve().parents[1] / "cases"
+CASES = Path(__file__).resolve().parents[2] / "cases"
 
 
 @pytest.fixture(scope="module")

@@ -152,7 +152,7 @@ def test_case_file_friction_key(tmp_path):
 
     from gibbsimpact.case.reader import CaseError
 
-    text = (Path(__file__).resolve().parents[1] / "cases" / "circle_two_link.toml").read_text()
+    text = (Path(__file__).resolve().parents[2] / "cases" / "circle_two_link.toml").read_text()
     assert text.count('type = "circle"') == 1
     good = tmp_path / "f.toml"
     good.write_text(text.replace('type = "circle"', 'type = "circle"\nfriction = 0.4'))

@@ -13,7 +13,7 @@ import gibbsimpact as gi
 from gibbsimpact.case.reader import RANGES, CaseError, _Reader, case_from_dict
 from conftest import PB_DROP_CASE
 
-CASES = Path(__file__).resolve().parents[1] / "cases"
+CASES = Path(__file__).resolve().parents[2] / "cases"
 
 # A small valid case (two rigid links would be singular when straight; one flexible
 # link with rotary inertia is the smallest regular chain).
@@ -458,7 +458,7 @@ def test_every_range_bound_is_enforced(range_key, side):
 
 
 def test_docs_give_every_range():
-    docs = (Path(__file__).resolve().parents[1] / "docs" / "case-format.md").read_text()
+    docs = (Path(__file__).resolve().parents[2] / "docs" / "case-format.md").read_text()
     rows = [ln for ln in docs.splitlines() if ln.startswith("|")]
     for range_key, rng in RANGES.items():
         leaf = range_key.rpartition(".")[2].lstrip("*")

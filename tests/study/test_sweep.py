@@ -23,7 +23,7 @@ import gibbsimpact as gi
 from gibbsimpact.cli.sweep import add_parser, main, parse_vary
 from gibbsimpact.study.sweep import RESULT_COLUMNS, expand_runs, run_id, sweep
 
-CASE = Path(__file__).resolve().parents[1] / "cases" / "circle_two_link.toml"
+CASE = Path(__file__).resolve().parents[2] / "cases" / "circle_two_link.toml"
 GRID = {"restitution": [0.5, 0.75, 1.0], "initial.coordinates.theta_1_deg": [-36, -33, -30, -27]}
 T_END = 0.55
 

@@ -17,7 +17,7 @@ pytest.importorskip("mkdocstrings_handlers.python")
 
 import gibbsimpact  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

@@ -21,7 +21,7 @@ import gibbsimpact as gi
 from gibbsimpact.cli import commands as cli
 from gibbsimpact.io import result_files as gio
 
-CASES = Path(__file__).resolve().parents[1] / "cases"
+CASES = Path(__file__).resolve().parents[2] / "cases"
 gsim = importlib.import_module("gibbsimpact.simulation.simulate")
 
 

@@ -7,7 +7,7 @@ import pytest
 from conftest import single_link_sphere_model, single_link_sphere_state, two_link_circle_model, two_link_circle_state
 
 import gibbsimpact as gi
-from test_cli import ZENO
+from conftest import ZENO
 from gibbsimpact.cli import commands as cli
 from gibbsimpact.io import result_files as gio
 from gibbsimpact.dynamics.gibbs_appell import forward_dynamics

@@ -20,43 +20,14 @@ from gibbsimpact.cli import commands as cli
 from gibbsimpact.io import result_files as gio
 from gibbsimpact import load_result
 from gibbsimpact.plotting.figures import FIGURES
-from conftest import PB_DROP_CASE
+from conftest import PB_DROP_CASE, ZENO
 
-CASES = Path(__file__).resolve().parents[1] / "cases"
+CASES = Path(__file__).resolve().parents[2] / "cases"
 
 # A rigid link dropped flat on a plane with e = 0.5: the bounce intervals halve,
 # so with zeno_interval_s = 0.05, zeno_count = 3 and accumulation = "stop" the run
 # stops (status zeno) after the 4th impact, at t ~ 0.124 s.
-ZENO = """
-name = "zeno_drop"
-gravity_m_per_s2 = [0.0, -9.81, 0.0]
-restitution = 0.5
 
-[[links]]
-length_m = 1.0
-mass_per_length_kg_per_m = 1.0
-EI_N_m2 = 20.0
-cross_section_radius_m = 0.01
-
-[[walls]]
-type = "plane"
-point_m = [0.0, 0.0, 0.0]
-normal = [0.0, 1.0, 0.0]
-
-[initial.coordinates]
-X1_m = -0.5
-X2_m = 0.01
-
-[time]
-t_end_s = 1.0
-
-[solver]
-rtol = 1e-8
-atol = 1e-10
-zeno_interval_s = 0.05
-zeno_count = 3
-accumulation = "stop"
-"""
 
 
 def nonblank(path):
@@ -374,7 +345,7 @@ def test_run_warnings_are_summed_up_after_the_error_line(tmp_path, capsys, monke
     assert code == 3 and len(lines) == 2
     assert lines[0].startswith("gibbsimpact: error: simulation stopped early (zeno)")
     assert lines[1].startswith("gibbsimpact: warning: 1 kind(s) of warning during the run, the first: "
-                               "RuntimeWarning: overflow encountered in scalar multiply (test_cli.py:")
+                               "RuntimeWarning: overflow encountered in scalar multiply (test_commands.py:")
 
 
 def test_show_fixed_base_fe_arm(capsys):

@@ -55,6 +55,7 @@ N_STATES = 2
 RTOL = 1e-13
 TINY = np.finfo(float).tiny
 TESTS_DIR = Path(__file__).resolve().parent
+TESTS_ROOT = TESTS_DIR.parent  # conftest.py, reference/
 JIT_DISABLED = _k.jit_disabled()
 needs_jit = pytest.mark.skipif(JIT_DISABLED, reason="NUMBA_DISABLE_JIT is set: nothing is compiled")
 
@@ -251,7 +252,7 @@ def _rel(a, b):
 def uncompiled(tmp_path_factory):
     path = tmp_path_factory.mktemp("kernel") / "uncompiled.npz"
     env = dict(os.environ, NUMBA_DISABLE_JIT="1")
-    code = (f"import sys; sys.path.insert(0, {str(TESTS_DIR)!r}); import test_kernel; "
+    code = (f"import sys; sys.path[:0] = [{str(TESTS_DIR)!r}, {str(TESTS_ROOT)!r}]; import test_kernel; "
             f"test_kernel._save_uncompiled({str(path)!r})")
     run = subprocess.run([sys.executable, "-c", code], check=False, env=env, cwd=TESTS_DIR, capture_output=True,
                          text=True, timeout=300)
@@ -436,11 +437,11 @@ def test_no_compile_notice_when_the_cache_is_warm(compiled):
     if not _k._state["cached"]:
         pytest.skip("numba has no cache location here")
     assert all(_k._cache_is_warm(v) is True for v in (_k.RIGID_ENDS, _k.REVOLUTE, _k.PRISMATIC))
-    code = ("import sys; sys.path.insert(0, %r); import numpy as np, test_kernel as tk; "
+    code = ("import sys; sys.path[:0] = [%r, %r]; import numpy as np, test_kernel as tk; "
             "from gibbsimpact.dynamics import gibbs_appell as dy; "
             "[dy.forward_dynamics(m, *tk.random_state(m, np.random.default_rng(0))) "
             "for m in (tk.two_link_circle_model(), tk.CHAINS['spatial_two_link'](), "
-            "tk.CHAINS['prismatic_planar']())]" % str(TESTS_DIR))
+            "tk.CHAINS['prismatic_planar']())]" % (str(TESTS_DIR), str(TESTS_ROOT)))
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_JIT"}
     run = subprocess.run([sys.executable, "-c", code], check=False, env=env, cwd=TESTS_DIR, capture_output=True,
                          text=True, timeout=300)

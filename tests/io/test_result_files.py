@@ -13,7 +13,7 @@ import pytest
 import gibbsimpact as gi
 from gibbsimpact.io import result_files as io
 
-CASES = Path(__file__).resolve().parents[1] / "cases"
+CASES = Path(__file__).resolve().parents[2] / "cases"
 
 
 @pytest.fixture(scope="module")

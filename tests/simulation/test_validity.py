@@ -15,7 +15,7 @@ from gibbsimpact.simulation import validity
 from gibbsimpact.simulation.results import Result
 from gibbsimpact.simulation.validity import ValidityWarning, check_state, check_stop, warn_state
 
-CASES = Path(__file__).resolve().parents[1] / "cases"
+CASES = Path(__file__).resolve().parents[2] / "cases"
 
 
 @pytest.fixture(scope="module")

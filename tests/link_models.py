@@ -1,0 +1,119 @@
+"""Chains and walls shared by the tests of contact candidates (tests/contact/test_candidates.py) and of
+contact along links in the event loop (tests/simulation/test_link_contacts.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import gibbsimpact as gi
+from gibbsimpact.contact import candidates as lp
+
+from conftest import random_state
+
+CC = "clamped-clamped"
+
+
+def _case1():
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode(CC, "y")])
+    return gi.Model(gi.Chain([link, link]))
+
+
+def _rigid():
+    link = gi.Link(0.8, 1.0, 20.0, rotary_inertia=(1e-4, 1e-4, 1e-4))
+    return gi.Model(gi.Chain([link, link, link]))
+
+
+def _spatial_modal():
+    a = gi.Link(1.0, 1.0, (20.0, 15.0), modes=[gi.Mode(CC, "y"), gi.Mode(CC, "z"), gi.Mode(CC, "y", 2)])
+    b = gi.Link(0.7, 1.2, 10.0, modes=[gi.Mode("clamped-free", "z"), gi.Mode("pinned-pinned", "y"),
+                                       gi.Mode("clamped-free", "y", 2)])
+    return gi.Model(gi.Chain([a, b]))
+
+
+def _fe():
+    return gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0, elements=4), gi.Link(0.9, 1.0, 20.0, elements=3)]))
+
+
+def _spatial_fe():
+    link = gi.Link(1.0, 1.0, 20.0, elements=4, element_directions=("y", "z"))
+    return gi.Model(gi.Chain([link, gi.Link(0.6, 1.0, 20.0, rotary_inertia=(1e-4, 1e-4, 1e-4))]))
+
+
+def _fe_off_grid():
+    """11 and 13 elements: the sample grid (105 points) misses nodes, brackets straddle them."""
+    return gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0, elements=11), gi.Link(0.8, 1.0, 20.0, elements=13)]))
+
+
+def _prismatic(kinds):
+    """A fixed-base planar arm: a 3-element host and a 2-element second link behind R, Pa or Pb."""
+    host = gi.Link(1.0, 1.0, 10.0, elements=3)
+    arm = gi.Link(0.6, 0.5, 2.0, elements=2)
+    joints = {"R-Pb": [gi.Revolute(), gi.FixedPrismatic(angle=0.3, range=(0.15, 0.6))],
+              "R-Pa": [gi.Revolute(), gi.SlidingPrismatic(angle=0.6, half_length=0.04, range=(0.05, 0.95))],
+              "Pb-R": [gi.FixedPrismatic(angle=0.5, range=(0.6, 1.0)), gi.Revolute()]}[kinds]
+    return gi.Model(gi.Chain([host, arm], joints=joints, base=gi.FixedBase((0.1, 0.2), 0.3)))
+
+
+def _prismatic_state(model, rng, delta=0.02):
+    q = np.zeros(model.n_dof)
+    qd = rng.normal(scale=0.5, size=model.n_dof)
+    for i, kind in enumerate(model.joint_kinds):
+        jt = model.chain.joints[i]
+        q[model.theta_index[i]] = rng.uniform(-0.8, 0.8) if kind == "R" else rng.uniform(*jt.range)
+    for idx in model.delta_index:
+        q[idx] = rng.normal(scale=delta, size=idx.size)
+    return q, qd
+
+
+MODELS = {
+    "rigid": _rigid, "case1": _case1, "spatial-modal": _spatial_modal, "fe": _fe, "spatial-fe": _spatial_fe,
+    "fe-off-grid": _fe_off_grid,
+    "R-Pb": lambda: _prismatic("R-Pb"), "R-Pa": lambda: _prismatic("R-Pa"), "Pb-R": lambda: _prismatic("Pb-R"),
+}
+
+
+def _state(model, rng, delta=0.05):
+    if not model.free_base:
+        return _prismatic_state(model, rng, delta)
+    return random_state(model, rng, delta=delta)
+
+
+def _walls_near(model, q, rng):
+    """A plane, a circle and a sphere that pass close to the chain (so that bulges matter)."""
+    a, b = lp.search_interval(model, q)
+    pts = np.concatenate([lp.material_points(model, q, i, np.linspace(a[i], b[i], 50)) for i in range(model.n_links)])
+    nv = rng.normal(size=3)
+    if model.planar:
+        nv[2] = 0.0
+    nv /= np.linalg.norm(nv)
+    low = pts[np.argmin(pts @ nv)]
+    plane = gi.Plane(low - 0.01 * nv, nv)
+    c = pts.mean(axis=0) + rng.normal(scale=0.05, size=3)
+    circle = gi.Circle(np.max(np.hypot(*(pts[:, :2] - c[:2]).T)) + 0.01, c[:2])
+    sphere = gi.Sphere(np.max(np.linalg.norm(pts - c, axis=1)) + 0.01, c)
+    return [plane, circle, sphere]
+
+
+def _walls_hugging(model, q, i, rng):
+    """A plane, a circle and a sphere on the side towards which link i bulges (its mid-point off
+    the chord): the minimum of their gaps along link i is then inside the link."""
+    a, b = lp.search_interval(model, q)
+    pa, pm, pb = lp.material_points(model, q, i, [a[i], 0.5 * (a[i] + b[i]), b[i]])
+    chord = (pb - pa) / np.linalg.norm(pb - pa)
+    u = pm - 0.5 * (pa + pb)
+    u -= (u @ chord) * chord
+    if model.planar:
+        u[2] = 0.0
+    bulge = np.linalg.norm(u)
+    u /= bulge
+    tilt = rng.normal(scale=0.1 * bulge, size=3) * (0 if model.planar else 1)
+    plane = gi.Plane(pm + 0.01 * u, -u + tilt)
+    D = (np.linalg.norm(pb - pa) ** 2 / (4 * bulge)) * rng.uniform(1.0, 2.0)
+    c = pm - D * u
+    uc = u[:2] / np.linalg.norm(u[:2])
+    cc = pm[:2] - D * uc
+    allp = np.concatenate([lp.material_points(model, q, k, np.linspace(0, model.chain.links[k].length, 50))
+                           for k in range(model.n_links)])
+    circle = gi.Circle(np.max(np.hypot(*(allp[:, :2] - cc).T)) + 0.01, cc)
+    sphere = gi.Sphere(np.max(np.linalg.norm(allp - c, axis=1)) + 0.01, c)
+    return [plane, circle, sphere]
