@@ -45,7 +45,7 @@ that fails prints its error and the next one runs):
 6. benchmarks/scaling.png: per-call cost against n, log-log, for gibbsimpact
    (rigid, 1 mode, 2 modes), Pinocchio and the symbolic route.
 7. Prismatic joints: ``forward_dynamics`` per call on a planar 3-link chain on a
-   fixed base with joints R, Pa, Pb (formulation.md 10.1-10.3), each link a
+   fixed base with joints R, Pa, Pb (docs/theory.md §7.2, §7.3, §7.4), each link a
    Hermite finite-element beam of 4 elements (N = 3 + 3 x 8 = 27), next to the
    all-revolute chain R, R, R of the same links and elements (N = 27), and
    against the independent planar derivation tests/reference/planar_oracle.py

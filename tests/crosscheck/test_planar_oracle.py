@@ -1,8 +1,8 @@
-"""The package's planar R / Pa / Pb dynamics against an independent oracle (formulation.md 14.11).
+"""The package's planar R / Pa / Pb dynamics against an independent oracle (docs/design-notes.md, Tests).
 
 ``tests/reference/planar_oracle.py`` derives M, h, dV/dq, qddot, the energies and the
 joint points of planar chains on a fixed base from the position map p(q, i, x) of
-formulation.md section 10, differentiated by forward-mode jets and integrated with an
+docs/theory.md §7.1, differentiated by forward-mode jets and integrated with an
 exact Gauss rule (Gibbs-Appell form, section 12). It shares no code with the package.
 
 1. Oracle self-checks (no package needed): rigid closed forms, the element matrices of

@@ -1,4 +1,4 @@
-"""Rigid limit of planar chains with R, Pa and Pb joints on a fixed base (formulation.md section 14.5).
+"""Rigid limit of planar chains with R, Pa and Pb joints on a fixed base (docs/design-notes.md, Tests).
 
 With every elastic coordinate and its rate zero (``delta = 0``, ``delta_dot = 0``) each link's
 deflection ``v`` vanishes identically, so the position map (10.1) is that of a chain of rigid
@@ -11,7 +11,7 @@ uniform rods. Then
   ``1/2 delta^T K(d) delta`` has zero gradient at ``delta = 0``.
 
 The reference below is written by hand from the rigid two-body (n-body) kinematics of
-formulation.md section 10 with ``v = 0``; it shares no code with the package. It is checked
+docs/theory.md §7.1 with ``v = 0``; it shares no code with the package. It is checked
 here against textbook closed forms (pendulum, double pendulum, cart-pendulum, telescoping arm,
 rod in a guide) and against a second route (the transforms of section 10 multiplied out,
 derivatives by finite differences), and was checked once, outside the suite, against Lagrange's equations derived
@@ -176,7 +176,7 @@ def joint_names(kinds):
 
 def random_joints(spec, ranges, rng):
     """Joint values: angles in (-pi, pi), d inside its range; a carriage on a Pb link stays on
-    the protruding part, d_i - c_i >= l_(i-1) - d_(i-1) (formulation.md 10.2)."""
+    the protruding part, d_i - c_i >= l_(i-1) - d_(i-1) (docs/theory.md §7.3)."""
     q = np.empty(len(spec))
     for i, ((kind, _, _, _), r) in enumerate(zip(spec, ranges)):
         if kind == "R":
@@ -276,7 +276,7 @@ def test_reference_reproduces_textbook_closed_forms():
 
 def _transform_product_model(spec, q, qd, base=BASE, beta=BETA, gravity=GRAVITY, eps=1e-6, eps2=1e-4):
     """A second, cruder route to the same rigid robot: the 3x3 homogeneous transforms of
-    formulation.md 10 multiplied out (T_i = T_(i-1) G_i), p = T_i (x, 0, 1), the rod integrals by
+    docs/theory.md §7.1 multiplied out (T_i = T_(i-1) G_i), p = T_i (x, 0, 1), the rod integrals by
     2-point Gauss (exact: quadratic in x), dp/dq by central differences and the velocity-product
     acceleration by a second central difference along q_dot. Accuracy ~1e-8."""
     def Rz(a):
@@ -361,7 +361,7 @@ def test_rigid_limit_equals_rigid_robot(combo, rigid):
 
 @pytest.mark.parametrize("combo", ["R-Pa", "Pa-Pa"])
 def test_zero_half_length_allowed_on_rigid_host_and_base_rail(combo):
-    """c = 0 is allowed when the host's deflection is C^2 (rigid host, base rail; formulation.md 10.2)."""
+    """c = 0 is allowed when the host's deflection is C^2 (rigid host, base rail; docs/theory.md §7.3)."""
     kinds = combo.split("-")
     lengths = [p[0] for p in LINKS2]
     ranges = _ranges(kinds, lengths)

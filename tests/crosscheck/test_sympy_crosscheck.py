@@ -10,7 +10,7 @@ compares the package with it at random states:
 
     ||M_pkg - M_ref|| / ||M_ref|| <= 1e-9,   ||qdd_pkg - qdd_ref|| / ||qdd_ref|| <= 1e-9
 
-Chains d-f have Hermite finite-element links (formulation.md sec. 9.4: behind a
+Chains d-f have Hermite finite-element links (docs/theory.md §4.4: behind a
 revolute joint the global Hermite functions are assumed modes); the oracle
 integrates its own Hermite basis exactly in rational arithmetic.
 Measured relative-error maxima (M and qdd over 20 states, qdd at qdot = 0 over 3):
@@ -160,7 +160,7 @@ def _fraction(r):
 
 
 def _textbook_fe(l, mu, EI, n_e):
-    """formulation.md sec. 9.2/9.3 by hand, in exact rational arithmetic: the element
+    """docs/theory.md §4.2, §4.3 by hand, in exact rational arithmetic: the element
     matrices eq. (13)/(27) and load vectors, assembled, node 0's rows/columns deleted."""
     h = Fraction(l) / n_e
     mu, EI = Fraction(mu), Fraction(EI)
@@ -219,7 +219,7 @@ def test_oracle_fe_integrals_equal_textbook_element_matrices(n_e):
 
 def test_oracle_fe_link_integrals_and_frequencies():
     """y+z FE link: shared Hermite basis, EI_z for y, EI_y for z, no stiffness coupling;
-    clamped-free frequencies from (K, S) approach beta_k l from above (formulation.md sec. 9.4)."""
+    clamped-free frequencies from (K, S) approach beta_k l from above (docs/theory.md §4.4)."""
     from scipy.linalg import eigh
 
     l, mu, EI_y, EI_z, n_e = 0.8, 1.3, 15.0, 25.0, 4
@@ -285,7 +285,7 @@ def _trans(p):
 
 
 def test_oracle_kinematics_match_4x4_products(chain):
-    """Joint points O_1..O_(n+1) of the sympy frames = the 4x4 product of formulation.md sec. 2."""
+    """Joint points O_1..O_(n+1) of the sympy frames = the 4x4 product of docs/theory.md §2."""
     name, spec, ref = chain
     links = ref_links(spec)
     ints = [modal_integrals(lk) for lk in links]

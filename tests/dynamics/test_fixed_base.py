@@ -1,4 +1,4 @@
-"""Fixed-base chains (formulation.md section 13): closed forms, the free-base route, energy, impacts, inputs."""
+"""Fixed-base chains (docs/theory.md §8, §9, §13): closed forms, the free-base route, energy, impacts, inputs."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Prismatic joints (formulation.md sections 10.2, 10.3, 13, 14): invariants of simulated motion,
+"""Prismatic joints (docs/theory.md §7.3, §7.4, §8, §9, §13; docs/design-notes.md, Tests): invariants of simulated motion,
 stretching elements of a Pb link, joint limits.
 
 The independent second derivation is in tests/test_planar_oracle.py, the rigid closed
@@ -66,7 +66,7 @@ DURATION = {"R-Pa": 1.0, "R-Pb": 1.0, "Pa-R": 1.0, "Pb-R": 0.5, "Pb-Pa": 0.5}
 
 @pytest.mark.parametrize("name", sorted(CHAINS))
 def test_energy_is_conserved_without_inputs(name, rng):
-    # formulation.md 14.7: max |E(t) - E(0)| / (|T| + |V_g| + |V_s|)_0 <= 1e-9 over 1 s, DOP853 rtol 1e-11.
+    # docs/design-notes.md, Tests: max |E(t) - E(0)| / (|T| + |V_g| + |V_s|)_0 <= 1e-9 over 1 s, DOP853 rtol 1e-11.
     joints, values = CHAINS[name]
     model = _model(joints, elements=(3, 2) if name == "R-Pa" else (2, 2))
     q0, qd0 = _state(model, values, rng, delta=0.01 if name == "R-Pa" else 0.0)
@@ -87,7 +87,7 @@ def test_energy_is_conserved_without_inputs(name, rng):
 
 
 def test_power_balance_with_inputs(rng):
-    # formulation.md 14.8: E(t) - E(0) - int qdot.Q dt = 0 (a torque on theta_1, a force on d_2).
+    # docs/design-notes.md, Tests: E(t) - E(0) - int qdot.Q dt = 0 (a torque on theta_1, a force on d_2).
     model = _model([gi.Revolute(), _pb()])
     q0, qd0 = _state(model, [0.4, 0.35], rng)
     inputs = {"theta_1": lambda t, q, qd: 2.0 * np.sin(3.0 * t), "d_2": lambda t, q, qd: 0.5 - 2.0 * (q[1] - 0.35)}
@@ -102,7 +102,7 @@ def test_power_balance_with_inputs(rng):
 
 
 def test_free_planar_chain_conserves_momentum(rng):
-    # formulation.md 14.7: a floating planar chain without gravity keeps L and H (<= 1e-9).
+    # docs/design-notes.md, Tests: a floating planar chain without gravity keeps L and H (<= 1e-9).
     host = gi.Link(1.0, 1.0, 25.0, elements=2)
     arm = gi.Link(0.6, 0.5, 4.0, elements=2)
     model = gi.Model(gi.Chain([host, arm], joints=[gi.Revolute(), _pb()], base="planar"), gravity=(0.0, 0.0, 0.0))
@@ -137,7 +137,7 @@ def test_planar_base_equals_fixed_base_with_frozen_translation(rng):
 
 
 def test_mass_matrix_is_continuous_across_host_nodes():
-    # formulation.md 14.9: the carriage's contact point d + c crosses the host node at 1/3 m.
+    # docs/design-notes.md, Tests: the carriage's contact point d + c crosses the host node at 1/3 m.
     model = _model([gi.Revolute(), _pa()], gravity=(0.0, 0.0, 0.0))
     rng = np.random.default_rng(3)
     q, _ = _state(model, [0.4, 0.0], rng, delta=0.03)
@@ -164,7 +164,7 @@ def _pb_arm(n_e, EI=3.0, mu=0.7, length=1.0):
 
 @pytest.mark.parametrize("d", [0.25, 0.6, 1.0])
 def test_pb_element_matrices_equal_eq_13_and_27_with_the_protruding_length(d):
-    # formulation.md 14.1: with h = d / n_e the elastic block of M and the stiffness are the
+    # docs/design-notes.md, Tests: with h = d / n_e the elastic block of M and the stiffness are the
     # assembled eq. (13) and (27).
     n_e, EI, mu = 3, 3.0, 0.7
     model = _pb_arm(n_e, EI, mu)
@@ -178,7 +178,7 @@ def test_pb_element_matrices_equal_eq_13_and_27_with_the_protruding_length(d):
 
 @pytest.mark.parametrize("d", [0.3, 0.7])
 def test_pb_frequencies_converge_with_order_four(d):
-    # formulation.md 14.2: clamped-free link of length d behind a fixed guide.
+    # docs/design-notes.md, Tests: clamped-free link of length d behind a fixed guide.
     EI, mu = 3.0, 0.7
     exact = BETA_L[:2] ** 2 * np.sqrt(EI / (mu * d**4))
     errs = []
@@ -196,7 +196,7 @@ def test_pb_frequencies_converge_with_order_four(d):
 
 
 def test_pb_strain_force_on_the_sleeve():
-    # dV_s/dd = 1/2 delta^T K'(d) delta, K'_kl = (a_k + a_l - 3) K_kl / d (formulation.md 11):
+    # dV_s/dd = 1/2 delta^T K'(d) delta, K'_kl = (a_k + a_l - 3) K_kl / d (docs/theory.md §7.6):
     # against a central difference of the strain energy at fixed delta.
     model = _pb_arm(3)
     rng = np.random.default_rng(2)
@@ -219,7 +219,7 @@ def _limit_run(**kw):
 
 
 def test_joint_limit_stops_at_the_event_time():
-    # formulation.md 14.10: the stop time against a root of d_2(t) - d_max on a dense trajectory
+    # docs/design-notes.md, Tests: the stop time against a root of d_2(t) - d_max on a dense trajectory
     # computed without events.
     model, q0, qd0, res = _limit_run()
     assert res.status == "joint_limit"

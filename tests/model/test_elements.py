@@ -1,4 +1,4 @@
-"""Hermite finite-element links (formulation.md section 9): basis, element matrices, frequencies, dynamics."""
+"""Hermite finite-element links (docs/theory.md §4): basis, element matrices, frequencies, dynamics."""
 
 import numpy as np
 import pytest
@@ -75,7 +75,7 @@ def test_fe_frequencies_converge_with_order_four():
     order_2 = np.log2(err[8] / err[16])
     assert np.all((3.8 <= order_1[0]) & (order_1[0] <= 4.2)), order_1
     assert np.all((3.8 <= order_2) & (order_2 <= 4.2)), order_2
-    # Mode 2 at 4 -> 8 elements is pre-asymptotic (2.9): formulation.md section 14.2 asks 8 -> 16 too.
+    # Mode 2 at 4 -> 8 elements is pre-asymptotic (2.9): docs/design-notes.md, Tests asks 8 -> 16 too.
     assert 3.8 <= order_1[1] + 1.0
     assert err[8][0] == pytest.approx(2.08e-6, rel=0.01) and err[16][0] == pytest.approx(1.31e-7, rel=0.01)
 
@@ -91,7 +91,7 @@ def _linearised_elastic_frequencies(model, k=2):
 
 
 def test_fe_and_modal_chains_converge_to_one_limit():
-    # formulation.md section 14.4: a two-link chain with FE links and with clamped-free
+    # docs/design-notes.md, Tests: a two-link chain with FE links and with clamped-free
     # modes. FE errors against 24 elements fall like h^4; modal errors fall slowly.
     def chain(**disc):
         link = gi.Link(1.0, 1.0, 20.0, rotary_inertia=(1e-4, 0, 0), **disc)

@@ -6,7 +6,7 @@ A second derivation of the equations of motion
 
     M(q) qddot = Q - h(q, qdot) - dV/dq
 
-of the planar chains of ``shared/design/formulation.md`` sections 8-14: a fixed
+of the planar chains of ``shared/design/docs/theory.md §8, §4, §7.1, §7.6, §9, §13; docs/design-notes.md, Tests: a fixed
 base, revolute (R), sliding-prismatic (Pa, a carriage of half-length c running
 along the host) and fixed-prismatic (Pb, the link slides through a guide at the
 host's tip) joints, links that are rigid or discretised by Hermite cubic finite
@@ -25,7 +25,7 @@ Method (different from the kernel's 4x4 recursion)
        o' = o + exp(i theta) t,      theta' = theta + a,
        p(q, i, x) = o_i + exp(i theta_i) (x + i v_i(x; q))                (10.1)
 
-   with the frames of formulation.md section 10 (see ``PlanarChain._frames``).
+   with the frames of docs/theory.md §7.1 (see ``PlanarChain._frames``).
    No 4x4 transforms, no twists, no recursion over derivatives: only this map.
 2. Everything is evaluated with ``Jet``: a forward-mode number carrying
    (value, first, second) derivatives along one direction s. With

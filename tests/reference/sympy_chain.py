@@ -1,6 +1,6 @@
 """Independent symbolic derivation of a free-flying flexible chain (test oracle).
 
-This module re-derives, from ``shared/design/formulation.md`` sections 1-4 and
+This module re-derives, from ``shared/design/docs/theory.md §1, §2, §3, §6 and
 with *no code shared with gibbsimpact*, the equations of motion
 
     M(q) qddot = forcing(q, qdot)
@@ -23,7 +23,7 @@ package's recursive 4x4 Gibbs-Appell algorithm:
   two routes agree to ~1e-15 on the three test chains);
 * ``lambdify(..., cse=True)`` so that tests can evaluate at random states.
 
-Conventions (binding, formulation.md):
+Conventions (binding, docs/theory.md §1-§3):
 
     q = [X1, X2, X3, th_m1, th_0, th_1, ..., th_n, delta_1_1 .. delta_n_mn]
     T_1 = Trans(X) Rx(th_m1) Ry(th_0) Rz(th_1)
@@ -35,7 +35,7 @@ Conventions (binding, formulation.md):
     V = - sum_i int mu g.p dx + 1/2 sum_i delta_i^T K_i delta_i
     K_kl = int EI_z psi_k'' psi_l'' (y-modes), int EI_y psi_k'' psi_l'' (z-modes)
 
-Hermite cubic finite-element links (formulation.md sec. 9, 9.4): a RefLink with
+Hermite cubic finite-element links (docs/theory.md §4, §4.4): a RefLink with
 ``elements = n_e > 0`` has, per direction in ``element_directions``, the 2 n_e
 global Hermite functions psi_k of sec. 9.1 as its assumed modes, coordinates
 (w_1, t_1, ..., w_ne, t_ne) per direction, the direction sets in the order given.
@@ -86,8 +86,7 @@ class RefMode:
 class RefLink:
     """One uniform link. EI_y bends along z (w), EI_z bends along y (v).
 
-    ``elements = n_e > 0``: Hermite cubic finite elements (formulation.md sec. 9.1,
-    9.4) instead of ``modes``; 2 n_e coordinates (w_1, t_1, ..., w_ne, t_ne) per
+    ``elements = n_e > 0``: Hermite cubic finite elements (docs/theory.md §4.1, §4.4) instead of ``modes``; 2 n_e coordinates (w_1, t_1, ..., w_ne, t_ne) per
     direction in ``element_directions`` (in that order; "y" uses EI_z, "z" EI_y).
     A link with a successor may have only one of the two directions (Rot(phi)).
     """
@@ -190,7 +189,7 @@ class ModeShape:
 
 _X = sp.Symbol("x")
 _ETA = sp.Symbol("eta")
-# local Hermite cubics of formulation.md sec. 9.1
+# local Hermite cubics of docs/theory.md §4.1
 HERMITE = (
     1 - 3 * _ETA**2 + 2 * _ETA**3,  # H1
     _ETA - 2 * _ETA**2 + _ETA**3,  # H2
@@ -200,7 +199,7 @@ HERMITE = (
 
 
 class HermiteBasis:
-    """Global Hermite basis psi_1 .. psi_(2 n_e) on [0, l] (formulation.md sec. 9.1).
+    """Global Hermite basis psi_1 .. psi_(2 n_e) on [0, l] (docs/theory.md §4.1).
 
     Node 0 is clamped and removed; psi_(2j-1) (deflection w_j) is H3 on element j
     and H1 on element j+1, psi_(2j) (slope t_j) is h H4 on element j and h H2 on

@@ -883,7 +883,7 @@ def _joint(r: _Reader, link_tbl, path: str):
 
 
 def _chain_ok(r: _Reader, links, joints, base) -> bool:
-    """The rules of a chain with prismatic joints or a planar base (formulation.md 8, 10.2, 10.3, 13),
+    """The rules of a chain with prismatic joints or a planar base (docs/theory.md §8, §7.3, §7.4, §9, §13),
     each reported at the key to change."""
     ok = True
     kinds = [j.kind for j in joints]
@@ -938,7 +938,7 @@ def _chain_ok(r: _Reader, links, joints, base) -> bool:
             r.add(_join(p, "half_length_m"),
                   f"must be > 0 on a finite-element host (links[{h}].elements = {host.elements}), got {_fmt(c)}: a "
                   "point carriage follows the host's slope, whose derivative jumps at every element node, so the "
-                  f"mass matrix would jump there (formulation.md 10.2); e.g. half_length_m = "
+                  f"mass matrix would jump there (docs/theory.md §7.3); e.g. half_length_m = "
                   f"{_fmt(float(f'{host.length / host.elements / 10:.1g}'))}")
             ok = False
         if lo < c - 1e-12 or hi > host.length - c + 1e-12:

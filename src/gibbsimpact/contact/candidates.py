@@ -4,7 +4,7 @@ The points themselves, p(q, i, x) = (T_i(q) r_i(x))[:3] with r_i(x) = (x, v_i(x)
 their Jacobian and acceleration term are gibbsimpact.dynamics.link_points (material_points,
 material_jacobian; re-exported here). For a link behind a FixedPrismatic (Pb) guide, v depends
 on the protruding length d as well: v = sum_k d^(a_k) N_k(xi) delta_k on the protruding part
-sigma = x - (l - d) in [0, d], xi = sigma / d, and v = 0 behind the guide (formulation.md 10.3).
+sigma = x - (l - d) in [0, d], xi = sigma / d, and v = 0 behind the guide (docs/theory.md §7.4).
 
 Functions, all pure f(model, q, ...):
 
@@ -190,7 +190,7 @@ class _Tables:
         self.s_grid = self.Lc[:, None] * u[None, :]
         self.s_grid[:, -1] = self.Lc  # the far end exactly
         # Local samples r(s) and dr/ds of every link, linear in qe: r = r0 + A qe, rows (order, link, sample,
-        # component) [formulation.md 10.1: x = s, or x = l + (s - 1) d on a Pb link; v, w from the stencils].
+        # component) [docs/theory.md §7.2: x = s, or x = l + (s - 1) d on a Pb link; v, w from the stencils].
         L = np.repeat(np.arange(n), S)
         wt, ix = _stencils(self, L, self.s_grid.ravel(), 2)
         r0 = np.zeros((2, n, S, 3))
@@ -353,7 +353,7 @@ def _state(model, tab: _Tables, qs) -> _State:
     """Frames of the K states qs (K, N) from one kernel call, and the effective coordinates.
 
     qe: q with the slope coordinates of Pb links times d (so that v = sum_k N_k(xi) qe_k,
-    formulation.md 10.3) and a zero slot at index N for the stencils' padding.
+    docs/theory.md §7.4) and a zero slot at index N for the stencils' padding.
     """
     K, N, n = qs.shape[0], tab.N, tab.n
     job = _k.JOB_FRAMES

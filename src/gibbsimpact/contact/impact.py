@@ -1,4 +1,4 @@
-"""Impact phase: Newton's restitution law as an impulse problem (formulation.md section 6).
+"""Impact phase: Newton's restitution law as an impulse problem (docs/theory.md §11).
 
 Symbols: M (N, N) mass matrix, W (N, k) with columns J_j^T n_j (J_j the
 (3, N) Jacobian of contact point j, n_j its unit wall normal into the free

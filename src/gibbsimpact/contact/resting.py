@@ -1,4 +1,4 @@
-"""Resting (sustained) contact: the contact-mode stage of the event loop (formulation.md sections 4-7).
+"""Resting (sustained) contact: the contact-mode stage of the event loop (docs/theory.md §6, §10, §11, §14).
 
 A pair a = (wall w, contact point O_j) is *active* when it is held closed,
 g_a(q) = g_w(O_j(q)) = 0, by a normal force lambda_a >= 0 [N]. With the active

@@ -1,4 +1,4 @@
-"""Walls: gap functions g(p) > 0 inside the admissible region (formulation.md section 5).
+"""Walls: gap functions g(p) > 0 inside the admissible region (docs/theory.md §10).
 
 Every wall has ``gap(p)`` and ``normal(p)`` for points p of shape (K, 3) [m]
 (``geometry(p, v)``: gap, normal and curvature term from one distance computation);

@@ -1,4 +1,4 @@
-"""Applied generalised forces: joint inputs and structural damping (formulation.md section 13).
+"""Applied generalised forces: joint inputs and structural damping (docs/theory.md §9).
 
 The equations of motion with applied forces are
 
@@ -32,7 +32,7 @@ import scipy.linalg as sl
 
 def _pb_stiffness(link, d: float) -> np.ndarray:
     """K(d) (m, m) of a link behind a FixedPrismatic guide with protruding length d [m]:
-    K_kl = EI d^(a_k + a_l - 3) K^_kl (formulation.md 11; assembled eq. (27) with h = d / n_e)."""
+    K_kl = EI d^(a_k + a_l - 3) K^_kl (docs/theory.md §7.6; assembled eq. (27) with h = d / n_e)."""
     from ..model.elements import assemble, element_stiffness
 
     return assemble(element_stiffness(link.EI_z, d / link.elements), link.elements)

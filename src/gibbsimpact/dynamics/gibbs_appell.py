@@ -1,4 +1,4 @@
-"""Gibbs-Appell equations of the flight phase (formulation.md section 4).
+"""Gibbs-Appell equations of the flight phase (docs/theory.md §6).
 
 All functions are pure: ``f(model, q, qdot)`` with q, qdot of shape (N,).
 They are thin wrappers of the compiled kernel (``kernel.py``, whose module

@@ -1,4 +1,4 @@
-"""Kinematics of the chain (formulation.md sections 2 and 4), computed by the compiled kernel.
+"""Kinematics of the chain (docs/theory.md §2, §6), computed by the compiled kernel.
 
 Frames, from the inertial frame outwards::
 

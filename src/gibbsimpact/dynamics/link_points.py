@@ -51,7 +51,7 @@ def _check_abscissae(model, i, x):
 
 
 def material_points(model, q, i: int, x) -> np.ndarray:
-    """World positions p = (T_i r_i(x))[:3] of link i's material points (formulation.md 10.1).
+    """World positions p = (T_i r_i(x))[:3] of link i's material points (docs/theory.md §7.2).
 
     Parameters
     ----------
@@ -71,7 +71,7 @@ def material_points(model, q, i: int, x) -> np.ndarray:
 
 
 def _local_derivatives(model, q, qdot, i, x):
-    """r (4,), dr/dq (N, 4), rdot (4,), rddot0 (4,) of link i's material point at x (formulation.md 10.3).
+    """r (4,), dr/dq (N, 4), rdot (4,), rddot0 (4,) of link i's material point at x (docs/theory.md §7.4).
 
     Ordinary links: dr/d delta_k = (e_dir psi_k(x), 0), rddot0 = 0. Pb link (d, stretching
     elements, xi = (x - l + d) / d, Phi_k = d^(a_k) N_k(xi) on xi >= 0, 0 behind the guide):
@@ -117,7 +117,7 @@ def material_jacobian(model, q, qdot, i: int, x: float):
     """Position, Jacobian and velocity-product acceleration of link i's material point at x.
 
     p = (T_i r)[:3],  J = dp/dq:  J[:, c] = (dT_i/dq_c r + T_i dr/dq_c)[:3],
-    a0 = Jdot qdot = (Tddot0_i r + 2 Tdot_i rdot + T_i rddot0)[:3]     (formulation.md 4)
+    a0 = Jdot qdot = (Tddot0_i r + 2 Tdot_i rdot + T_i rddot0)[:3]     (docs/theory.md §6)
 
     so that pddot = J qddot + a0. dT_i/dq_c is exact, not a finite difference: the kernel's
     Tdot is linear in qdot, so the frames of the states (q, e_c) give Tdot = dT_i/dq_c; one

@@ -8,7 +8,7 @@ public wrappers are in ``kinematics.py`` and ``dynamics.py``.
 Derivation: a composite-body recursion in the 4x4 form (O(n^2))
 --------------------------------------------------------------------------
 
-Notation (formulation.md sections 2 and 4): link i has the frame T_i (4x4),
+Notation (docs/theory.md §2, §6): link i has the frame T_i (4x4),
 material points p(x) = T_i r(x), r(x) = r0(x) + sum_l psihat_l(x) delta_l,
 psihat_l = (e_{a_l} psi_l(x), 0) with a_l in {y, z} the bending axis of mode l.
 
@@ -53,10 +53,9 @@ psihat_l = (e_{a_l} psi_l(x), 0) with a_l in {y, z} the bending axis of mode l.
 5. *Rotary inertia* J = l diag(j_x, j_y, j_z) about the link frame enters as the
    pseudo-inertia Sigma = tr(J)/2 I - J added to P_i[:3, :3]: a body with
    second moment Sigma has angular momentum J omega and Gibbs function
-   1/2 alpha.J alpha + alpha.(omega x J omega), the term of formulation.md
-   section 4 (Gibbs-Appell of a rigid body is linear in its pseudo-inertia).
+   1/2 alpha.J alpha + alpha.(omega x J omega), the term of docs/theory.md §6 (Gibbs-Appell of a rigid body is linear in its pseudo-inertia).
 
-6. *Prismatic joints* (formulation.md 10, 12). A Pa carriage and a Pb guide are
+6. *Prismatic joints* (docs/theory.md §7.1, §7.6). A Pa carriage and a Pb guide are
    local transforms like the others (_pa_step, _pb_step): each coordinate they
    depend on gets its world twist. A Pb link's d also deforms the link's own
    material (chi = dv/dd at fixed x): d is then an *own* coordinate of that link
@@ -461,7 +460,7 @@ def _joint_field(fdat, idat, link, k):
 
 def _hermite_at(ne, length, x, out):
     """The (up to) four global Hermite functions of an n_e-element link that are non-zero at
-    abscissa x [m] (formulation.md 9.1): out[r] = (local index k, psi_k, psi_k', psi_k'')
+    abscissa x [m] (docs/theory.md §4.1): out[r] = (local index k, psi_k, psi_k', psi_k'')
     for r = 0..3 (k = -1 for the clamped node's two). The element is the one containing x
     (the left one at a node: psi and psi' are continuous there, psi'' takes its left value)."""
     h = length / ne
@@ -496,7 +495,7 @@ def _host_shapes(fdat, idat, link, q, x, out):
     """The (up to) four host functions of link ``link`` non-zero at host abscissa x [m]:
     out[r] = (local index k, psi_k, d/dx, d2/dx2, d/dD, d2/dD2, d2/dxdD), r = 0..3.
 
-    An FE host (formulation.md 9.1): psi_k(x), D-derivatives zero. A Pb host with
+    An FE host (docs/theory.md §4.1): psi_k(x), D-derivatives zero. A Pb host with
     protruding length D (10.3): psi_k = Phi_k(sigma; D) = D^a_k N_k(xi), sigma = x - (l - D),
     xi = sigma / D, and at fixed x (11, 12 item 2):
       d/dx = D^(a-1) N',  d2/dx2 = D^(a-2) N'',  d/dD = rho = D^(a-1) F,  F = a N + (1 - xi) N',
@@ -533,7 +532,7 @@ def _host_shapes(fdat, idat, link, q, x, out):
 
 
 def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
-    """T <- T G for the carriage of joint ``link`` (formulation.md 10.2, 12 item 1);
+    """T <- T G for the carriage of joint ``link`` (docs/theory.md §7.3, §7.6);
     the world twists of d_i and of every host coordinate into B[ss + c] (and, on a
     flexible Pb host with protruding length D = d_(i-1), D's second twist into B[ss + N + D's index]).
 
@@ -670,7 +669,7 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
 
 
 def _pb_step(fdat, idat, link, q, qd, vel, B, w, ss):
-    """T <- T Rz(gamma) Trans(d - l, 0) for the guide of joint ``link`` (formulation.md 10.3);
+    """T <- T Rz(gamma) Trans(d - l, 0) for the guide of joint ``link`` (docs/theory.md §7.4);
     the world twist of d into B[ss + d]: a translation along the guide axis,
     S_d = [[0, x-axis of T Rz(gamma)], [0, 0]].
     Td' = Td + ddot x-column in the origin, Tdd0' = Tdd0 + 2 ddot Td's x-column (G constant in the rotation)."""
@@ -721,7 +720,7 @@ def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w, pris, ends):
         base = _H + _CI * N + _LI * i
         th = idat[base + 2]
         jk = idat[base + 5]
-        # R and Pb joints sit at the host's tip: the host's end E_(i-1) first (formulation.md 10).
+        # R and Pb joints sit at the host's tip: the host's end E_(i-1) first (docs/theory.md §7.1).
         if i > 0 and jk != JOINT_PA:
             _end_step(fdat, idat, i - 1, q, qd, vel, B, w, ss, ends)
         if pris is None or jk == JOINT_R:
@@ -751,7 +750,7 @@ def _sd_stride(mmax):
 
 
 def _pb_moments(fdat, idat, link, q, qd, SD, o):
-    """Shape moments of a Pb link at the current d (formulation.md 10.3, 11, 12 item 2) into SD[o:].
+    """Shape moments of a Pb link at the current d (docs/theory.md §7.4, §7.6) into SD[o:].
 
     Own shapes phi_l (l < m: Phi_l = d^a_l N_l(xi); l = m: chi = dv/dd at fixed x =
     sum_k delta_k rho_k, rho_k = d^(a_k - 1) F_k, F_k = a_k N_k + (1 - xi) N_k'), on the
@@ -1452,7 +1451,7 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
 def _extra_points(fdat, idat, q, B, ts, ss, out, o_pts, o_jac, job, npts, k):
     """The tips of host links h whose child joint is prismatic (contact points n + 1 ..):
     p = T_h (l_h e_x + sum end_t_k delta_k, 1),  dp/dq_c = (S_c p)[:3] for f_c <= h,
-    R_h end_t_k for h's own delta_k (formulation.md 10: E_h is not on the chain's path)."""
+    R_h end_t_k for h's own delta_k (docs/theory.md §7.1: E_h is not on the chain's path)."""
     n = idat[0]
     N = idat[1]
     x = n + 1

@@ -1,4 +1,4 @@
-"""Hermite cubic finite elements of a link (formulation.md section 9).
+"""Hermite cubic finite elements of a link (docs/theory.md §4).
 
 A link of length l [m] is cut into n_e elements of length h = l / n_e with
 nodes x_j = j h. Node 0 is clamped to the link frame (v(0) = v'(0) = 0) and

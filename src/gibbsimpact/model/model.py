@@ -4,7 +4,7 @@ Everything that depends only on the model (modal integrals, stiffness
 matrices, end values of the mode shapes) is computed once here, so the
 dynamics kernel (:mod:`gibbsimpact.dynamics`) only does q-dependent work.
 
-Coordinates (formulation.md section 1), in this order::
+Coordinates (docs/theory.md §1), in this order::
 
     q = [X1, X2, X3, theta_-1, theta_0, theta_1 ... theta_n,
          delta_1,1 ... delta_1,m1, ..., delta_n,1 ... delta_n,mn]
@@ -60,7 +60,7 @@ class Link:
     modes : sequence of Mode
         Assumed modes; empty (and ``elements=0``) for a rigid link.
     elements : int
-        n_e >= 1 Hermite cubic finite elements (formulation.md section 9), clamped
+        n_e >= 1 Hermite cubic finite elements (docs/theory.md §4), clamped
         at the link frame: 2 n_e elastic coordinates per bending direction,
         (deflection [m], slope [rad]) at nodes 1 .. n_e. 0: none. Exclusive with ``modes``.
     element_directions : tuple of "y", "z"
@@ -73,7 +73,7 @@ class Link:
     rotary_inertia : (float, float, float)
         ``(j_x, j_y, j_z)`` [kg m]: rotary inertia of the cross-section per unit
         length about the link-frame axes. The link frame then carries
-        ``J = l diag(j_x, j_y, j_z)`` [kg m^2] (formulation.md section 4).
+        ``J = l diag(j_x, j_y, j_z)`` [kg m^2] (docs/theory.md §6).
     """
 
     length: float
@@ -160,7 +160,7 @@ class Link:
 
 @dataclass(frozen=True)
 class Revolute:
-    """A revolute joint: link i turns by theta_i [rad] about the z axis at the host's tip (formulation.md 10.1).
+    """A revolute joint: link i turns by theta_i [rad] about the z axis at the host's tip (docs/theory.md §7.2).
 
     G_i = E_(i-1) Rz(theta_i); on a fixed base E_0 = I (the motor sits at the base origin).
     """
@@ -170,7 +170,7 @@ class Revolute:
 
 @dataclass(frozen=True)
 class FixedBase:
-    """A fixed base: joint 1 sits at the constant frame T_0 = Trans(b1, b2, b3) Rz(beta) (formulation.md 13).
+    """A fixed base: joint 1 sits at the constant frame T_0 = Trans(b1, b2, b3) Rz(beta) (docs/theory.md §8).
 
     Parameters
     ----------
@@ -222,7 +222,7 @@ def _joint_angle(kind: str, value) -> float:
 
 @dataclass(frozen=True)
 class SlidingPrismatic:
-    """Pa: a carriage fixed to link i slides along the host link i-1 (formulation.md 10.2).
+    """Pa: a carriage fixed to link i slides along the host link i-1 (docs/theory.md §7.3).
 
     The carriage has half-length c and rides on the host's centreline with two
     contact points at host abscissae d - c and d + c; its frame sits at the
@@ -262,7 +262,7 @@ class SlidingPrismatic:
 
 @dataclass(frozen=True)
 class FixedPrismatic:
-    """Pb: link i slides through a guide fixed at the host's tip (formulation.md 10.3).
+    """Pb: link i slides through a guide fixed at the host's tip (docs/theory.md §7.4).
 
     The guide sits at the host's deflected tip, along its tangent turned by
     gamma; link i's frame is at its rear end:
@@ -315,7 +315,7 @@ class Chain:
     base frame in the X1-X2 plane; joint 1 must be revolute (theta_1 is the
     floating orientation).
 
-    Joints (formulation.md section 10): gi.Revolute() (theta_i [rad]),
+    Joints (docs/theory.md §7.1): gi.Revolute() (theta_i [rad]),
     gi.SlidingPrismatic (Pa, a carriage on the host link, d_i [m]) and
     gi.FixedPrismatic (Pb, the link slides through a guide at the host's tip,
     d_i = protruding length [m]). Prismatic joints make the chain planar: a
@@ -377,13 +377,13 @@ class Chain:
 
     @property
     def planar(self) -> bool:
-        """True when the chain moves in the X1-X2 plane only (formulation.md section 8):
+        """True when the chain moves in the X1-X2 plane only (docs/theory.md §8):
         a planar free base, or any prismatic joint."""
         return self.base == "planar" or any(j.kind != "R" for j in self.joints)
 
 
 def _check_joints(links, joints, base):
-    """The rules of formulation.md sections 8, 10.2, 10.3 and 13 for prismatic joints."""
+    """The rules of docs/theory.md §8, §7.3, §7.4 for prismatic joints."""
     prismatic = [k for k, j in enumerate(joints) if j.kind != "R"]
     if base == "planar" and joints[0].kind != "R":
         raise ValueError(f"Chain joints[0] (joint 1)={joints[0]!r}: on a planar free base (base='planar') joint 1 "
@@ -393,7 +393,7 @@ def _check_joints(links, joints, base):
     if base == "free":
         raise ValueError(
             f"Chain joints[{prismatic[0]}] (joint {prismatic[0] + 1})={joints[prismatic[0]]!r}: prismatic joints are planar "
-            "(formulation.md section 8); use base='planar' for a floating chain or gi.FixedBase(...)")
+            "(docs/theory.md §8); use base='planar' for a floating chain or gi.FixedBase(...)")
     for k, lk in enumerate(links):
         if lk.elements and lk.element_directions != ("y",) or any(md.direction != "y" for md in lk.modes):
             raise ValueError(f"Chain links[{k}] (link {k + 1}) bends out of plane; a planar chain (prismatic joints or "
@@ -426,7 +426,7 @@ def _check_joints(links, joints, base):
             raise ValueError(
                 f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic half_length={c!r} on a finite-element host: give c > 0. "
                 "A point slider follows the host's slope v'(d), whose derivative v'' jumps at every element "
-                "node, so M(q) would jump there and energy would not be conserved (formulation.md 10.2)")
+                "node, so M(q) would jump there and energy would not be conserved (docs/theory.md §7.3)")
         if lo < c - 1e-12 or hi > host.length - c + 1e-12:
             raise ValueError(
                 f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic range={jt.range!r}: the carriage must stay on the host, "
@@ -508,7 +508,7 @@ def shape_functions(link: Link, x, derivative: int = 0) -> tuple[tuple, np.ndarr
 def link_deflection(model, q, i: int, x, derivative: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Deflection of link i (0-based) at material abscissae x (K,) [m]: (v (K,), w (K,)) [m].
 
-    v along the link frame's y axis, w along z (formulation.md sections 2, 9, 10.3);
+    v along the link frame's y axis, w along z (docs/theory.md §2, §4, §7.4);
     ``derivative`` 0 .. 2 gives x-derivatives. A link behind a FixedPrismatic guide
     (protruding length d) bends only on sigma = x - (l - d) in [0, d]:
     v = sum_k d^(a_k) N_k(sigma / d) delta_k (stretching elements), 0 behind the guide.
@@ -661,7 +661,7 @@ class Model:
         g.setflags(write=False)
         self._links = tuple(link_integrals(lk, quadrature) for lk in chain.links)
         # Free base: q = [X1, X2, X3, theta_-1, theta_0, theta_1 .. theta_n, deltas]; planar base:
-        # [X1, X2, j_1 .. j_n, deltas]; fixed base: [j_1 .. j_n, deltas] (formulation.md sections 1, 8).
+        # [X1, X2, j_1 .. j_n, deltas]; fixed base: [j_1 .. j_n, deltas] (docs/theory.md §1, §8).
         base = {"free": ["X1", "X2", "X3", "theta_-1", "theta_0"], "planar": ["X1", "X2"]}.get(
             chain.base if chain.free_base else "", [])
         kinds = [j.kind for j in chain.joints]
@@ -710,7 +710,7 @@ class Model:
     joint_index = theta_index
     free_base = property(lambda self: self._chain.free_base,
                          doc="True for a floating base: X1..X3, theta_-1, theta_0 ('free') or X1, X2 ('planar') in q.")
-    planar = property(lambda self: self._chain.planar, doc="True for a planar chain (formulation.md section 8).")
+    planar = property(lambda self: self._chain.planar, doc="True for a planar chain (docs/theory.md §8).")
     joint_kinds = property(lambda self: tuple(j.kind for j in self._chain.joints),
                            doc="'R', 'Pa' or 'Pb' per joint (n,).")
     base_transform = property(lambda self: self._base_transform, doc="T_0 (4, 4) of a fixed base, None for a free one.")

@@ -1,6 +1,6 @@
 """Assumed-mode shape functions of Euler-Bernoulli beams.
 
-Symbols (formulation.md section 3): ``x`` abscissa along the link [m], ``l``
+Symbols (docs/theory.md §3): ``x`` abscissa along the link [m], ``l``
 link length [m], ``beta`` wavenumber [1/m], ``psi(x)`` mode shape
 (dimensionless, normalised so that ``max |psi| = 1`` on ``[0, l]`` and
 positive where that maximum is reached (where it is reached at several places,

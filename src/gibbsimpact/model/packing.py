@@ -13,7 +13,7 @@ from .elements import assemble as assemble_elements, element_stiffness, hermite_
 
 
 def _pb_tables(link):
-    """Unit-interval tables of a Pb link with n_e elements (formulation.md 10.3, 11)."""
+    """Unit-interval tables of a Pb link with n_e elements (docs/theory.md §7.4, §7.6)."""
     ne = link.elements
     if ne == 0:
         return []

@@ -1,5 +1,5 @@
 """Wall contacts of the event loop: gaps of every (wall, contact point) pair, the contact band,
-the impact stage and the events of a flight phase (formulation.md sections 5-7).
+the impact stage and the events of a flight phase (docs/theory.md §10, §11, §14).
 
 The rules are stated in gibbsimpact.simulate's module docstring; simulate.py drives these stages.
 """
@@ -28,7 +28,7 @@ NOT_INTERIOR = 1e300
 
 
 class Contacts:
-    """Gaps, normals and Jacobians of every (wall, contact point) pair (formulation.md 5; issue 9 item 2).
+    """Gaps, normals and Jacobians of every (wall, contact point) pair (docs/theory.md §10; issue 9 item 2).
 
     Columns c = 0 .. C-1 of the (W, C) gap matrix: the P joint points (model.contact_point_names),
     then one column per flexible link i (``flex``): the material point of link i closest to

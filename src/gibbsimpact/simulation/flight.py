@@ -1,4 +1,4 @@
-"""One flight phase: scipy's ODE steps with event location that sees inside a step (formulation.md sections 5, 7).
+"""One flight phase: scipy's ODE steps with event location that sees inside a step (docs/theory.md §10, §14).
 
 The phase integrates y = (q, qdot), shape (2N,), with a ``scipy.integrate``
 ``OdeSolver`` (DOP853, RK45, Radau, ...) and stops at the first event. Every

@@ -1,4 +1,4 @@
-"""Joint limits of prismatic joints (formulation.md section 13): gaps, checks, end-stop impacts.
+"""Joint limits of prismatic joints (docs/theory.md §13): gaps, checks, end-stop impacts.
 
 Every Pa/Pb joint i has a range [d_min, d_max]; each bound is a *limit gap*
 that must stay >= 0:
@@ -14,8 +14,7 @@ with a terminal event of direction -1, like a wall gap. At an event:
 * ``joint_limit="stop"`` (default): the run stops with status "joint_limit"
   and a message naming the joint, the bound and the time;
 * ``joint_limit="impact"``: an end-stop impact in joint space, Newton's law
-  with restitution e_stop solved by the impulse solver of formulation.md
-  section 6 with W = n:  M (qdot+ - qdot-) = n Lambda,  n.qdot+ = -e_stop n.qdot-,  Lambda >= 0.
+  with restitution e_stop solved by the impulse solver of docs/theory.md §11 with W = n:  M (qdot+ - qdot-) = n Lambda,  n.qdot+ = -e_stop n.qdot-,  Lambda >= 0.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The one module that owns the integrate - detect - impact loop (formulation.md section 7).
+"""The one module that owns the integrate - detect - impact loop (docs/theory.md §14).
 
 ``simulate`` is a driver over named stages, one module each:
 

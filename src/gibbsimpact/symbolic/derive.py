@@ -15,7 +15,7 @@ Numbers of the model (link moments ``P0, C, D, m_r0, m_psi, M_dd, K, end_t,
 end_phi, J_body``, gravity, the fixed-base frame T_0) enter as constants
 (binary-exact 17-digit floats, or exact rationals with ``rational=True``).
 
-method="gibbs-appell" (formulation.md section 4, the moment form of
+method="gibbs-appell" (docs/theory.md §6, the moment form of
 gibbsimpact.dynamics): the 4x4 recursion, link by link, with G_i the local
 transform of the variables s in {theta_i, delta_(i-1)}::
 
@@ -284,7 +284,7 @@ def _end_transform(alg, ld, d):
 
 
 class _Recursion:
-    """State of the 4x4 recursion along the chain (formulation.md section 4).
+    """State of the 4x4 recursion along the chain (docs/theory.md §6).
 
     T (4, 4); A: dict q-index -> dT/dq_j (4, 4) (nonzero ones only); Td, Tdd0 (4, 4);
     with rotary: W dict q-index -> (3,) body angular-velocity column, alpha0 (3,).
@@ -647,7 +647,7 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
     Parameters
     ----------
     model : gibbsimpact.Model
-    method : "gibbs-appell" (the recursive 4x4 moment form, formulation.md section 4)
+    method : "gibbs-appell" (the recursive 4x4 moment form, docs/theory.md §6)
         or "lagrange" (Lagrange's equations on T and V of the same moment form).
     rational : bool
         Model numbers as exact rationals of their binary values instead of floats.
