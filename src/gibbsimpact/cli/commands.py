@@ -574,7 +574,7 @@ def _isatty(stream) -> bool:
 
 def _simulate_and_write(path, case, args, overrides, out, progress, say) -> int:
     from ..dynamics.gibbs_appell import SingularMassMatrixError
-    from ..simulation.simulate import STATUS_INTERRUPTED
+    from ..simulation.status import STATUS_INTERRUPTED
 
     try:
         result = case.simulate(progress=progress, **overrides)
