@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-_SERIES_TERMS = 16
+SERIES_TERMS = 16
 
 # ---------------------------------------------------------------------------
 # Rodrigues coefficients a(s), b(s) and their s-derivatives (numeric)
@@ -32,7 +32,7 @@ def rodrigues_coefficient(kind: str, order: int, s: float) -> float:
         # a = sum (-1)^n s^n/(2n+1)!, b = sum (-1)^n s^n/(2n+2)!
         off = 1 if kind == "a" else 2
         total = 0.0
-        for n in range(order, order + _SERIES_TERMS):
+        for n in range(order, order + SERIES_TERMS):
             total += (-1.0) ** n * math.perm(n, order) * s ** (n - order) / math.factorial(2 * n + off)
         return total
     t = math.sqrt(s)
@@ -51,7 +51,7 @@ def rodrigues_coefficient(kind: str, order: int, s: float) -> float:
 _ROD_CACHE: dict = {}
 
 
-def _rodrigues_function(kind: str, order: int):
+def rodrigues_function(kind: str, order: int):
     """The sympy function rodrigues_<kind><order>(s) (created once, derivative -> order + 1)."""
     key = (kind, order)
     if key in _ROD_CACHE:
@@ -61,7 +61,7 @@ def _rodrigues_function(kind: str, order: int):
     off = 1 if kind == "a" else 2
 
     def fdiff(self, argindex=1):
-        return _rodrigues_function(kind, order + 1)(self.args[0])
+        return rodrigues_function(kind, order + 1)(self.args[0])
 
     @classmethod
     def eval(cls, s):
@@ -90,7 +90,7 @@ def _rodrigues_function(kind: str, order: int):
 # Small dense algebra on lists of sympy expressions, skipping zeros and ones
 # ---------------------------------------------------------------------------
 
-class _Algebra:
+class Algebra:
     def __init__(self, sp, rational: bool):
         self.sp = sp
         self.Z, self.O, self.two = sp.S.Zero, sp.S.One, sp.Integer(2)
@@ -181,7 +181,7 @@ class _Algebra:
                 self.mul(h, self.add([S[1][0], -S[0][1]]))]
 
 
-def _rot4(alg, axis: int, angle):
+def rot4(alg, axis: int, angle):
     """Rotation about the coordinate axis (4, 4), exact cos/sin of angle."""
     sp = alg.sp
     c, s = sp.cos(angle), sp.sin(angle)

@@ -28,16 +28,16 @@ import re
 import sys
 import time
 
-from .algebra import _Algebra, rodrigues_coefficient
+from . import gibbs_appell, lagrange
+from .algebra import Algebra, rodrigues_coefficient
 from .equations import Equations
-from .gibbs_appell import _gibbs_appell
-from .lagrange import _lagrange
-from .parametric import _ParametricModel
+from .parametric import ParametricModel
 
 __all__ = ["METHODS", "derive_equations", "rodrigues_coefficient"]  # rodrigues_coefficient: its documented path
 
-#: Derivation routes of derive_equations.
-METHODS = ("gibbs-appell", "lagrange")
+#: Derivation routes of derive_equations: method -> mass_matrix_and_forcing(model, alg, q, qd).
+ROUTES = {"gibbs-appell": gibbs_appell.mass_matrix_and_forcing, "lagrange": lagrange.mass_matrix_and_forcing}
+METHODS = tuple(ROUTES)
 
 
 def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = False,
@@ -89,16 +89,16 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
     names = model.coordinate_names
     q = [sp.Symbol(nm, real=True) for nm in names]
     qd = [sp.Symbol(nm + "_dot", real=True) for nm in names]
-    alg = _Algebra(sp, rational)
+    alg = Algebra(sp, rational)
     if progress is True:
         def progress(stage, done, total):
             end = "\n" if done == total else ""
             print(f"\rderiving ({stage} {done}/{total})", end=end, file=sys.stderr, flush=True)
     alg.progress = progress or None
     constants: dict = {}
-    source = _ParametricModel(sp, model, constants) if symbols else model
+    source = ParametricModel(sp, model, constants) if symbols else model
     with distribute(False):  # keep c*(a + b) unexpanded: shared subexpressions stay shared
-        M, forcing = (_gibbs_appell if method == "gibbs-appell" else _lagrange)(source, alg, q, qd)
+        M, forcing = ROUTES[method](source, alg, q, qd)
     M, forcing = sp.ImmutableMatrix(M), sp.ImmutableMatrix(forcing)
     if symbols and symbols is not True:
         keep = {str(x) for x in ([symbols] if isinstance(symbols, str) else symbols)}

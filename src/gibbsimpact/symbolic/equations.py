@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from .printer import OperationCount, _count, _latex_name, _python_source
+from .printer import OperationCount, count_operations, latex_name, python_module_source
 
 
 class NumericEquations:
@@ -97,15 +97,15 @@ class Equations:
         if self.constants:
             return self.evaluated().operation_count()
         repl, Mred, fred = self.cse()
-        return _count([e for _, e in repl] + [e for _, e in Mred] + list(fred), sp)
+        return count_operations([e for _, e in repl] + [e for _, e in Mred] + list(fred), sp)
 
     # -- writers ----------------------------------------------------------------
     def to_latex(self, path) -> Path:
         """Write a LaTeX document with M(q) qddot = forcing: auxiliary quantities x_k, then M_jk, f_j."""
         import sympy as sp
 
-        names = {c: _latex_name(nm) for c, nm in zip(self.coordinates, self.coordinate_names)}
-        names.update({c: _latex_name(nm, dot=True) for c, nm in zip(self.speeds, self.coordinate_names)})
+        names = {c: latex_name(nm) for c, nm in zip(self.coordinates, self.coordinate_names)}
+        names.update({c: latex_name(nm, dot=True) for c, nm in zip(self.speeds, self.coordinate_names)})
         repl, Mred, fred = self.cse()
         names.update({x: f"x_{{{x.name[1:]}}}" for x, _ in repl})
 
@@ -144,7 +144,7 @@ class Equations:
         if self.constants:
             return self.evaluated().python_source()
         if self._source is None:
-            self._source = _python_source(self)
+            self._source = python_module_source(self)
         return self._source
 
     def to_python(self, path) -> Path:

@@ -18,10 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .recursion import _links
+from .recursion import each_link
 
 
-def _gibbs_appell(model, alg, q, qd):
+def mass_matrix_and_forcing(model, alg, q, qd):
     """M (N, N) and forcing (N,) as nested lists of expressions."""
     N = len(q)
     Mt = [[[] for _ in range(N)] for _ in range(N)]  # upper-triangle term lists
@@ -33,7 +33,7 @@ def _gibbs_appell(model, alg, q, qd):
         if term is not alg.Z:
             Mt[min(j, k)][max(j, k)].append(term)
 
-    for i, rec, ld, idx, d, dd, (P, Q, m_r, Pv, Qd, Mdd) in _links(model, alg, q, qd, True, rotary,
+    for i, rec, ld, idx, d, dd, (P, Q, m_r, Pv, Qd, Mdd) in each_link(model, alg, q, qd, True, rotary,
                                                                   "gibbs-appell: link"):
         T, Td, Tdd0, A = rec.T, rec.Td, rec.Tdd0, rec.A
         keys = sorted(A)

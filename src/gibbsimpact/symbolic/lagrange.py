@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .recursion import _links
+from .recursion import each_link
 
 
 class _Differentiator:
@@ -51,14 +51,14 @@ class _Differentiator:
         return r
 
 
-def _lagrange(model, alg, q, qd):
+def mass_matrix_and_forcing(model, alg, q, qd):
     """M (N, N) and forcing (N,) from Lagrange's equations on T and V of the moment form."""
     sp = alg.sp
     N = len(q)
     dq = [_Differentiator(alg, x) for x in q]
     kin, pot = [], []
     gt = alg.cmat(np.append(model.gravity, 0.0))
-    for i, rec, ld, idx, d, dd, (P, Q, m_r, Pv, Qd, Mdd) in _links(model, alg, q, qd, False, False,
+    for i, rec, ld, idx, d, dd, (P, Q, m_r, Pv, Qd, Mdd) in each_link(model, alg, q, qd, False, False,
                                                                   "lagrange: T and V of link"):
         T = rec.T
         # Td = sum_j dT/dq_j qdot_j by differentiation

@@ -87,7 +87,7 @@ class _ParametricLink:
         return x
 
 
-class _ParametricModel:
+class ParametricModel:
     """A Model whose link data and gravity are expressions of named parameters (attributes else delegated)."""
 
     def __init__(self, sp, model, values: dict):

@@ -9,7 +9,7 @@ from __future__ import annotations
 import inspect
 from typing import NamedTuple
 
-from .algebra import _SERIES_TERMS, rodrigues_coefficient
+from .algebra import SERIES_TERMS, rodrigues_coefficient
 
 
 class OperationCount(NamedTuple):
@@ -26,7 +26,7 @@ class OperationCount(NamedTuple):
         return self.adds + self.muls + self.functions
 
 
-def _count(exprs, sp):
+def count_operations(exprs, sp):
     adds = muls = funcs = 0
     seen = set()
     stack = list(exprs)
@@ -51,7 +51,7 @@ def _count(exprs, sp):
     return OperationCount(adds, muls, funcs)
 
 
-def _latex_name(name: str, dot: bool = False) -> str:
+def latex_name(name: str, dot: bool = False) -> str:
     base, _, rest = name.partition("_")
     if not rest and base[:1] == "X":
         base, rest = "X", base[1:]
@@ -63,7 +63,7 @@ def _latex_name(name: str, dot: bool = False) -> str:
 
 # The generated module is standalone: it carries rodrigues_coefficient's own source.
 _HELPERS = "\n" + inspect.getsource(rodrigues_coefficient).replace(
-    "def rodrigues_coefficient(", "def _rodrigues(").replace("_SERIES_TERMS", str(_SERIES_TERMS))
+    "def rodrigues_coefficient(", "def _rodrigues(").replace("SERIES_TERMS", str(SERIES_TERMS))
 
 
 class _PythonPrinter:
@@ -122,7 +122,7 @@ class _PythonPrinter:
         raise NotImplementedError(f"no Python translation for {type(e).__name__}: {e}")
 
 
-def _python_source(eqs) -> str:
+def python_module_source(eqs) -> str:
     import sympy as sp
 
     repl, Mred, fred = eqs.cse()

@@ -20,7 +20,7 @@ omega_G = W_G sdot, W_G = vee(R_G^T dR_G/ds))::
 
 from __future__ import annotations
 
-from .algebra import _rodrigues_function, _rot4
+from .algebra import rodrigues_function, rot4
 
 
 def _end_transform(alg, ld, d):
@@ -39,11 +39,11 @@ def _end_transform(alg, ld, d):
         return G, None
     if len(nz) == 1:
         # phi = angle e_a: Rot(phi) is the exact rotation about axis a
-        R = _rot4(alg, nz[0], phi[nz[0]])
+        R = rot4(alg, nz[0], phi[nz[0]])
         kind = ("axis", nz[0], phi[nz[0]])
     else:
         s = alg.add([alg.mul(p, p) for p in phi])
-        a_s, b_s = _rodrigues_function("a", 0)(s), _rodrigues_function("b", 0)(s)
+        a_s, b_s = rodrigues_function("a", 0)(s), rodrigues_function("b", 0)(s)
         K = [[alg.Z, -phi[2], phi[1]], [phi[2], alg.Z, -phi[0]], [-phi[1], phi[0], alg.Z]]
         K2 = alg.mm(K, K)
         R = alg.madd(alg.eye(3), alg.scale(a_s, K), alg.scale(b_s, K2))
@@ -125,11 +125,11 @@ def _link_frames(model, alg, q, qd, velocities, rotary):
         for a in range(3):
             G[a][3] = q[a]
         rec.step(G, [0, 1, 2], None)
-        rec.step(_rot4(alg, 0, q[3]), [3], ("axis", 0, q[3]))
-        rec.step(_rot4(alg, 1, q[4]), [4], ("axis", 1, q[4]))
+        rec.step(rot4(alg, 0, q[3]), [3], ("axis", 0, q[3]))
+        rec.step(rot4(alg, 1, q[4]), [4], ("axis", 1, q[4]))
     else:
         rec.T = alg.cmat(model.base_transform)  # constant: no derivatives, zero angular velocity
-    rec.step(_rot4(alg, 2, q[theta[0]]), [theta[0]], ("axis", 2, q[theta[0]]))
+    rec.step(rot4(alg, 2, q[theta[0]]), [theta[0]], ("axis", 2, q[theta[0]]))
     n = model.n_links
     for i in range(n):
         yield i, rec
@@ -141,7 +141,7 @@ def _link_frames(model, alg, q, qd, velocities, rotary):
             else:
                 E, kind = _end_transform(alg, ld, [q[k] for k in idx])
                 rec.step(E, idx, kind)
-            rec.step(_rot4(alg, 2, q[theta[i + 1]]), [theta[i + 1]], ("axis", 2, q[theta[i + 1]]))
+            rec.step(rot4(alg, 2, q[theta[i + 1]]), [theta[i + 1]], ("axis", 2, q[theta[i + 1]]))
 
 
 def _link_moments(alg, ld, d, dd):
@@ -159,7 +159,7 @@ def _link_moments(alg, ld, d, dd):
     return P, Q, m_r, Pv, Qd, alg.cmat(ld.M_dd)
 
 
-def _links(model, alg, q, qd, velocities, rotary, stage):
+def each_link(model, alg, q, qd, velocities, rotary, stage):
     """Per link: (i, recursion state, link data, its delta indices, delta, deltadot, _link_moments(...))."""
     for i, rec in _link_frames(model, alg, q, qd, velocities, rotary):
         alg.tick(stage, i + 1, model.n_links)
