@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from .printer import OperationCount, count_operations, latex_name, python_module_source
+from .printer import OperationCount, count_operations, latex_document, python_module_source
 
 
 class NumericEquations:
@@ -102,41 +102,8 @@ class Equations:
     # -- writers ----------------------------------------------------------------
     def to_latex(self, path) -> Path:
         """Write a LaTeX document with M(q) qddot = forcing: auxiliary quantities x_k, then M_jk, f_j."""
-        import sympy as sp
-
-        names = {c: latex_name(nm) for c, nm in zip(self.coordinates, self.coordinate_names)}
-        names.update({c: latex_name(nm, dot=True) for c, nm in zip(self.speeds, self.coordinate_names)})
-        repl, Mred, fred = self.cse()
-        names.update({x: f"x_{{{x.name[1:]}}}" for x, _ in repl})
-
-        def tex(e):
-            return sp.latex(e, symbol_names=names)
-
-        N = len(self.coordinates)
-        lines = [
-            r"\documentclass{article}", r"\usepackage{amsmath}", r"\allowdisplaybreaks", r"\begin{document}",
-            rf"\section*{{Equations of motion ({self.method})}}",
-            r"$M(q)\,\ddot q = f(q, \dot q)$ with $q = (" + ", ".join(names[c] for c in self.coordinates)
-            + rf")$, $N = {N}$. $M$ is symmetric; entries not listed are zero.",
-        ]
-
-        def block(title, rows):
-            lines.append(rf"\subsection*{{{title}}}")
-            if not rows:
-                lines.append("None.")
-                return
-            lines.append(r"\begin{align*}")
-            lines.append(" \\\\\n".join(f"{lhs} &= {rhs}" for lhs, rhs in rows))
-            lines.append(r"\end{align*}")
-
-        block("Auxiliary quantities", [(names[x], tex(e)) for x, e in repl])
-        block("Mass matrix", [(f"M_{{{j + 1},{k + 1}}}", tex(e)) for (j, k), e in Mred])
-        block("Forcing", [(f"f_{{{j + 1}}}", tex(e)) for j, e in enumerate(fred)])
-        if self.constants:
-            block("Parameters and named constants", [(tex(k), f"{v:.17g}") for k, v in self.constants.items()])
-        lines.append(r"\end{document}")
         path = Path(path)
-        path.write_text("\n".join(lines) + "\n")
+        path.write_text(latex_document(self))
         return path
 
     def python_source(self) -> str:

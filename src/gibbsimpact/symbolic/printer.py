@@ -1,4 +1,4 @@
-"""Writers of the derived equations: operation counts, LaTeX names, the standalone Python module.
+"""Writers of the derived equations: operation counts, the LaTeX document, the standalone Python module.
 
 Common-subexpression elimination (sympy.cse) gives the straight-line program
 behind ``operation_count``, ``to_python`` and ``numeric``.
@@ -26,7 +26,8 @@ class OperationCount(NamedTuple):
         return self.adds + self.muls + self.functions
 
 
-def count_operations(exprs, sp):
+def count_operations(exprs, sp) -> OperationCount:
+    """Operations of the expression DAG ``exprs`` (each distinct subexpression once), by OperationCount's rules."""
     adds = muls = funcs = 0
     seen = set()
     stack = list(exprs)
@@ -52,6 +53,7 @@ def count_operations(exprs, sp):
 
 
 def latex_name(name: str, dot: bool = False) -> str:
+    """LaTeX of a coordinate name: theta_2 -> \\theta_{2}, delta_1_2 -> \\delta_{1,2}, X1 -> X_{1}; dot: its speed."""
     base, _, rest = name.partition("_")
     if not rest and base[:1] == "X":
         base, rest = "X", base[1:]
@@ -59,6 +61,46 @@ def latex_name(name: str, dot: bool = False) -> str:
     if dot:
         head = rf"\dot{{{head}}}"
     return f"{head}_{{{rest.replace('_', ',')}}}" if rest else head
+
+
+def latex_document(eqs) -> str:
+    """A LaTeX document of M(q) qddot = forcing for Equations ``eqs``: auxiliary quantities x_k of its
+    common-subexpression program, then the upper-triangle entries M_jk and the forcing f_j (1-based),
+    then the named constants of a parametric derivation."""
+    import sympy as sp
+
+    names = {c: latex_name(nm) for c, nm in zip(eqs.coordinates, eqs.coordinate_names)}
+    names.update({c: latex_name(nm, dot=True) for c, nm in zip(eqs.speeds, eqs.coordinate_names)})
+    repl, Mred, fred = eqs.cse()
+    names.update({x: f"x_{{{x.name[1:]}}}" for x, _ in repl})
+
+    def tex(e):
+        return sp.latex(e, symbol_names=names)
+
+    N = len(eqs.coordinates)
+    lines = [
+        r"\documentclass{article}", r"\usepackage{amsmath}", r"\allowdisplaybreaks", r"\begin{document}",
+        rf"\section*{{Equations of motion ({eqs.method})}}",
+        r"$M(q)\,\ddot q = f(q, \dot q)$ with $q = (" + ", ".join(names[c] for c in eqs.coordinates)
+        + rf")$, $N = {N}$. $M$ is symmetric; entries not listed are zero.",
+    ]
+
+    def block(title, rows):
+        lines.append(rf"\subsection*{{{title}}}")
+        if not rows:
+            lines.append("None.")
+            return
+        lines.append(r"\begin{align*}")
+        lines.append(" \\\\\n".join(f"{lhs} &= {rhs}" for lhs, rhs in rows))
+        lines.append(r"\end{align*}")
+
+    block("Auxiliary quantities", [(names[x], tex(e)) for x, e in repl])
+    block("Mass matrix", [(f"M_{{{j + 1},{k + 1}}}", tex(e)) for (j, k), e in Mred])
+    block("Forcing", [(f"f_{{{j + 1}}}", tex(e)) for j, e in enumerate(fred)])
+    if eqs.constants:
+        block("Parameters and named constants", [(tex(k), f"{v:.17g}") for k, v in eqs.constants.items()])
+    lines.append(r"\end{document}")
+    return "\n".join(lines) + "\n"
 
 
 # The generated module is standalone: it carries rodrigues_coefficient's own source.
@@ -123,6 +165,8 @@ class _PythonPrinter:
 
 
 def python_module_source(eqs) -> str:
+    """Source of the standalone module (math and numpy only) of Equations ``eqs``, from ``eqs.cse()``:
+    mass_matrix(q) (N, N), forcing(q, qdot) (N,), mass_matrix_and_forcing, forward_dynamics."""
     import sympy as sp
 
     repl, Mred, fred = eqs.cse()
