@@ -91,11 +91,18 @@ def rodrigues_function(kind: str, order: int):
 # ---------------------------------------------------------------------------
 
 class Algebra:
-    def __init__(self, sp, rational: bool):
+    """Dense algebra on nested lists of sympy expressions that skips exact zeros and ones.
+
+    Matrices are lists of rows; model numbers enter through const / cmat (17-digit
+    Floats, or exact Rationals when ``rational``); ``progress`` is None or
+    callable(stage: str, done: int, total: int), called by tick.
+    """
+
+    def __init__(self, sp, rational: bool, progress=None):
         self.sp = sp
         self.Z, self.O, self.two = sp.S.Zero, sp.S.One, sp.Integer(2)
         self.rational = rational
-        self.progress = None  # callable(stage, done, total) or None
+        self.progress = progress
 
     def tick(self, stage: str, done: int, total: int):
         if self.progress is not None:

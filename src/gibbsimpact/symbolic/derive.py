@@ -24,20 +24,25 @@ Equations result) and printer.py (operation counts, LaTeX, Python).
 
 from __future__ import annotations
 
-import re
 import sys
 import time
 
 from . import gibbs_appell, lagrange
 from .algebra import Algebra, rodrigues_coefficient
 from .equations import Equations
-from .parametric import ParametricModel
+from .parametric import ParametricModel, fix_parameters
 
 __all__ = ["METHODS", "derive_equations", "rodrigues_coefficient"]  # rodrigues_coefficient: its documented path
 
 #: Derivation routes of derive_equations: method -> mass_matrix_and_forcing(model, alg, q, qd).
 ROUTES = {"gibbs-appell": gibbs_appell.mass_matrix_and_forcing, "lagrange": lagrange.mass_matrix_and_forcing}
 METHODS = tuple(ROUTES)
+
+
+def _progress_line(stage: str, done: int, total: int):
+    """progress=True: one line on stderr, rewritten in place, that counts links / equations."""
+    end = "\n" if done == total else ""
+    print(f"\rderiving ({stage} {done}/{total})", end=end, file=sys.stderr, flush=True)
 
 
 def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = False,
@@ -57,7 +62,7 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
         ``jx_i`` ..., and gravity ``g_1 .. g_3`` stay symbols; a sequence of those
         names keeps only them symbolic (the other parameters become numbers). The
         dimensionless modal integrals are named constants (``c_i_k``, ``cx_i_k``,
-        ``d_i_k_l``, ``kappa_i_k_l``, ``e_i_k``, ``s_i_k``, see _ParametricLink).
+        ``d_i_k_l``, ``kappa_i_k_l``, ``e_i_k``, ``s_i_k``, see gibbsimpact.symbolic.parametric).
         ``eqs.constants`` lists every value; numeric() and to_python() substitute them.
     progress : None, True (a line on stderr that counts links / equations), or a
         callable(stage: str, done: int, total: int)
@@ -89,26 +94,13 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
     names = model.coordinate_names
     q = [sp.Symbol(nm, real=True) for nm in names]
     qd = [sp.Symbol(nm + "_dot", real=True) for nm in names]
-    alg = Algebra(sp, rational)
-    if progress is True:
-        def progress(stage, done, total):
-            end = "\n" if done == total else ""
-            print(f"\rderiving ({stage} {done}/{total})", end=end, file=sys.stderr, flush=True)
-    alg.progress = progress or None
+    alg = Algebra(sp, rational, _progress_line if progress is True else (progress or None))
     constants: dict = {}
     source = ParametricModel(sp, model, constants) if symbols else model
     with distribute(False):  # keep c*(a + b) unexpanded: shared subexpressions stay shared
         M, forcing = ROUTES[method](source, alg, q, qd)
     M, forcing = sp.ImmutableMatrix(M), sp.ImmutableMatrix(forcing)
     if symbols and symbols is not True:
-        keep = {str(x) for x in ([symbols] if isinstance(symbols, str) else symbols)}
-        params = {str(k): k for k in constants if re.fullmatch(r"(l|mu|EI[yz]|j[xyz])_\d+|g_\d", str(k))}
-        unknown = sorted(keep - set(params))
-        if unknown:
-            raise ValueError(f"derive_equations symbols={tuple(sorted(keep))!r}: {', '.join(unknown)} not parameters "
-                             f"of this model; choose from {', '.join(params)}")
-        fixed = {k: sp.Float(constants.pop(k), 17) for name, k in params.items() if name not in keep}
+        fixed = fix_parameters(sp, symbols, constants)
         M, forcing = M.xreplace(fixed), forcing.xreplace(fixed)
-    eqs = Equations(model, method, tuple(q), tuple(qd), M, forcing, time.perf_counter() - t0)
-    eqs.constants = constants
-    return eqs
+    return Equations(model, method, tuple(q), tuple(qd), M, forcing, time.perf_counter() - t0, constants)

@@ -35,9 +35,11 @@ class Equations:
     mass_matrix : sympy ImmutableMatrix (N, N) [kg, kg m, kg m^2]
     forcing : sympy ImmutableMatrix (N, 1) [N, N m], Q - h - dV/dq with Q = 0
     derivation_seconds : float, wall time of the derivation
+    constants : dict, sympy Symbol -> float, the named constants and parameters of a
+        parametric derivation (symbols=...); empty otherwise
     """
 
-    def __init__(self, model, method, coordinates, speeds, mass_matrix, forcing, seconds):
+    def __init__(self, model, method, coordinates, speeds, mass_matrix, forcing, seconds, constants=None):
         self.coordinate_names = model.coordinate_names
         self.method = method
         self.coordinates = coordinates
@@ -48,7 +50,7 @@ class Equations:
         self._cse = None
         self._source = None
         self.cse_seconds = None
-        self.constants = {}  # symbol -> value of a parametric derivation (symbols=True)
+        self.constants = constants or {}  # symbol -> value of a parametric derivation (symbols=...)
         self._model = model
         self._evaluated_copy = None
 

@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
+
+#: Names of the model parameters that symbols=... may keep (the rest of ``constants`` are modal integrals).
+PARAMETER_NAME = re.compile(r"(l|mu|EI[yz]|j[xyz])_\d+|g_\d")
 
 
 class _ParametricLink:
@@ -103,3 +108,18 @@ class ParametricModel:
 
     def __getattr__(self, name):
         return getattr(self._model, name)
+
+
+def fix_parameters(sp, symbols, constants: dict) -> dict:
+    """symbols=<names>: {parameter symbol: its value} for every parameter not named, removed from ``constants``.
+
+    ``symbols`` is a str or a sequence of str among the model's parameters (l_i, mu_i, EIz_i,
+    EIy_i, jx_i ..., g_1 .. g_3 present in ``constants``); an unknown name raises ValueError.
+    """
+    keep = {str(x) for x in ([symbols] if isinstance(symbols, str) else symbols)}
+    params = {str(k): k for k in constants if PARAMETER_NAME.fullmatch(str(k))}
+    unknown = sorted(keep - set(params))
+    if unknown:
+        raise ValueError(f"derive_equations symbols={tuple(sorted(keep))!r}: {', '.join(unknown)} not parameters "
+                         f"of this model; choose from {', '.join(params)}")
+    return {k: sp.Float(constants.pop(k), 17) for name, k in params.items() if name not in keep}
