@@ -12,13 +12,16 @@ Coordinates (docs/theory.md §1), in this order::
 
 from __future__ import annotations
 
+import functools
+from math import isfinite
+
 from dataclasses import dataclass
 from numbers import Real
 from typing import Callable, Sequence
 
 import numpy as np
 
-from ..kernel import variant
+from ..kernel import compiled, output, variant
 from .elements import MAX_ELEMENTS, element_quadrature, hermite_shape
 from .modes import MODE_DIRECTIONS, Mode, shape
 from .packing import pack
@@ -624,6 +627,27 @@ def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE)
     )
 
 
+_F64 = np.dtype(np.float64)
+
+
+@functools.cache
+def _dynamics():
+    """gibbsimpact.dynamics.gibbs_appell, for the alias methods of Model (Model.mass_matrix calls
+    dynamics.mass_matrix, ...); imported at their first use, since dynamics comes after model in
+    the stage order (docs/architecture.md)."""
+    from ..dynamics import gibbs_appell
+
+    return gibbs_appell
+
+
+@functools.cache
+def _kinematics():
+    """gibbsimpact.dynamics.kinematics, for Model.joint_positions and joint_jacobians (as _dynamics)."""
+    from ..dynamics import kinematics
+
+    return kinematics
+
+
 class Model:
     """Immutable simulation model: a chain, gravity and precomputed link data.
 
@@ -721,10 +745,10 @@ class Model:
     total_mass = property(lambda self: self._total_mass, doc="Total mass [kg].")
 
     def __getstate__(self):
-        # Pickled (a sweep's spawned workers) without dynamics.forward_dynamics' cached call: it
-        # holds the kernel's dispatcher, which a worker must take from its own import of the module.
+        # Pickled (a sweep's spawned workers) without kernel_call: it holds the kernel's dispatcher,
+        # which a worker must take from its own import of the kernel.
         state = self.__dict__.copy()
-        state.pop("_solve_call", None)
+        state.pop("_kernel_call", None)
         return state
 
     @property
@@ -742,6 +766,28 @@ class Model:
             zeros = np.zeros(self.n_dof)
             data = self._kernel_data = (fdat, idat, zeros, variant(idat))
         return data
+
+    @property
+    def kernel_call(self) -> tuple:
+        """(kernel, fdat, idat, zeros (N,), v0, v1, outputs): the compiled kernel of this model's variant
+        (compiled at its first use) and its arguments, unpacked once for the documented entry points;
+        ``outputs`` {job: length of the kernel's output for one state}, filled by :meth:`kernel_output`."""
+        try:
+            return self._kernel_call
+        except AttributeError:
+            fdat, idat, zeros, v = self.kernel_data
+            call = self._kernel_call = (compiled(v), fdat, idat, zeros, v[0], v[1], {})
+            return call
+
+    def kernel_output(self, job: int) -> np.ndarray:
+        """A new (uninitialised) output array of the kernel for one state and the JOB_* bits ``job``."""
+        sizes = self.kernel_call[6]
+        try:
+            return np.empty(sizes[job])
+        except KeyError:
+            out = output(self.kernel_data[1], 1, job)
+            sizes[job] = out.size
+            return out
 
     @property
     def n_dof(self) -> int:
@@ -776,8 +822,21 @@ class Model:
         return tuple(names)
 
     def check_state(self, q, qdot=None, name_q: str = "q", name_qdot: str = "qdot"):
-        """Validate and return ``q`` (and ``qdot``) as float arrays of shape (N,)."""
-        N = self.n_dof
+        """Validate and return ``q`` (and ``qdot``) as float arrays of shape (N,).
+
+        The common case, float64 arrays of shape (N,) with finite entries, costs a shape compare
+        and one dot product (q.q + qdot.qdot is finite exactly when every entry is, or overflowed
+        beyond 1e154, which the full check below then clears), so that the alias methods cost
+        what the kernel costs.
+        """
+        N = len(self._names)
+        if q.__class__ is np.ndarray and q.dtype is _F64 and q.shape == (N,):
+            if qdot is None:
+                if isfinite(q.dot(q)):
+                    return q
+            elif qdot.__class__ is np.ndarray and qdot.dtype is _F64 and qdot.shape == (N,) \
+                    and isfinite(q.dot(q) + qdot.dot(qdot)):
+                return q, qdot
         qa = np.asarray(q, dtype=float)
         if qa.shape != (N,):
             raise ValueError(f"{name_q} has shape {qa.shape}; this model needs shape ({N},) ordered as {', '.join(self._names)}")
@@ -811,45 +870,31 @@ class Model:
     # -- algorithms (thin delegations to pure functions) ---------------------
     def mass_matrix(self, q):
         """Mass matrix M(q), shape (N, N) [kg, kg m, kg m^2 by block]."""
-        from ..dynamics.gibbs_appell import mass_matrix
-
-        return mass_matrix(self, self.check_state(q))
+        return _dynamics().mass_matrix(self, self.check_state(q))
 
     def bias_forces(self, q, qdot):
         """Velocity-product terms h(q, qdot), shape (N,) [N, N m]."""
-        from ..dynamics.gibbs_appell import bias_forces
-
-        return bias_forces(self, *self.check_state(q, qdot))
+        return _dynamics().bias_forces(self, *self.check_state(q, qdot))
 
     def potential_forces(self, q):
         """Gradient dV/dq of gravity plus strain energy, shape (N,) [N, N m]."""
-        from ..dynamics.gibbs_appell import potential_forces
-
-        return potential_forces(self, self.check_state(q))
+        return _dynamics().potential_forces(self, self.check_state(q))
 
     def forward_dynamics(self, q, qdot):
         """Generalised accelerations qddot, shape (N,): M qddot = -h - dV/dq."""
-        from ..dynamics.gibbs_appell import forward_dynamics
-
-        return forward_dynamics(self, *self.check_state(q, qdot))
+        return _dynamics().forward_dynamics(self, *self.check_state(q, qdot))
 
     def energy(self, q, qdot):
         """Energy(kinetic, gravity, strain, total) in joules."""
-        from ..dynamics.gibbs_appell import energy
-
-        return energy(self, *self.check_state(q, qdot))
+        return _dynamics().energy(self, *self.check_state(q, qdot))
 
     def joint_positions(self, q):
         """Inertial positions of O_1 ... O_(n+1), shape (n+1, 3) [m]."""
-        from ..dynamics.kinematics import joint_positions
-
-        return joint_positions(self, self.check_state(q))
+        return _kinematics().joint_positions(self, self.check_state(q))
 
     def joint_jacobians(self, q):
         """Jacobians d O_j / d q, shape (n+1, 3, N)."""
-        from ..dynamics.kinematics import joint_jacobians
-
-        return joint_jacobians(self, self.check_state(q))
+        return _kinematics().joint_jacobians(self, self.check_state(q))
 
     def joint_velocities(self, q, qdot):
         """Inertial velocities of O_1 ... O_(n+1), shape (n+1, 3) [m/s]."""
@@ -858,14 +903,11 @@ class Model:
 
     def linear_momentum(self, q, qdot):
         """Total linear momentum, shape (3,) [kg m/s]."""
-        from ..dynamics.gibbs_appell import momentum
-
-        return momentum(self, *self.check_state(q, qdot))[0]
+        return _dynamics().momentum(self, *self.check_state(q, qdot))[0]
 
     def angular_momentum(self, q, qdot, about=None):
         """Angular momentum about ``about`` (3,) [m], default the mass centre; (3,) [kg m^2/s]."""
-        from ..dynamics.gibbs_appell import momentum
-
+        momentum = _dynamics().momentum
         q, qdot = self.check_state(q, qdot)
         L, H0, c = momentum(self, q, qdot)
         point = c if about is None else np.asarray(about, dtype=float)
@@ -874,9 +916,7 @@ class Model:
 
     def center_of_mass(self, q):
         """Mass centre, shape (3,) [m]."""
-        from ..dynamics.gibbs_appell import center_of_mass
-
-        return center_of_mass(self, self.check_state(q))
+        return _dynamics().center_of_mass(self, self.check_state(q))
 
     def __repr__(self):
         return f"Model(n_links={self.n_links}, n_dof={self.n_dof}, gravity={tuple(self._gravity)})"
