@@ -31,6 +31,26 @@ class _Tables:
     """
 
     def __init__(self, model):
+        self._link_kinds(model)
+        self._mode_coefficients(model)
+        self._element_nodes(model)
+        self.S = _sample_count(model.chain.links)
+        self._sample_grid()
+        self.r0, self.A = self._local_samples()
+        self.flex_links = np.flatnonzero(self.flexible)
+        self.has_pb = bool(self.pb.any())
+        self.offset1, self.scale1 = np.zeros((1, self.n)), np.ones((1, self.n))   # x = offset + scale s, no Pb link
+        self.modal_template, self.modal_x = self._modal_template()
+        self.hermite_template = self._hermite_template()
+        S = self.S
+        self.samples_per_element = np.where(self.fe & ((S - 1) % self.ne == 0), (S - 1) // self.ne, 0)
+        self.qdot1 = np.zeros(self.N)
+        job = _k.JOB_FRAMES
+        self.frames_offset = int(_k.layout(self.n, self.N, 1, job, model.n_joints)[_k.SECTIONS.index("frames")])
+
+    def _link_kinds(self, model):
+        """Per link (n,): length, Pb flag and q index of d, modal / finite-element / flexible flags, the
+        shape coordinate's range Lc; and width, the number of stencil slots per direction."""
         n, N = model.n_links, model.n_dof
         links, kinds = model.chain.links, model.joint_kinds
         self.n, self.N = n, N
@@ -42,59 +62,61 @@ class _Tables:
         self.flexible = self.modal | self.fe
         # Shape coordinate: s = x on [0, l]; s = xi on [0, 1] for a Pb link.
         self.Lc = np.where(self.pb, 1.0, self.length)
-        width = max([4] + [len(lk.modes) for lk in links])
-        self.width = width
+        self.width = max([4] + [len(lk.modes) for lk in links])
+
+    def _mode_coefficients(self, model):
+        """Assumed-mode links: beta, ca, cb, cc, cs (n, width), direction mask and q index (n, 2, width)."""
+        n, N, width = self.n, self.N, self.width
         # Modal coefficients: psi^(k)(s) = beta^k [ca e^(beta s) + (-1)^k cb e^(-beta s) + cc cos^(k) + cs sin^(k)].
         shp = (n, width)
         self.beta, self.ca, self.cb, self.cc, self.cs = (np.zeros(shp) for _ in range(5))
         self.dmask = np.zeros((n, 2, width))   # direction of each mode: slot 0 = v (y), 1 = w (z)
         self.midx = np.full((n, 2, width), N)  # q index of each mode
-        # Hermite links: h on the shape coordinate, n_e, q index of (deflection, slope) at node j per direction.
-        self.ne = np.array([max(lk.elements, 1) for lk in links])
-        self.h = self.Lc / self.ne
-        self.node_q = np.full((n, int(self.ne.max()) + 1, 2, 2), N)
-        self.pb_slopes = []                    # (q index of each slope coordinate, index of d) of Pb links
-        for i, lk in enumerate(links):
+        for i, lk in enumerate(model.chain.links):
             idx = model.delta_index[i]
-            if lk.modes:
-                for k, md in enumerate(lk.modes):
-                    z = frequency_root(md.kind, int(md.number))
-                    beta = z / lk.length
-                    C = _normalisation(md.kind, int(md.number), float(lk.length))
-                    if md.kind == "pinned-pinned":
-                        a, b, c, s = 0.0, 0.0, 0.0, C
-                    else:
-                        sigma, one_minus, one_plus = _sigma_terms(md.kind, z)
-                        a, b, c, s = 0.5 * C * one_minus, 0.5 * C * one_plus, -C, C * sigma
-                    self.beta[i, k], self.ca[i, k], self.cb[i, k], self.cc[i, k], self.cs[i, k] = beta, a, b, c, s
-                    slot = 0 if md.direction == "y" else 1
-                    self.dmask[i, slot, k] = 1.0
-                    self.midx[i, :, k] = idx[k]
-            elif lk.elements:
-                ne = lk.elements
-                for set_k, direction in enumerate(lk.element_directions):
-                    slot = 0 if direction == "y" else 1
-                    base = idx[2 * ne * set_k:2 * ne * (set_k + 1)]
-                    self.node_q[i, 1:ne + 1, slot, 0] = base[0::2]
-                    self.node_q[i, 1:ne + 1, slot, 1] = base[1::2]
-                if self.pb[i]:
-                    self.pb_slopes.append((idx[1::2], model.theta_index[i]))
-        # Sample grid on [0, Lc] and its stencils.
-        S = 2
-        for i, lk in enumerate(links):
-            if lk.modes:
-                bl = max(frequency_root(md.kind, int(md.number)) for md in lk.modes)
-                S = max(S, _MIN_SAMPLES, int(np.ceil(8.0 * bl / np.pi)) + 1)
-            elif lk.elements:
-                S = max(S, _MIN_SAMPLES, 8 * lk.elements + 1)
-        # Element nodes on the grid when that at most doubles S: S - 1 a multiple of every n_e.
-        lcm = int(np.lcm.reduce([lk.elements for lk in links if lk.elements] or [1]))
-        if lcm <= S - 1:
-            S = -(-(S - 1) // lcm) * lcm + 1
-        self.S = S
-        u = np.linspace(0.0, 1.0, S)
+            for k, md in enumerate(lk.modes):
+                z = frequency_root(md.kind, int(md.number))
+                beta = z / lk.length
+                C = _normalisation(md.kind, int(md.number), float(lk.length))
+                if md.kind == "pinned-pinned":
+                    a, b, c, s = 0.0, 0.0, 0.0, C
+                else:
+                    sigma, one_minus, one_plus = _sigma_terms(md.kind, z)
+                    a, b, c, s = 0.5 * C * one_minus, 0.5 * C * one_plus, -C, C * sigma
+                self.beta[i, k], self.ca[i, k], self.cb[i, k], self.cc[i, k], self.cs[i, k] = beta, a, b, c, s
+                slot = 0 if md.direction == "y" else 1
+                self.dmask[i, slot, k] = 1.0
+                self.midx[i, :, k] = idx[k]
+
+    def _element_nodes(self, model):
+        """Hermite links: n_e and h (n,) on the shape coordinate, q index (n, n_e + 1, 2 directions,
+        2) of (deflection, slope) at node j; pb_slopes: (q indices of the slopes, q index of d) per Pb link."""
+        self.ne = np.array([max(lk.elements, 1) for lk in model.chain.links])
+        self.h = self.Lc / self.ne
+        self.node_q = np.full((self.n, int(self.ne.max()) + 1, 2, 2), self.N)
+        self.pb_slopes = []
+        for i, lk in enumerate(model.chain.links):
+            if lk.modes or not lk.elements:
+                continue
+            idx = model.delta_index[i]
+            ne = lk.elements
+            for set_k, direction in enumerate(lk.element_directions):
+                slot = 0 if direction == "y" else 1
+                base = idx[2 * ne * set_k:2 * ne * (set_k + 1)]
+                self.node_q[i, 1:ne + 1, slot, 0] = base[0::2]
+                self.node_q[i, 1:ne + 1, slot, 1] = base[1::2]
+            if self.pb[i]:
+                self.pb_slopes.append((idx[1::2], model.theta_index[i]))
+
+    def _sample_grid(self):
+        """s_grid (n, S): S samples evenly spaced on [0, Lc], the far end exactly Lc."""
+        u = np.linspace(0.0, 1.0, self.S)
         self.s_grid = self.Lc[:, None] * u[None, :]
         self.s_grid[:, -1] = self.Lc  # the far end exactly
+
+    def _local_samples(self):
+        """r0 (2, n, S, 3) and A (2 n S 3, N + 1): local samples r(s) and dr/ds = r0 + A qe."""
+        n, N, S, width = self.n, self.N, self.S, self.width
         # Local samples r(s) and dr/ds of every link, linear in qe: r = r0 + A qe, rows (order, link, sample,
         # component) [docs/theory.md §7.2: x = s, or x = l + (s - 1) d on a Pb link; v, w from the stencils].
         L = np.repeat(np.arange(n), S)
@@ -120,10 +142,11 @@ class _Tables:
             from scipy.sparse import csr_matrix
 
             A = csr_matrix(A)
-        self.r0, self.A = r0, A
-        self.flex_links = np.flatnonzero(self.flexible)
-        self.has_pb = bool(self.pb.any())
-        self.offset1, self.scale1 = np.zeros((1, n)), np.ones((1, n))   # x = offset + scale s, no Pb link
+        return r0, A
+
+    def _modal_template(self):
+        """Template (n, 3 orders, 2 (v, w), nb, width) of the assumed-mode basis, and modal_x (3, nb), its x row."""
+        n, width = self.n, self.width
         # Assumed-mode basis for the refinement (_ModalBasis): F = (1, s, E_j, 1/E_j, cos_j, sin_j),
         # E_j = e^(beta_j s); template (n, 3 orders, 2 (v, w), nb, width) times the modal coordinates.
         nb = 2 + 4 * width
@@ -141,26 +164,25 @@ class _Tables:
                     tm[i, k, slot, 2 + width + j, j] = fb * dm
                     tm[i, k, slot, 2 + 2 * width + j, j] = fc * dm
                     tm[i, k, slot, 2 + 3 * width + j, j] = fs * dm
-        self.modal_template = tm
+        modal_x = np.zeros((3, nb))
+        modal_x[0, 1] = 1.0   # x = s
+        modal_x[1, 0] = 1.0   # dx/ds = 1
+        return tm, modal_x
+
+    def _hermite_template(self):
+        """Template (n, 3 orders, 4 powers, 4 dofs) of the Hermite-element basis."""
         # Hermite elements (_HermiteBasis): v, v', v'' on an element as powers of eta from its dofs
         # (w_(e-1), t_(e-1), w_e, t_e): (H1, h H2, H3, h H4) = (1, eta, eta^2, eta^3) @ H0 (elements.py);
         # d/ds = (1/h) d/deta. Template (n, 3 orders, 4 powers, 4 dofs).
         H = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [-3.0, -2.0, 3.0, -1.0], [2.0, 1.0, -2.0, 1.0]])
         D = np.diag([1.0, 2.0, 3.0], 1)   # d/deta on power coefficients: c -> (c1, 2 c2, 3 c3, 0)
-        self.hermite_template = np.zeros((n, 3, 4, 4))
-        for i in range(n):
+        template = np.zeros((self.n, 3, 4, 4))
+        for i in range(self.n):
             if self.fe[i]:
                 hi_ = self.h[i]
                 H0 = H * np.array([1.0, hi_, 1.0, hi_])
-                self.hermite_template[i] = (H0, D @ H0 / hi_, D @ D @ H0 / hi_**2)
-        self.samples_per_element = np.where(self.fe & ((S - 1) % self.ne == 0), (S - 1) // self.ne, 0)
-        self.modal_x = np.zeros((3, nb))
-        self.modal_x[0, 1] = 1.0   # x = s
-        self.modal_x[1, 0] = 1.0   # dx/ds = 1
-        self.qdot1 = np.zeros(N)
-        job = _k.JOB_FRAMES
-        self.frames_offset = int(_k.layout(n, N, 1, job, model.n_joints)[_k.SECTIONS.index("frames")])
-
+                template[i] = (H0, D @ H0 / hi_, D @ D @ H0 / hi_**2)
+        return template
 
     def grid_index(self, K, W):
         """Index arrays (K, 1, 1), (1, 1, n) that pick (state, link) for every (state, wall, link)."""
@@ -186,6 +208,25 @@ def _tables(model) -> _Tables:
     except KeyError:
         t = _TABLES[model] = _Tables(model)
         return t
+
+
+def _sample_count(links) -> int:
+    """S, the samples per link (module docstring of contact/closest_points.py, sampling rule):
+    S = max_i S_i, S_i = max(17, ceil(8 beta_max l / pi) + 1) for assumed modes (beta_max l the largest
+    frequency root), max(17, 8 n_e + 1) for n_e Hermite elements; S - 1 then rounded up to a multiple of
+    every n_e when that at most doubles it (the element nodes are samples)."""
+    S = 2
+    for lk in links:
+        if lk.modes:
+            bl = max(frequency_root(md.kind, int(md.number)) for md in lk.modes)
+            S = max(S, _MIN_SAMPLES, int(np.ceil(8.0 * bl / np.pi)) + 1)
+        elif lk.elements:
+            S = max(S, _MIN_SAMPLES, 8 * lk.elements + 1)
+    # Element nodes on the grid when that at most doubles S: S - 1 a multiple of every n_e.
+    lcm = int(np.lcm.reduce([lk.elements for lk in links if lk.elements] or [1]))
+    if lcm <= S - 1:
+        S = -(-(S - 1) // lcm) * lcm + 1
+    return S
 
 
 def _hermite_local(eta, h, orders):
