@@ -218,7 +218,7 @@ def closest_points(model, q, walls, refine_below: float = np.inf) -> ClosestPoin
     """
     tab = _tables(model)
     walls = tuple(walls)
-    W, n, S, N = len(walls), tab.n, tab.S, tab.N
+    W, n, N = len(walls), tab.n, tab.N
     qa = np.asarray(q, dtype=float)
     if qa.shape[-1:] != (N,) or qa.ndim not in (1, 2):
         raise ValueError(f"q has shape {qa.shape}; this model needs (N,) or (K, N), N = {N} "
@@ -230,7 +230,22 @@ def closest_points(model, q, walls, refine_below: float = np.inf) -> ClosestPoin
         return out if qa.ndim == 2 else ClosestPoints(*(a[0] for a in out))
     wp = _walls(walls)
     st = _state(model, tab, qs)
+    p0, g, g1 = _sample_gaps(tab, wp, st, K, W)
+    best_s, best_g, best_p = _end_minima(tab, p0, g, K, W)
+    if tab.flex_links.size:
+        _interior_minima(tab, wp, st, p0, g, g1, refine_below, best_s, best_g, best_p)
+    best_n = np.empty((K, W, n, 3))
+    for k in range(W):
+        best_n[:, k] = _normals(wp, k, best_p[:, k])
+    x = _abscissa(tab, st, best_s)
+    if qa.ndim == 1:
+        return ClosestPoints(x[0], best_g[0], best_n[0])
+    return ClosestPoints(x, best_g, best_n)
 
+
+def _sample_gaps(tab, wp: _WallParams, st, K: int, W: int):
+    """Step 2's samples: world points p0 (K, n, S, 3) [m], gaps g and g' = dg/ds (K, W, n, S) of every wall."""
+    n, S, N = tab.n, tab.S, tab.N
     # Samples: local r and dr/ds (K, 2, n, S, 3) = r0 + A qe, world p, dp/ds; g, g' (K, W, n, S).
     r = tab.r0 + (tab.A @ st.qe.reshape(K, N + 1).T).T.reshape(K, 2, n, S, 3)
     p = np.matmul(r, st.R.swapaxes(-1, -2)[:, None])
@@ -241,63 +256,80 @@ def closest_points(model, q, walls, refine_below: float = np.inf) -> ClosestPoin
         g, g1 = terms[0][0][:, None], terms[0][1][:, None]
     else:
         g, g1 = np.stack([t[0] for t in terms], axis=1), np.stack([t[1] for t in terms], axis=1)
+    return p0, g, g1
 
+
+def _end_minima(tab, p0, g, K: int, W: int):
+    """The lower end of every link: s (K, W, n), its gap (K, W, n) [m] and point (K, W, n, 3) [m]."""
     # The ends of every link (the only candidates of a rigid link: closed form; ties: the proximal end).
     far = g[..., -1] < g[..., 0]
     best_s = far * tab.Lc
     best_g = np.minimum(g[..., 0], g[..., -1])
     kk, ll = tab.grid_index(K, W)
-    best_p = p0[kk, ll, far * (S - 1)]
+    best_p = p0[kk, ll, far * (tab.S - 1)]
+    return best_s, best_g, best_p
+
+
+def _interior_minima(tab, wp: _WallParams, st, p0, g, g1, refine_below: float, best_s, best_g, best_p):
+    """Where a flexible link has an interior minimum lower than its ends' beyond round-off, it replaces
+    best_s, best_g (K, W, n) and best_p (K, W, n, 3) (in place); p0, g, g1 are _sample_gaps'."""
+    W, n = g.shape[1], tab.n
     fl = tab.flex_links
-    if fl.size:
-        # Interior minima: g' changes sign from - to + between samples k and k + 1.
-        g1f = g1 if fl.size == n else g1[:, :, fl]
-        ks, ws, ls, js = np.nonzero((g1f[..., :-1] < 0.0) & (g1f[..., 1:] >= 0.0))
-        if refine_below < np.inf and ks.size:
-            gf = g if fl.size == n else g[:, :, fl]
-            kmin = np.argmin(gf, axis=-1)
-            gmin = np.take_along_axis(gf, kmin[..., None], -1)[..., 0]
-            coarse = gmin > refine_below
-            if coarse.any():
-                kc, wc, lc = np.nonzero(coarse)
-                jc, lk = kmin[kc, wc, lc], fl[lc]
-                best_s[kc, wc, lk] = tab.s_grid[lk, jc]
-                best_g[kc, wc, lk] = gmin[kc, wc, lc]
-                best_p[kc, wc, lk] = p0[kc, lk, jc]
-                fine = ~coarse[ks, ws, ls]
-                ks, ws, ls, js = ks[fine], ws[fine], ls[fine], js[fine]
-        if ks.size:
-            links = fl[ls]
-            s_new, gs, ps = _refine(tab, wp, st, ks, ws, links, js, g[ks, ws, links, js], g[ks, ws, links, js + 1],
-                                    g1[ks, ws, links, js], g1[ks, ws, links, js + 1])
-            # The lowest interior minimum of each pair (np.nonzero sorts the keys); it beats the
-            # ends only beyond round-off.
-            key = (ks * W + ws) * n + links
-            if key.size > 1 and np.any(key[1:] == key[:-1]):
-                order = np.lexsort((gs, key))
-                first = np.ones(order.size, dtype=bool)
-                first[1:] = key[order[1:]] != key[order[:-1]]
-                win = order[first]
-                kv, wv, lv = ks[win], ws[win], links[win]
-            else:
-                win, kv, wv, lv = slice(None), ks, ws, links
-            better = gs[win] < best_g[kv, wv, lv] - _TIE * (1.0 + np.abs(p0).max())
-            if not better.all():
-                win = np.arange(ks.size)[win][better]
-                kv, wv, lv = kv[better], wv[better], lv[better]
-            best_s[kv, wv, lv] = s_new[win]
-            best_g[kv, wv, lv] = gs[win]
-            best_p[kv, wv, lv] = ps[win]
-    best_n = np.empty((K, W, n, 3))
-    for k in range(W):
-        best_n[:, k] = _normals(wp, k, best_p[:, k])
-    if tab.has_pb:   # x = offset + scale s, exactly l at the far end
-        x = np.where(best_s == tab.Lc, tab.length, st.offset[:, None] + st.scale[:, None] * best_s)
+    # Interior minima: g' changes sign from - to + between samples k and k + 1.
+    g1f = g1 if fl.size == n else g1[:, :, fl]
+    ks, ws, ls, js = np.nonzero((g1f[..., :-1] < 0.0) & (g1f[..., 1:] >= 0.0))
+    if refine_below < np.inf and ks.size:
+        ks, ws, ls, js = _keep_coarse(tab, p0, g, refine_below, (ks, ws, ls, js), best_s, best_g, best_p)
+    if not ks.size:
+        return
+    links = fl[ls]
+    s_new, gs, ps = _refine(tab, wp, st, ks, ws, links, js, g[ks, ws, links, js], g[ks, ws, links, js + 1],
+                            g1[ks, ws, links, js], g1[ks, ws, links, js + 1])
+    # The lowest interior minimum of each pair (np.nonzero sorts the keys); it beats the
+    # ends only beyond round-off.
+    key = (ks * W + ws) * n + links
+    if key.size > 1 and np.any(key[1:] == key[:-1]):
+        order = np.lexsort((gs, key))
+        first = np.ones(order.size, dtype=bool)
+        first[1:] = key[order[1:]] != key[order[:-1]]
+        win = order[first]
+        kv, wv, lv = ks[win], ws[win], links[win]
     else:
-        x = best_s   # s = x (and s = l exactly at the far end)
-    if qa.ndim == 1:
-        return ClosestPoints(x[0], best_g[0], best_n[0])
-    return ClosestPoints(x, best_g, best_n)
+        win, kv, wv, lv = slice(None), ks, ws, links
+    better = gs[win] < best_g[kv, wv, lv] - _TIE * (1.0 + np.abs(p0).max())
+    if not better.all():
+        win = np.arange(ks.size)[win][better]
+        kv, wv, lv = kv[better], wv[better], lv[better]
+    best_s[kv, wv, lv] = s_new[win]
+    best_g[kv, wv, lv] = gs[win]
+    best_p[kv, wv, lv] = ps[win]
+
+
+def _keep_coarse(tab, p0, g, refine_below: float, brackets, best_s, best_g, best_p):
+    """refine_below: a flexible pair whose lowest sample gap exceeds it takes that sample as its minimum
+    (written into best_s, best_g, best_p); returns the brackets (ks, ws, ls, js) of the other pairs."""
+    ks, ws, ls, js = brackets
+    fl = tab.flex_links
+    gf = g if fl.size == tab.n else g[:, :, fl]
+    kmin = np.argmin(gf, axis=-1)
+    gmin = np.take_along_axis(gf, kmin[..., None], -1)[..., 0]
+    coarse = gmin > refine_below
+    if coarse.any():
+        kc, wc, lc = np.nonzero(coarse)
+        jc, lk = kmin[kc, wc, lc], fl[lc]
+        best_s[kc, wc, lk] = tab.s_grid[lk, jc]
+        best_g[kc, wc, lk] = gmin[kc, wc, lc]
+        best_p[kc, wc, lk] = p0[kc, lk, jc]
+        fine = ~coarse[ks, ws, ls]
+        ks, ws, ls, js = ks[fine], ws[fine], ls[fine], js[fine]
+    return ks, ws, ls, js
+
+
+def _abscissa(tab, st, s):
+    """Material abscissa x [m] (K, W, n) of the shape coordinate s (K, W, n): x = offset + scale s."""
+    if tab.has_pb:   # x = offset + scale s, exactly l at the far end
+        return np.where(s == tab.Lc, tab.length, st.offset[:, None] + st.scale[:, None] * s)
+    return s   # s = x (and s = l exactly at the far end)
 
 
 def _refine(tab, wp, st, ks, ws, links, js, ga, gb, g1a, g1b):
