@@ -21,7 +21,7 @@ _AXIS = {"y": 1, "z": 2}
 
 
 #: Default composite Gauss-Legendre rule for the modal integrals:
-#: (panels, points per panel). tests/test_quadrature.py shows the error on M
+#: (panels, points per panel). tests/model/test_quadrature.py shows the error on M
 #: is < 1e-12 relative for modes 1-4 with it.
 DEFAULT_QUADRATURE = (16, 16)
 
