@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from ..dynamics.gibbs_appell import Energy
-from ..model.model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
+from ..model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
 from ..model.modes import Mode
 from ..simulation.results import ImpactRecord, Result
 from ..contact.walls import Circle, Plane, Sphere, describe

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..dynamics.kinematics import joint_positions, transforms
 from ..dynamics.link_points import link_points, points_on_link
-from ..model.model import link_deflection
+from ..model.shapes import link_deflection
 from ..contact.walls import Circle, Plane, Sphere, describe
 
 __all__ = [
