@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.case.reader import RANGES, CaseError, _Reader, case_from_dict
+from gibbsimpact.case import RANGES, CaseError, case_from_dict
+from gibbsimpact.case.reader import _Reader
 from conftest import PB_DROP_CASE
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
@@ -991,7 +992,7 @@ def test_joint_coordinate_names_and_units(tmp_path):
 
 
 def test_joint_limit_solver_keys(tmp_path):
-    from gibbsimpact.case.reader import _SOLVER_CHOICES
+    from gibbsimpact.case.schema import _SOLVER_CHOICES
     from gibbsimpact.simulation.joint_limits import JOINT_LIMIT_MODES
 
     assert tuple(_SOLVER_CHOICES["joint_limit"]) == JOINT_LIMIT_MODES

@@ -6,7 +6,7 @@ import math
 import re
 import tomllib
 
-from ..case.reader import CaseError
+from ..case import CaseError
 from ..study.sweep import RESULT_COLUMNS, RUNS_DIR, _cell, sweep
 from .common import EXIT_BAD_INPUT, EXIT_OK, EXIT_STOPPED, _error, _float, _load
 

@@ -105,7 +105,7 @@ from dataclasses import dataclass
 from numbers import Integral, Real
 from pathlib import Path
 
-from ..case.reader import Case, CaseError, case_from_dict, load_case
+from ..case import Case, CaseError, case_from_dict, load_case
 from ..io.result_files import atomic_path
 
 __all__ = ["SweepResult", "sweep", "expand_runs", "run_id", "TABLE_NAME", "PARQUET_NAME", "RUNS_DIR",
