@@ -63,10 +63,13 @@ def read_initial(r: _Reader, top: dict, model, base) -> tuple:
     return q0, qdot0
 
 
-def _kind(name: str, model) -> str:
-    """'length' or 'angle', the kind of coordinate ``name`` (as its input, dynamics.inputs.is_angle_coordinate)."""
+def _kind(name: str, model) -> str | None:
+    """'length' or 'angle', the kind of coordinate ``name`` (as its input, dynamics.inputs.is_angle_coordinate);
+    None for an elastic coordinate delta_i_k without a model: its link may be the one that could not be built."""
     if model is not None and name in model.coordinate_names:
         return "angle" if is_angle_coordinate(model, model.coordinate_names.index(name)) else "length"
+    if name.startswith("delta"):
+        return None
     return "angle" if name.startswith("theta") else "length"
 
 
