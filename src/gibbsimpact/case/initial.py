@@ -22,6 +22,7 @@ from ..dynamics.inputs import is_angle_coordinate
 from ..model.model import FixedBase
 from ..contact.walls import describe
 from ..simulation.joint_limits import joint_limits, limit_gaps
+from ..simulation.outside import outside_walls, point_name
 from ..simulation.simulate import simulate
 from .keypaths import join, key_path
 from .reader import _BAD, _Reader
@@ -225,16 +226,12 @@ def _joint_ranges_ok(r: _Reader, model, q0, coordinates: dict) -> bool:
 
 
 def check_start(r: _Reader, model, q0, qdot0, walls, solver: dict) -> None:
-    """Problems of the assembled initial state (q0, qdot0) (N,): a joint beyond a wall by more than
-    contact_tol, a singular mass matrix, a state that overflows floating point."""
-    p = model.joint_positions(q0)
+    """Problems of the assembled initial state (q0, qdot0) (N,): a contact point beyond a wall by
+    more than contact_tol (a joint, or with link contacts a link bent between its joints;
+    simulation.outside), a singular mass matrix, a state that overflows floating point."""
     tol = solver.get("contact_tol", _DEFAULTS["contact_tol"])
-    for k, w in enumerate(walls):
-        g = w.gap(p)
-        for j in np.nonzero(g < -tol)[0]:
-            pos = ", ".join(f"{c:.6g}" for c in p[j])
-            r.add("initial", f"joint O{j + 1} at ({pos}) m is outside {key_path('walls', k)} ({describe(w)}) by "
-                             f"{-g[j]:.6g} m at t = 0; move the chain inside")
+    for o in outside_walls(model, q0, walls, tol, solver.get("link_contacts", _DEFAULTS["link_contacts"])):
+        r.add("initial", _outside_message(model, o, walls))
     try:
         qddot0 = forward_dynamics(model, q0, qdot0)
     except SingularMassMatrixError as exc:
@@ -243,3 +240,15 @@ def check_start(r: _Reader, model, q0, qdot0, walls, solver: dict) -> None:
     if not (np.all(np.isfinite(q0)) and np.all(np.isfinite(qdot0)) and np.all(np.isfinite(qddot0))):
         r.add("initial", "the initial state overflows floating point; bring the links' parameters and "
                          "the initial values closer to 1 in SI units")
+
+
+def _outside_message(model, o, walls) -> str:
+    """The problem of one contact point beyond a wall at t = 0 (simulation.outside.Outside)."""
+    pos = ", ".join(f"{c:.6g}" for c in o.point)
+    wall = f"{key_path('walls', o.wall)} ({describe(walls[o.wall])})"
+    if o.link is None:
+        return f"{point_name(model, o)} at ({pos}) m is outside {wall} by {o.depth:.6g} m at t = 0; move the chain inside"
+    i = o.link + 1
+    return (f"{point_name(model, o)}, the point ({pos}) m, is beyond {wall} by {o.depth:.6g} m at t = 0: link {i} "
+            f"is bent across the wall between its joints; move the chain inside or straighten the link (its "
+            f"initial.coordinates.delta_{i}_*)")

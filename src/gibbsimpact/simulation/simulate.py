@@ -93,7 +93,7 @@ from .contacts import Contacts, contact_band, event_spec, impact_stage, phase_ev
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .flight import SOLVERS, integrate_phase
 from ..dynamics.forces import damping_depends_on_q, damping_matrix, generalized_force
-from ..dynamics.kinematics import joint_positions
+from .outside import outside_walls, point_name
 from .joint_limits import JOINT_LIMIT_MODES, STATUS_JOINT_LIMIT, EndStops, check_initial, joint_limits
 from .progress import Clock, progress_reporter
 from .recorder import Recorder
@@ -145,24 +145,21 @@ def _validate(model, q0, qdot0, t_span, walls, restitution, method, **tols):
     return q0, qdot0, (float(ts[0]), float(ts[1])), walls
 
 
-def _check_inside(model, q, walls, contact_tol, contacts=None):
-    """Raise ValueError naming every joint (and link, with link contacts) that starts beyond a wall."""
-    p = joint_positions(model, q)
-    bad = []
-    for w_i, w in enumerate(walls):
-        g = w.gap(p)
-        for j in np.nonzero(g < -contact_tol)[0]:
-            bad.append(
-                f"joint O{j + 1} at {np.round(p[j], 6).tolist()} m is {-g[j]:.3g} m outside wall {w_i + 1} ({describe(w)})"
-            )
-    if contacts is not None and contacts.flex and not bad:
-        g = contacts.gaps(q)[:, contacts.n_joints:]
-        for w_i, f in np.argwhere(g < -contact_tol):
-            bad.append(f"link {contacts.flex[f] + 1} bends {-g[w_i, f]:.3g} m beyond wall {w_i + 1} ({describe(walls[w_i])}) "
-                       "between its joints")
-    if bad:
-        what = "a joint" if "joint" in bad[0] else "a link"
-        raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(bad) + ". Move the chain inside.")
+def _check_inside(model, q, walls, contact_tol, link_contacts=True):
+    """Raise ValueError naming every joint, and with link contacts every link bent between its
+    joints, that starts beyond a wall by more than contact_tol (simulation.outside)."""
+    bad = outside_walls(model, q, walls, contact_tol, link_contacts)
+    if not bad:
+        return
+    lines = []
+    for o in bad:
+        w, at = f"wall {o.wall + 1} ({describe(walls[o.wall])})", np.round(o.point, 6).tolist()
+        lines.append(f"{point_name(model, o)} at {at} m is {o.depth:.3g} m outside {w}" if o.link is None else
+                     f"link {o.link + 1} bends {o.depth:.3g} m beyond {w} between its joints: its point at "
+                     f"x = {o.x:.6g} m (of {model.chain.links[o.link].length:.6g} m) is at {at} m")
+    kinds = {"a joint" if o.link is None else "a link" for o in bad}
+    what = " and ".join(sorted(kinds))
+    raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(lines) + ". Move the chain inside.")
 
 
 def simulate(
@@ -274,8 +271,8 @@ def simulate(
                          "or 'stop' (end the run with status 'zeno')")
     limits = joint_limits(model)
     check_initial(limits, q0)
+    _check_inside(model, q0, walls, contact_tol, bool(link_contacts))
     contacts = Contacts(model, walls, bool(link_contacts))
-    _check_inside(model, q0, walls, contact_tol, contacts)
     try:
         mass_matrix(model, q0)
         forward_dynamics(model, q0, qdot0)
