@@ -7,11 +7,11 @@ import re
 
 import numpy as np
 import pytest
-from scipy.optimize import minimize_scalar
 
 import gibbsimpact as gi
 from gibbsimpact.dynamics.link_points import material_points
 from gibbsimpact.simulation.outside import outside_walls
+from conftest import deepest_point
 
 FLOOR = gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
 # The circle's arc through (0, 0) and (1, 0) is 0.109 m above the floor at x = 0 and 1.
@@ -24,16 +24,6 @@ def bent_link():
     link = gi.Link(1.0, 1.0, 10.0, elements=2)
     model = gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.15), np.radians(3.0))), gravity=(0.0, -9.81, 0.0))
     return model, model.state(delta_1_1=-0.25, delta_1_2=0.2, delta_1_3=0.02)
-
-
-def deepest_point(model, q, i, wall):
-    """(x [m], depth [m]) of link i's material point farthest beyond ``wall``, from material_points and
-    the wall's gap alone: the lowest of 2001 samples, refined by Brent's method between its neighbours."""
-    xs = np.linspace(0.0, model.chain.links[i].length, 2001)
-    k = int(np.argmin(wall.gap(material_points(model, q, i, xs))))
-    res = minimize_scalar(lambda x: wall.gap(material_points(model, q, i, [x]))[0], method="bounded",
-                          bounds=(xs[max(k - 1, 0)], xs[min(k + 1, xs.size - 1)]), options={"xatol": 1e-12})
-    return float(res.x), float(-res.fun)
 
 
 @pytest.mark.parametrize("wall", [FLOOR, CIRCLE], ids=["plane", "circle"])
