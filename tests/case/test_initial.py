@@ -201,24 +201,9 @@ def test_a_slope_of_a_finite_element_link_is_not_judged_without_the_chain(tmp_pa
 
 
 def test_a_planar_center_of_mass_is_not_judged_without_the_base_type(tmp_path):
-    planar = """
-gravity_m_per_s2 = [0.0, -9.81, 0.0]
-
-[base]
-type = "planar"
-
-[[links]]
-length_m = 1.0
-mass_per_length_kg_per_m = 1.0
-EI_N_m2 = 25.0
-elements = 2
-
-[initial]
-center_of_mass_m = [0.3, 0.2]
-
-[time]
-t_end_s = 0.1
-"""
+    # The R-R chain of TWO on a planar floating base, placed by its mass centre (two numbers).
+    planar = TWO.replace('type = "fixed"', 'type = "planar"') + "\n[initial]\ncenter_of_mass_m = [0.3, 0.2]\n" \
+        "\n[time]\nt_end_s = 0.1\n"
     p = tmp_path / "planar.toml"
     p.write_text(planar)
     assert gi.load_case(p).model.chain.base == "planar"
