@@ -109,3 +109,17 @@ zeno_interval_s = 0.05
 zeno_count = 3
 accumulation = "stop"
 """
+
+
+def deepest_point(model, q, i, wall):
+    """(x [m], depth [m]) of link i's material point farthest beyond ``wall``, from material_points and
+    the wall's gap alone: the lowest of 2001 samples, refined by Brent's method between its neighbours."""
+    from scipy.optimize import minimize_scalar
+
+    from gibbsimpact.dynamics.link_points import material_points
+
+    xs = np.linspace(0.0, model.chain.links[i].length, 2001)
+    k = int(np.argmin(wall.gap(material_points(model, q, i, xs))))
+    res = minimize_scalar(lambda x: wall.gap(material_points(model, q, i, [x]))[0], method="bounded",
+                          bounds=(xs[max(k - 1, 0)], xs[min(k + 1, xs.size - 1)]), options={"xatol": 1e-12})
+    return float(res.x), float(-res.fun)

@@ -313,7 +313,7 @@ def test_options_held_to_the_case_ranges(tmp_path, capsys, opts, message):
                                        ("output_dt", "--output-dt")])
 def test_option_bounds_are_the_case_file_ranges(kw, option):
     from gibbsimpact import load_case
-    from gibbsimpact.case.reader import OVERRIDE_KEYS, RANGES
+    from gibbsimpact.case import OVERRIDE_KEYS, RANGES
 
     case = load_case(CASES / "circle_two_link.toml")
     rng = RANGES[OVERRIDE_KEYS[kw]]
@@ -329,7 +329,7 @@ def test_option_bounds_are_the_case_file_ranges(kw, option):
 
 
 def test_run_warnings_are_summed_up_after_the_error_line(tmp_path, capsys, monkeypatch):
-    from gibbsimpact.case.reader import Case
+    from gibbsimpact.case import Case
 
     real = Case.simulate
 
@@ -478,7 +478,7 @@ def test_sigterm_during_a_run_in_process_exit_130(tmp_path, capsys, monkeypatch)
     import os
     import signal
 
-    from gibbsimpact.case.reader import Case
+    from gibbsimpact.case import Case
 
     gsim = importlib.import_module("gibbsimpact.simulation.simulate")
     clock = gsim.Clock

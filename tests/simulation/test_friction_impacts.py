@@ -150,7 +150,7 @@ def test_friction_is_checked_and_stored(tmp_path):
 def test_case_file_friction_key(tmp_path):
     from pathlib import Path
 
-    from gibbsimpact.case.reader import CaseError
+    from gibbsimpact.case import CaseError
 
     text = (Path(__file__).resolve().parents[2] / "cases" / "circle_two_link.toml").read_text()
     assert text.count('type = "circle"') == 1

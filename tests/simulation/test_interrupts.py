@@ -195,7 +195,7 @@ def test_progress_true_shows_a_tqdm_bar(capsys):
 
 @pytest.fixture
 def no_simulation(monkeypatch):
-    from gibbsimpact.case.reader import Case
+    from gibbsimpact.case import Case
 
     def refuse(self, **kw):
         raise AssertionError("simulated although the output folder is unusable")
@@ -219,7 +219,7 @@ def test_unwritable_out_fails_before_simulating(tmp_path, capsys, no_simulation)
 
 
 def test_out_is_created_and_probed_before_simulating(tmp_path, capsys, monkeypatch):
-    from gibbsimpact.case.reader import Case
+    from gibbsimpact.case import Case
 
     out = tmp_path / "a" / "b" / "c"
     seen = {}

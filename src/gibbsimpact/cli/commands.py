@@ -467,7 +467,7 @@ def cmd_run(args) -> int:
     Nothing runs unless every input is good (exit code 2). The exit code is then the
     worst of the runs; an interrupted run (130) ends the command.
     """
-    from ..case.reader import CaseError
+    from ..case import CaseError
 
     several = len(args.case) > 1
     # Options override case-file keys and are held to the same ranges (case.RANGES).

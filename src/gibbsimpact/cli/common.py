@@ -62,7 +62,7 @@ _GIVE_A_CASE = "give the path of a case file (e.g. cases/circle_two_link.toml)"
 
 def _load(path: str):
     """(case, None), or (None, exit code) after one error line naming the CASE.toml argument."""
-    from ..case.reader import CaseError, load_case
+    from ..case import CaseError, load_case
 
     p = Path(path)
     if not path:

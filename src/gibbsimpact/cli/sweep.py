@@ -6,7 +6,7 @@ import math
 import re
 import tomllib
 
-from ..case.reader import CaseError
+from ..case import CaseError
 from ..study.sweep import RUNS_DIR, sweep
 from ..study.table import PLOT_COLUMNS, _cell, numeric_keys, plot_keys, plot_sweep, varied_keys
 from .common import (EXIT_BAD_INPUT, EXIT_OK, EXIT_STOPPED, OPTION_NAMES, _error, _float, _load, add_method_option,

@@ -15,12 +15,12 @@ import numpy as np
 from ..contact.resting import RestingContacts
 from ..contact.walls import describe
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
-from ..dynamics.kinematics import joint_positions
 from .accumulation import Accumulation
 from .contacts import Contacts, contact_band, event_spec, impact_stage as solve_impact, phase_events
 from .equations import Equations
 from .flight import integrate_phase
 from .joint_limits import EndStops, check_initial, joint_limits
+from .outside import outside_walls, point_name
 from .recorder import Recorder
 from .results import Result
 from .status import STATUS_FINISHED, stop
@@ -79,29 +79,27 @@ class Run:
 
 # -- start -------------------------------------------------------------------------------------
 
-def _check_inside(model, q, walls, contact_tol, contacts=None):
-    """Raise ValueError naming every joint (and link, with link contacts) that starts beyond a wall."""
-    p = joint_positions(model, q)
-    bad = []
-    for w_i, w in enumerate(walls):
-        g = w.gap(p)
-        for j in np.nonzero(g < -contact_tol)[0]:
-            bad.append(f"joint O{j + 1} at {np.round(p[j], 6).tolist()} m is {-g[j]:.3g} m outside wall {w_i + 1} "
-                       f"({describe(w)})")
-    if contacts is not None and contacts.flex and not bad:
-        g = contacts.gaps(q)[:, contacts.n_joints:]
-        for w_i, f in np.argwhere(g < -contact_tol):
-            bad.append(f"link {contacts.flex[f] + 1} bends {-g[w_i, f]:.3g} m beyond wall {w_i + 1} "
-                       f"({describe(walls[w_i])}) between its joints")
-    if bad:
-        what = "a joint" if "joint" in bad[0] else "a link"
-        raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(bad) + ". Move the chain inside.")
+def _check_inside(model, q, walls, contact_tol, link_contacts=True):
+    """Raise ValueError naming every joint, and with link contacts every link bent between its
+    joints, that starts beyond a wall by more than contact_tol (simulation.outside)."""
+    bad = outside_walls(model, q, walls, contact_tol, link_contacts)
+    if not bad:
+        return
+    lines = []
+    for o in bad:
+        w, at = f"wall {o.wall + 1} ({describe(walls[o.wall])})", np.round(o.point, 6).tolist()
+        lines.append(f"{point_name(model, o)} at {at} m is {o.depth:.3g} m outside {w}" if o.link is None else
+                     f"link {o.link + 1} bends {o.depth:.3g} m beyond {w} between its joints: its point at "
+                     f"x = {o.x:.6g} m (of {model.chain.links[o.link].length:.6g} m) is at {at} m")
+    kinds = {"a joint" if o.link is None else "a link" for o in bad}
+    what = " and ".join(sorted(kinds))
+    raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(lines) + ". Move the chain inside.")
 
 
-def _check_start(model, q0, qdot0, settings, limits, contacts):
+def _check_start(model, q0, qdot0, settings, limits):
     """Refuse an initial state the run cannot start from; warn where it is outside the model's assumptions."""
     check_initial(limits, q0)
-    _check_inside(model, q0, settings.walls, settings.contact_tol, contacts)
+    _check_inside(model, q0, settings.walls, settings.contact_tol, settings.link_contacts)
     try:
         mass_matrix(model, q0)
         forward_dynamics(model, q0, qdot0)
@@ -114,8 +112,8 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     """Check the initial state and build the run's parts; the loop starts with an impact stage."""
     s, walls = settings, settings.walls
     limits = joint_limits(model)
+    _check_start(model, q0, qdot0, s, limits)
     contacts = Contacts(model, walls, s.link_contacts)
-    _check_start(model, q0, qdot0, s, limits, contacts)
     stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
     # |dg/dq| <= 1 + 2 sum l: a translation moves a joint 1:1, a rotation by at most its lever arm.
     lipschitz = 1.0 + 2.0 * sum(ld.length for ld in model.link_data)

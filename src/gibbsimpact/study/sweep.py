@@ -106,14 +106,14 @@ import copy
 import hashlib
 import itertools
 import json
-import re
 import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass
 from numbers import Integral, Real
 from pathlib import Path
 
-from ..case.reader import OVERRIDE_KEYS, Case, CaseError, case_from_dict, load_case
+from ..case import OVERRIDE_KEYS, Case, CaseError, case_from_dict, load_case
+from ..case.keypaths import PathProblem, assign, resolve, within
 from .table import (RESULT_COLUMNS, RUNS_DIR, _row_from_file, _row_without_result, _write_atomic, _write_csv,
                     _write_parquet, plot_sweep)
 
@@ -174,91 +174,6 @@ class SweepResult:
 # --------------------------------------------------------------------------
 # Key paths and values
 
-class _PathProblem(Exception):
-    def __init__(self, path: str, message: str):
-        super().__init__(f"{path}: {message}")
-        self.path, self.message = path, message
-
-
-def _join(path: str, token) -> str:
-    """The case-file spelling: ``links`` + 0 -> ``links[1]``, ``links[1]`` + ``EI_N_m2`` -> ``links[1].EI_N_m2``."""
-    if isinstance(token, int):
-        return f"{path}[{token + 1}]"
-    return f"{path}.{token}" if path else token
-
-
-def _split_key(key: str) -> list:
-    """``links[1].EI_N_m2`` or ``links.1.EI_N_m2`` -> ['links', 1 or '1', 'EI_N_m2'].
-
-    A bracketed number becomes an int (1-based entry); a dotted number stays a
-    string and is an entry only where the case has an array there.
-    """
-    if not isinstance(key, str) or not key.strip():
-        raise _PathProblem(str(key), "a key path is a non-empty string such as links[1].EI_N_m2")
-    tokens = []
-    for part in key.strip().split("."):
-        m = re.fullmatch(r"([^\[\]]*)((?:\[\d+\])*)", part)
-        if not m or not (m.group(1) or m.group(2)):
-            raise _PathProblem(key, "not a key path (write it as in the case file, e.g. links[1].EI_N_m2, "
-                                    "walls[1].radius_m, initial.coordinates.theta_1_deg)")
-        if m.group(1):
-            tokens.append(m.group(1))
-        tokens += [int(k) for k in re.findall(r"\[(\d+)\]", m.group(2))]
-    return tokens
-
-
-def _type_name(v) -> str:
-    if isinstance(v, dict):
-        return "a table"
-    if isinstance(v, list):
-        return "an array"
-    return f"the value {v!r}"
-
-
-def _resolve(data: dict, key: str) -> tuple:
-    """(canonical path, tokens with 0-based entry indices) of ``key`` in the case table ``data``.
-
-    Raises _PathProblem for an entry that does not exist or a step into a value
-    that is no table. Missing tables are allowed (created by _set).
-    """
-    tokens = _split_key(key)
-    node, path, out = data, "", []
-    for pos, tok in enumerate(tokens):
-        last = pos == len(tokens) - 1
-        if isinstance(node, list):
-            if isinstance(tok, str) and not tok.isdigit():
-                raise _PathProblem(path, f"is an array of {len(node)} tables; give the entry number from 1, "
-                                         f"e.g. {path}[1].{tok}")
-            k = int(tok)
-            if not 1 <= k <= len(node):
-                raise _PathProblem(f"{path}[{k}]", f"no such entry: the case has {len(node)} {path} "
-                                                   "(numbered from 1)")
-            tok = k - 1
-            node = node[tok]
-        elif isinstance(node, dict):
-            if isinstance(tok, int):
-                raise _PathProblem(f"{path}[{tok}]", f"{path or 'the case'} is a table, not an array of tables")
-            child = node.get(tok)
-            if child is None and not last and isinstance(tokens[pos + 1], int):
-                raise _PathProblem(_join(path, tok), "no such array of tables in the case")
-            node = child if child is not None else {}
-        else:
-            raise _PathProblem(path, f"is {_type_name(node)}, not a table: nothing to set below it")
-        out.append(tok)
-        path = _join(path, tok)
-    return path, tuple(out)
-
-
-def _set(data: dict, tokens: tuple, value) -> None:
-    """Set data[t0][t1]...[tn] = value, creating missing tables on the way (data is a private copy)."""
-    node = data
-    for tok in tokens[:-1]:
-        if isinstance(node, dict) and tok not in node:
-            node[tok] = {}
-        node = node[tok]
-    node[tokens[-1]] = value
-
-
 def _plain(value, key: str):
     """A value as TOML data: bool, int, float, str, or lists and tables of them (numpy scalars and arrays too)."""
     if isinstance(value, (bool, str)):
@@ -272,8 +187,8 @@ def _plain(value, key: str):
     if isinstance(value, (list, tuple)) or hasattr(value, "tolist"):
         v = value.tolist() if hasattr(value, "tolist") else value
         return [_plain(x, key) for x in v] if isinstance(v, list) else _plain(v, key)
-    raise _PathProblem(key, f"cannot set it to {type(value).__name__} {value!r}; give a number, a string, "
-                            "a boolean or an array of them")
+    raise PathProblem(key, f"cannot set it to {type(value).__name__} {value!r}; give a number, a string, "
+                           "a boolean or an array of them")
 
 
 def _hashable(x):
@@ -331,7 +246,7 @@ def _with_overrides(base: dict, run: dict) -> dict:
     """A copy of the case table ``base`` with run = {canonical path: (tokens, value)} applied."""
     data = copy.deepcopy(base)
     for tokens, value in run.values():
-        _set(data, tokens, copy.deepcopy(value))
+        assign(data, tokens, copy.deepcopy(value))
     return data
 
 
@@ -343,21 +258,16 @@ def _canonical_runs(base: dict, runs: list) -> tuple[list, list]:
         for key, value in run.items():
             try:
                 if key not in resolved:
-                    resolved[key] = _resolve(base, key)
+                    resolved[key] = resolve(base, key)
                 path, tokens = resolved[key]
                 if path in canon:
-                    raise _PathProblem(path, f"set twice in one run (as {canon[path][2]!r} and {key!r})")
+                    raise PathProblem(path, f"set twice in one run (as {canon[path][2]!r} and {key!r})")
                 canon[path] = (tokens, _plain(value, path), key)
-            except _PathProblem as exc:
+            except PathProblem as exc:
                 if (exc.path, exc.message) not in problems:
                     problems.append((exc.path, exc.message))
         out.append({p: (t, v) for p, (t, v, _) in canon.items()})
     return out, problems
-
-
-def _under(problem_path: str, key: str) -> bool:
-    """Whether a loader problem at problem_path is about key (the key itself or inside it)."""
-    return problem_path == key or problem_path.startswith(key + ".") or problem_path.startswith(key + "[")
 
 
 def _value_problems(base: dict, runs: list, name: str) -> list:
@@ -373,7 +283,7 @@ def _value_problems(base: dict, runs: list, name: str) -> list:
                 case_from_dict(_with_overrides(base, {path: (tokens, value)}), name=name, source="overrides")
             except CaseError as exc:
                 for p, m in exc.problems:
-                    if _under(p, path) and (p, m) not in problems:
+                    if within(p, path) and (p, m) not in problems:
                         problems.append((p, m))
     return problems
 
@@ -522,7 +432,7 @@ def _base_table(base_case: Case, options: dict) -> dict:
         raise CaseError("options", problems)
     base = copy.deepcopy(base_case.source)
     for kw, v in given.items():
-        _set(base, tuple(OVERRIDE_KEYS[kw].split(".")), float(v) if isinstance(v, Real) else v)
+        assign(base, tuple(OVERRIDE_KEYS[kw].split(".")), float(v) if isinstance(v, Real) else v)
     return base
 
 
