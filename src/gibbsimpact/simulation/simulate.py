@@ -558,6 +558,7 @@ def simulate(
             status=status, message=message, settings=settings,
             nfev=counters["nfev"], n_steps=counters["n_steps"], n_examined=counters["n_examined"],
             wall_time=time.perf_counter() - started, energy_error=recorder.energy_error,
+            energy_error_whole_run_J=recorder.balance_J,
             _energy_cache=E_all, work=work_all if driven else None, contact_forces=F_all,
             friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
             resting_time=counters["resting_time"],
