@@ -369,10 +369,16 @@ def summary(result: Result, case=None) -> dict:
     return _json_safe(d)
 
 
-def write_summary_json(result: Result, path, case=None) -> Path:
-    """Write :func:`summary` as indented JSON (strict: no NaN or Infinity literals)."""
+def write_summary_json(result: Result, path, case=None, output_files: dict | None = None) -> Path:
+    """Write :func:`summary` as indented JSON (strict: no NaN or Infinity literals).
+
+    output_files : if given, stored under that key (the command line's account of the files it wrote).
+    """
     path = Path(path)
-    text = json.dumps(summary(result, case), indent=2, allow_nan=False) + "\n"
+    d = summary(result, case)
+    if output_files is not None:
+        d["output_files"] = _json_safe(output_files)
+    text = json.dumps(d, indent=2, allow_nan=False) + "\n"
     with atomic_path(path) as tmp:
         tmp.write_text(text)
     return path
