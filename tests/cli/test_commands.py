@@ -588,3 +588,19 @@ def test_exit_codes_list_joint_limit(capsys):
     with pytest.raises(SystemExit):
         cli.main(["run", "--help"])
     assert "joint_limit: a prismatic joint reached an end of its range" in capsys.readouterr().out
+
+
+def test_run_reports_the_whole_run_and_the_per_phase_energy_error(tmp_path, capsys):
+    # Issue 23 item 4: the drift of the run (J, relative, and the scale), then the largest of one phase.
+    code, out, _ = run_main(["run", CASES / "circle_two_link.toml", "--t-end", "0.5", "--no-plots",
+                             "--out", tmp_path], capsys)
+    assert code == 0
+    s = json.loads((tmp_path / "summary.json").read_text())
+    (line,) = [ln for ln in out.splitlines() if ln.startswith("energy: ")]
+    assert line.endswith(f"energy drift over the whole run {s['energy_error_whole_run_J']:.3g} J (relative "
+                         f"{s['relative_energy_error_whole_run']:.2e} of the scale {s['energy_scale_J']:.4g} J); "
+                         f"max per flight phase {s['relative_energy_error_max_per_phase']:.2e} (relative)")
+    E = s["energy_final_J"]["total"] - s["energy_initial_J"]["total"]  # e = 1: the whole-run drift
+    # One term per phase and per impact, each rounding within a few eps |E0|.
+    tol = 4 * np.finfo(float).eps * 4.905 * (2 * s["n_impacts"] + 2)
+    assert s["energy_error_whole_run_J"] == pytest.approx(E, abs=tol)

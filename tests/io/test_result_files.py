@@ -36,6 +36,8 @@ def assert_same_result(a, b):
     for name in ("status", "message", "settings", "nfev", "n_steps", "wall_time"):
         assert getattr(a, name) == getattr(b, name), name
     assert a.energy_error == b.energy_error or (math.isnan(a.energy_error) and math.isnan(b.energy_error))
+    assert a.energy_error_whole_run_J == b.energy_error_whole_run_J or (
+        math.isnan(a.energy_error_whole_run_J) and math.isnan(b.energy_error_whole_run_J))
     assert a.walls == b.walls
     assert a.model.coordinate_names == b.model.coordinate_names
     assert np.array_equal(a.model.gravity, b.model.gravity)
@@ -172,6 +174,15 @@ def test_summary_json_is_strict_and_complete(result, case, tmp_path):
     assert d["energy_initial_J"]["total"] == pytest.approx(-4.905, abs=1e-12)
     assert d["energy_final_J"]["total"] == pytest.approx(-4.905, abs=1e-5)
     assert d["max_relative_energy_error"] == result.energy_error
+    # The energy balance error both ways, named apart: over the whole run (and what it is relative to),
+    # and the largest of one flight phase (also under its first name, max_relative_energy_error).
+    assert d["relative_energy_error_whole_run"] == result.energy_error_whole_run
+    assert d["energy_error_whole_run_J"] == result.energy_error_whole_run_J
+    # m |g| sum l of case 1, larger than |E0| = 4.905 J
+    assert d["energy_scale_J"] == result.energy_scale == pytest.approx(2.0 * 9.81 * 2.0, rel=4e-16)
+    assert d["relative_energy_error_max_per_phase"] == result.energy_error_per_phase == result.energy_error
+    E = result.energy().total
+    assert d["energy_error_whole_run_J"] == pytest.approx(E[-1] - E[0], abs=16 * np.finfo(float).eps * abs(E[0]))
     assert d["status"] == "finished" and d["message"] == result.message
     for key in ("wall_time_s", "nfev", "n_steps", "model", "walls"):
         assert key in d
@@ -189,3 +200,19 @@ def test_tagged_json_keeps_types():
     assert np.array_equal(back["c"], x["c"]) and back["c"].dtype == x["c"].dtype
     assert back["d"] == 4 and type(back["d"]) is np.int64
     assert back["e"] == {1: "x"}
+
+
+def test_a_file_without_the_whole_run_energy_error_reads_as_nan(result, tmp_path):
+    # Files written before the whole-run error existed: NaN, and null in summary.json (not a made-up number).
+    path = result.save(tmp_path / "r.npz")
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files}
+    meta = json.loads(str(arrays["meta"]))
+    del meta["energy_error_whole_run_J"]
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez_compressed(tmp_path / "old.npz", **arrays)
+    old = gi.load_result(tmp_path / "old.npz")
+    assert math.isnan(old.energy_error_whole_run_J) and math.isnan(old.energy_error_whole_run)
+    assert old.energy_error == result.energy_error
+    d = io.summary(old)
+    assert d["relative_energy_error_whole_run"] is None and d["max_relative_energy_error"] == result.energy_error

@@ -512,3 +512,10 @@ def test_stop_message_loses_nested_remarks_whole():
     line = plotting._status_line(res)
     assert line.endswith("results up to there are kept") and "bounces" not in line and "(" not in line[20:]
     assert plotting._status_line(dataclasses.replace(res, status="finished")) == ""
+
+
+def test_energy_title_gives_the_whole_run_and_the_per_phase_error(planar):
+    # The drift of the run first, then the largest of one flight phase, each named (issue 23 item 4).
+    title = " ".join(_texts(planar.plot("energy")).split())  # the title is wrapped to the figure width
+    assert (f"relative drift over the whole run {planar.energy_error_whole_run:.1e}, "
+            f"max per flight phase {planar.energy_error:.1e}") in title

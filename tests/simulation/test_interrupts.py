@@ -81,6 +81,38 @@ def test_signal_during_a_cli_run_writes_the_partial_result(tmp_path, sig):
     assert sorted(p.name for p in out.iterdir()) == ["impacts.csv", "result.npz", "summary.json", "timeseries.csv"]
 
 
+@pytest.mark.skipif(os.name != "posix", reason="POSIX signals")
+def test_sigterm_writes_data_and_summary_without_figures_within_the_grace_period(tmp_path):
+    # Issue 23 item 2: after SIGTERM the CLI drew every figure (27.8 s after 9 s of case 1) and a scheduler
+    # that kills 10 s after SIGTERM (docker stop) left no summary.json. Now: the data, summary.json, exit.
+    gi.load_case(CASES / "circle_two_link.toml").simulate(t_end=0.01)  # the kernel cached for the child
+    out = tmp_path / "out"
+    main = ("import runpy, signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
+            "runpy.run_module('gibbsimpact', run_name='__main__', alter_sys=True)")
+    proc = subprocess.Popen([sys.executable, "-c", main, "run", str(CASES / "circle_two_link.toml"), "--out",
+                             str(out), "--t-end", "300"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    watchdog = threading.Timer(120.0, proc.kill)
+    watchdog.start()
+    try:
+        assert proc.stdout.readline().startswith("gibbsimpact: running circle_two_link")
+        time.sleep(1.5)  # a few simulated seconds, thousands of samples: minutes of figures before the fix
+        sent = time.perf_counter()
+        proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=100)
+        took = time.perf_counter() - sent
+    finally:
+        watchdog.cancel()
+        proc.kill()
+    assert proc.returncode == 130, (stdout, stderr)
+    assert took < 10.0, took  # docker stop's grace period
+    assert sorted(p.name for p in out.iterdir()) == ["impacts.csv", "result.npz", "summary.json", "timeseries.csv"]
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "interrupted" and s["output_files"]["not_written"] == {"figures": "the run was interrupted"}
+    assert s["output_files"]["written"] == ["result.npz", "impacts.csv", "timeseries.csv"]
+    assert gi.load_result(out / "result.npz").t[-1] == s["t_final_s"] > 0.0
+    assert "drawing figures" not in stdout and "figures not drawn (the run was interrupted)" in stdout
+
+
 # -- gi.simulate: an interrupt returns what was computed ---------------------------------------------
 
 def interrupt_after(t_stop):

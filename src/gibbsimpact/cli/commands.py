@@ -1,14 +1,16 @@
-"""Command line: ``gibbsimpact run CASE.toml ...``, ``gibbsimpact show CASE.toml ...`` and
-``gibbsimpact equations CASE.toml``.
+"""Command line: the parser of every command, ``gibbsimpact show CASE.toml ...`` and
+``gibbsimpact equations CASE.toml``; ``run`` is cli/run.py (writing its files cli/outputs.py),
+``sweep`` cli/sweep.py.
 
-Exit codes (EXIT_CODES, also in ``--help``): 0 success; 2 bad input (invalid
+Exit codes (EXIT_CODES in cli/common.py, also in ``--help``): 0 success; 2 bad input (invalid
 case file, bad option, unreadable file, an output folder that cannot be
 written), nothing simulated; 3 the simulation stopped early (status zeno,
 max_impacts, penetration, joint_limit or failed; the partial results are
-still written);
+still written); 4 the results could not all be written into the output
+folder (the essential ones then go to a temporary folder);
 130 interrupted by Ctrl-C or SIGTERM (status "interrupted"; the partial
-results are still written); 1 an unexpected error. With several case files the
-worst code of the runs counts. Errors are reported on stderr as
+data and summary.json are still written, not the figures); 1 an unexpected error.
+With several case files the worst code of the runs counts. Errors are reported on stderr as
 ``gibbsimpact: error: <reason>``; warnings raised during a run are summed up
 in one line after it.
 """
@@ -16,22 +18,20 @@ in one line after it.
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 import textwrap
-import threading
-import warnings
-from contextlib import contextmanager
 from pathlib import Path
 
 from .common import (EXIT_BAD_INPUT, EXIT_CODES, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK,  # noqa: F401
-                     EXIT_STOPPED, OPTION_NAMES, _error, _float, _load, _worst, add_method_option, add_rtol_option)
+                     EXIT_OUTPUT, EXIT_STOPPED, _error, _float, _load, _worst, add_method_option,
+                     add_rtol_option)
+from .outputs import OUTPUT_FILES, clear_outputs, output_names, write_outputs
+from .run import cmd_run
 
-#: Files ``gibbsimpact run`` may write into its output folder, besides <figure>.png for
-#: every name in plotting.FIGURES and OPTIONAL_FIGURES. Before writing, a run removes those of them that are
-#: there (an earlier run's), and nothing else.
-OUTPUT_FILES = ("timeseries.csv", "impacts.csv", "contact_forces.csv", "summary.json", "result.npz",
-                "animation.gif")
+# Public names of gibbsimpact.cli (its __init__ takes them from here), the run's from cli/run.py and outputs.py.
+__all__ = ["EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT", "EXIT_STOPPED", "EXIT_OUTPUT", "EXIT_INTERRUPTED",
+           "EXIT_CODES", "OUTPUT_FILES", "build_parser", "describe_case", "cmd_show", "cmd_equations",
+           "output_names", "clear_outputs", "write_outputs", "cmd_run", "main"]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -50,13 +50,16 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run cases and write CSV, JSON, NPZ and figures",
                        formatter_class=argparse.RawDescriptionHelpFormatter,
                        description=textwrap.fill(
-                           "Run each CASE and write timeseries.csv, impacts.csv, summary.json (last), result.npz "
-                           "and PNG figures into its output folder. The folder is created and checked before the "
-                           "run; files an earlier run left there under these names are removed when the results "
-                           "are written (other files are kept); every file is written atomically. Ctrl-C or "
-                           "SIGTERM stops a run with status 'interrupted' and writes its results so far (a "
-                           "Ctrl-C while they are written is held back until they are; another one aborts the "
-                           "writing).", 79),
+                           "Run each CASE and write summary.json, result.npz, impacts.csv, timeseries.csv and PNG "
+                           "figures into its output folder, in that order (summary.json again at the end, listing "
+                           "what was written). The folder is created and checked before the run; files an earlier "
+                           "run left there under these names are removed when the results are written (other "
+                           "files are kept); every file is written atomically. When a file cannot be written "
+                           "(disk full) the others are still tried, summary.json and result.npz go to a "
+                           "temporary folder, the figures are skipped, and the exit code is 4. Ctrl-C or SIGTERM "
+                           "stops a run with status 'interrupted' and writes its data and summary.json so far, "
+                           "without the figures (one while the results are written stops the figures; another "
+                           "one aborts the writing).", 79),
                        epilog=EXIT_CODES)
     r.add_argument("case", metavar="CASE.toml", nargs="+", help="case file(s), run one after the other")
     r.add_argument("--out", metavar="DIR",
@@ -335,265 +338,6 @@ def cmd_equations(args) -> int:
         print(f"wrote {eqs.to_latex(args.latex)}")
     if args.python:
         print(f"wrote {eqs.to_python(args.python)}")
-    return EXIT_OK
-
-
-# --------------------------------------------------------------------------
-# run
-
-def output_names() -> tuple:
-    """Every file name ``gibbsimpact run`` may write into an output folder."""
-    from ..plotting.figures import FIGURES, OPTIONAL_FIGURES
-
-    return OUTPUT_FILES + tuple(f"{k}.png" for k in FIGURES + OPTIONAL_FIGURES)
-
-
-def clear_outputs(out: Path) -> list:
-    """Remove from ``out`` the files of an earlier run: every name of output_names() and their
-    leftover temporary files (io.atomic_path). Other files are kept. Returns the paths removed."""
-    from ..io.result_files import TEMP_MARK
-
-    removed = []
-    for name in output_names():
-        p = out / name
-        for q in [p, *out.glob(f".{p.stem}.*{TEMP_MARK}{p.suffix}")]:
-            if q.is_file() or q.is_symlink():
-                q.unlink()
-                removed.append(q)
-    return removed
-
-
-def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None) -> dict:
-    """Write every output file of a run into ``out``; returns {name: Path}.
-
-    First removes the files an earlier run left there (clear_outputs), so the folder
-    holds this run's files only. Each file is written atomically (io.atomic_path);
-    summary.json comes last, so when it is there every other file of the run is too.
-    """
-    from ..io.result_files import atomic_path, save_figure, save_result, to_csv, write_summary_json
-
-    log = log or (lambda s: None)
-    out.mkdir(parents=True, exist_ok=True)
-    clear_outputs(out)
-    paths = dict(to_csv(result, out))
-    source = case.path.read_text() if case.path is not None and case.path.exists() else None
-    paths["result"] = save_result(result, out / "result.npz", metadata={"case": case.name, "case_toml": source})
-    if plots:
-        log("drawing figures ...")
-        from ..plotting.figures import plot_result
-
-        figs = plot_result(result, case_name=case.name, n_points=case.output["points_per_link"])
-        for name, fig in figs.items():
-            paths[name] = save_figure(fig, out / f"{name}.png", case.output["dpi"])
-    if animate:
-        log("writing animation.gif ...")
-        from ..plotting.figures import animate as make_animation
-
-        with atomic_path(out / "animation.gif") as tmp:
-            make_animation(result, tmp, fps=case.output["animation_fps"], speed=case.output["animation_speed"],
-                           n_points=case.output["points_per_link"], case_name=case.name)
-        paths["animation"] = out / "animation.gif"
-    # Last, so that it records the matplotlib version when figures were drawn, and so
-    # that its presence means every other file is complete.
-    paths["summary"] = write_summary_json(result, out / "summary.json", case)
-    return paths
-
-
-def _main_thread() -> bool:
-    return threading.current_thread() is threading.main_thread()
-
-
-@contextmanager
-def _sigterm_interrupts():
-    """Inside the block SIGTERM raises KeyboardInterrupt("SIGTERM"), as Ctrl-C raises KeyboardInterrupt:
-    gibbsimpact.simulate then stops the run with status "interrupted". The previous handler comes back after."""
-    if not _main_thread():  # signal handlers can only be set there
-        yield
-        return
-
-    def handler(signum, frame):
-        raise KeyboardInterrupt("SIGTERM")
-
-    previous = signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-
-
-@contextmanager
-def _held_signals(out: Path):
-    """While results are written: the first Ctrl-C or SIGTERM is held back (a note on stderr), the next
-    raises KeyboardInterrupt and aborts the writing. Yields the list of held signal names."""
-    held = []
-    if not _main_thread():
-        yield held
-        return
-
-    def handler(signum, frame):
-        name = signal.Signals(signum).name
-        if held:
-            raise KeyboardInterrupt(name)
-        held.append(name)
-        try:
-            print(f"gibbsimpact: {name}: writing the results into {out} first; send it again to abort the writing",
-                  file=sys.stderr, flush=True)
-        except (RuntimeError, OSError, ValueError):  # stderr busy or closed: the note is not essential
-            pass
-
-    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield held
-    finally:
-        for sig, h in previous.items():
-            signal.signal(sig, h)
-
-
-def _check_output(out: Path, label: str) -> int | None:
-    """None when ``out`` exists (created here if needed) and takes files, else 2 after one error line."""
-    from ..io.result_files import check_directory
-
-    try:
-        check_directory(out)
-    except OSError as exc:
-        return _error(f"{label}: cannot write into {out} ({exc.strerror or exc}); give a writable folder with --out",
-                      EXIT_BAD_INPUT)
-    return None
-
-
-def cmd_run(args) -> int:
-    """Check every case, its options and its output folder, then run the cases one after the other.
-
-    Nothing runs unless every input is good (exit code 2). The exit code is then the
-    worst of the runs; an interrupted run (130) ends the command.
-    """
-    from ..case import CaseError
-
-    several = len(args.case) > 1
-    # Options override case-file keys and are held to the same ranges (case.RANGES).
-    options = OPTION_NAMES
-    overrides = {kw: getattr(args, kw) for kw in options if getattr(args, kw) is not None}
-    code, runs = EXIT_OK, []
-    for path in args.case:
-        case, bad = _load(path)
-        if case is None:
-            code = _worst(code, bad)
-            continue
-        problems = case.override_problems(names=options, **overrides)
-        if problems:
-            code = _worst(code, _error(str(CaseError(f"{path}: options" if several else "options", problems)),
-                                       EXIT_BAD_INPUT))
-            continue
-        if args.out is None:
-            out = case.output_directory
-            label = f"output folder of {path} ({'[output] directory' if case.output.get('directory') else 'default'})"
-        else:
-            out = Path(args.out) / Path(path).stem if several else Path(args.out)
-            label = f"--out {args.out}"
-        runs.append((path, case, out, label))
-    targets = {}
-    for path, _, out, _ in runs:
-        if out.resolve() in targets:
-            code = _worst(code, _error(f"{targets[out.resolve()]} and {path} would both write into {out}; "
-                                       "rename one of the case files or run them separately", EXIT_BAD_INPUT))
-        targets.setdefault(out.resolve(), path)
-    if code != EXIT_OK:
-        return code
-    # Every output folder is created and takes a file before anything is simulated.
-    for path, case, out, label in runs:
-        bad = _check_output(out, label)
-        if bad is not None:
-            code = _worst(code, bad)
-    if code != EXIT_OK:
-        return code
-    with _sigterm_interrupts():
-        for path, case, out, _ in runs:
-            code = _worst(code, _run_one(path, case, args, overrides, out))
-            if code == EXIT_INTERRUPTED:
-                break
-    return code
-
-
-def _run_one(path, case, args, overrides, out) -> int:
-    t0, t1 = case.t_span[0], overrides.get("t_end", case.t_span[1])
-    say = (lambda s: None) if args.quiet else (lambda s: print(s, flush=True))
-    # A tqdm bar over simulated time on a terminal (simulate's progress=True).
-    progress = True if not args.quiet and _isatty(sys.stderr) else None
-    say(f"gibbsimpact: running {case.name}: t = {t0:g} -> {t1:g} s, N = {case.model.n_dof}, "
-        f"{len(case.walls)} wall(s)")
-    # Warnings of the run (numpy overflow, ...) are held back and summed up in one
-    # line after the status or error line instead of interleaving with it.
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("default")  # each kind once, not once per step
-        try:
-            code = _simulate_and_write(path, case, args, overrides, out, progress, say)
-        except (KeyboardInterrupt, BrokenPipeError):
-            raise
-        except Exception as exc:  # noqa: BLE001 - one line instead of a traceback; the other cases still run
-            code = _error(f"{path}: unexpected {type(exc).__name__}: {exc} (please report this)", EXIT_INTERNAL)
-    # Validity warnings (model used outside its assumptions) each get their own line.
-    from ..simulation.validity import ValidityWarning
-
-    for w in caught:
-        if issubclass(w.category, ValidityWarning):
-            print(f"gibbsimpact: {path}: validity warning: {w.message}", file=sys.stderr)
-    caught = [w for w in caught if not issubclass(w.category, ValidityWarning)]
-    if caught:
-        first = caught[0]
-        print(f"gibbsimpact: warning: {len(caught)} kind(s) of warning during the run, the first: "
-              f"{first.category.__name__}: {first.message} ({Path(first.filename).name}:{first.lineno}); "
-              "check the results", file=sys.stderr)
-    return code
-
-
-def _isatty(stream) -> bool:
-    try:
-        return bool(stream.isatty())
-    except (AttributeError, ValueError):
-        return False
-
-
-def _simulate_and_write(path, case, args, overrides, out, progress, say) -> int:
-    from ..dynamics.gibbs_appell import SingularMassMatrixError
-    from ..simulation.status import STATUS_INTERRUPTED
-
-    try:
-        result = case.simulate(progress=progress, **overrides)
-    except (SingularMassMatrixError, ValueError) as exc:
-        return _error(f"{path}: {exc}", EXIT_BAD_INPUT)
-    except KeyboardInterrupt as exc:
-        return _error(f"interrupted ({exc or 'SIGINT'}) before the first step of {path}; nothing written",
-                      EXIT_INTERRUPTED)
-
-    plots = case.output["plots"] and not args.no_plots
-    animate = case.output["animate"] or args.animate
-    try:
-        with _held_signals(out) as held:
-            paths = write_outputs(result, case, out, plots, animate, log=say)
-    except KeyboardInterrupt as exc:
-        return _error(f"interrupted ({exc}) while writing the results into {out}: the files there are complete, "
-                      "the others missing (summary.json is written last)", EXIT_INTERRUPTED)
-    except OSError as exc:
-        return _error(f"cannot write results to {out}: {exc.strerror or exc}", EXIT_BAD_INPUT)
-
-    E = result.energy()
-    say(f"status: {result.status} ({result.message})")
-    for k, rec in enumerate(result.impacts[:20], start=1):
-        joints = "+".join(f"end stop of joint {j}" if w < 0 else f"O{j}" for j, w in zip(rec.joints, rec.wall))
-        say(f"  impact {k}: t = {rec.time:.6f} s  {joints}")
-    if len(result.impacts) > 20:
-        say(f"  ... {len(result.impacts)} impacts in all (impacts.csv)")
-    say(f"energy: {E.total[0]:.9g} J -> {E.total[-1]:.9g} J; max relative drift in flight {result.energy_error:.2e}")
-    say(f"{result.nfev} right-hand-side evaluations, {result.wall_time:.2f} s; {len(paths)} files in {out}")
-    if result.status == STATUS_INTERRUPTED:
-        return _error(f"simulation stopped early ({result.status}): {result.message}; "
-                      f"partial results written to {out}", EXIT_INTERRUPTED)
-    if held:
-        return _error(f"interrupted ({held[0]}) while the results were written; they are complete in {out}",
-                      EXIT_INTERRUPTED)
-    if result.status != "finished":
-        return _error(f"simulation stopped early ({result.status}): {result.message}; "
-                      f"partial results written to {out}", EXIT_STOPPED)
     return EXIT_OK
 
 

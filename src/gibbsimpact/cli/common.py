@@ -6,9 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
-EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_STOPPED, EXIT_OUTPUT, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 130
 #: How bad an exit code is: with several case files the worst one is the command's.
-_SEVERITY = {EXIT_OK: 0, EXIT_STOPPED: 1, EXIT_BAD_INPUT: 2, EXIT_INTERNAL: 3, EXIT_INTERRUPTED: 4}
+_SEVERITY = {EXIT_OK: 0, EXIT_STOPPED: 1, EXIT_BAD_INPUT: 2, EXIT_OUTPUT: 3, EXIT_INTERNAL: 4, EXIT_INTERRUPTED: 5}
 
 EXIT_CODES = """exit codes:
   0    every run finished
@@ -18,9 +18,15 @@ EXIT_CODES = """exit codes:
   3    a simulation stopped early (zeno, max_impacts, penetration,
        joint_limit: a prismatic joint reached an end of its range, failed);
        its results up to there are written
+  4    the results of a run could not all be written into its output
+       folder (disk full, quota, I/O error): summary.json and result.npz
+       come first, and go to a temporary folder when the output folder
+       refuses them; stderr names what was and was not written, and where
   130  interrupted by Ctrl-C or SIGTERM: the run stops with status
-       "interrupted" and its results up to there are written
-with several case files the worst code counts (130, 1, 2, 3, 0: worst first)"""
+       "interrupted" and its data and summary.json up to there are
+       written, not the figures
+with several case files the worst code counts (130, 1, 4, 2, 3, 0: worst
+first)"""
 
 def _worst(a: int, b: int) -> int:
     return a if _SEVERITY.get(a, 3) >= _SEVERITY.get(b, 3) else b

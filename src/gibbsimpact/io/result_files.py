@@ -314,8 +314,12 @@ def _energy_dict(E) -> dict:
 def summary(result: Result, case=None) -> dict:
     """The run in one JSON-ready dict (what summary.json holds).
 
-    Energies in J, times in s; ``max_relative_energy_error`` is Result.energy_error
-    (max over flight phases of |E(t) - E(phase start)| / scale).
+    Energies in J, times in s. The energy balance error twice (Result.energy_error_whole_run and
+    Result.energy_error_per_phase): ``relative_energy_error_whole_run`` (from t0 to the end, impacts
+    with e = 1 included; the drift of the run), ``energy_error_whole_run_J`` (signed) and
+    ``energy_scale_J`` (what it is relative to), then ``relative_energy_error_max_per_phase`` (max
+    over the flight phases, each from its own start); ``max_relative_energy_error`` is the per-phase
+    value under its old name, kept for existing readers.
     """
     model = result.model
     E = result.energy()
@@ -350,6 +354,11 @@ def summary(result: Result, case=None) -> dict:
     ]
     d["energy_initial_J"] = {k: float(getattr(E, k)[0]) for k in Energy._fields}
     d["energy_final_J"] = {k: float(getattr(E, k)[-1]) for k in Energy._fields}
+    d["relative_energy_error_whole_run"] = _json_safe(result.energy_error_whole_run)
+    d["energy_error_whole_run_J"] = _json_safe(result.energy_error_whole_run_J)
+    d["energy_scale_J"] = _json_safe(result.energy_scale)
+    d["relative_energy_error_max_per_phase"] = _json_safe(result.energy_error)
+    # Per phase, under its first name (kept for existing readers).
     d["max_relative_energy_error"] = _json_safe(result.energy_error)
     d["resting_time_s"] = float(result.resting_time)
     F = result.contact_forces
@@ -371,10 +380,16 @@ def summary(result: Result, case=None) -> dict:
     return _json_safe(d)
 
 
-def write_summary_json(result: Result, path, case=None) -> Path:
-    """Write :func:`summary` as indented JSON (strict: no NaN or Infinity literals)."""
+def write_summary_json(result: Result, path, case=None, output_files: dict | None = None) -> Path:
+    """Write :func:`summary` as indented JSON (strict: no NaN or Infinity literals).
+
+    output_files : if given, stored under that key (the command line's account of the files it wrote).
+    """
     path = Path(path)
-    text = json.dumps(summary(result, case), indent=2, allow_nan=False) + "\n"
+    d = summary(result, case)
+    if output_files is not None:
+        d["output_files"] = _json_safe(output_files)
+    text = json.dumps(d, indent=2, allow_nan=False) + "\n"
     with atomic_path(path) as tmp:
         tmp.write_text(text)
     return path
@@ -587,6 +602,7 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         "n_examined": int(result.n_examined),
         "wall_time": _tag(float(result.wall_time)),
         "energy_error": _tag(float(result.energy_error)),
+        "energy_error_whole_run_J": _tag(float(result.energy_error_whole_run_J)),
         "resting_time": _tag(float(result.resting_time)),
         "metadata": _tag(metadata or {}),
     }
@@ -644,6 +660,7 @@ def load_result(path, with_metadata: bool = False):
         status=meta["status"], message=meta["message"], settings=_untag(meta["settings"]),
         nfev=int(meta["nfev"]), n_steps=int(meta["n_steps"]), n_examined=int(meta.get("n_examined", 0)),
         wall_time=float(_untag(meta["wall_time"])), energy_error=float(_untag(meta["energy_error"])),
+        energy_error_whole_run_J=float(_untag(meta.get("energy_error_whole_run_J", float("nan")))),
         work=a.get("work"), contact_forces=a.get("contact_forces"), friction_forces=a.get("friction_forces"),
         resting_time=float(_untag(meta.get("resting_time", 0.0))),
     )

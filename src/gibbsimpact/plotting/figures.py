@@ -898,17 +898,19 @@ def plot_energy(result, case_name=None, ax=None):
                 axes[0].plot(result.t, result.work[:, c], label=text, **_style(3 + c))
         balance = balance - result.work.sum(axis=1)
         ylabel = r"$E - E(t_0) - W$ [J]"
-        what = "max relative power-balance error in flight"
+        what = "relative power-balance error"
     else:
         ylabel = r"$E - E(t_0)$ [J]"
-        what = "max relative drift in flight"
+        what = "relative drift"
     axes[0].set_ylabel("energy [J]")
     _legend(axes[0], outside=own)
     if len(axes) > 1:
         axes[1].set_ylabel(ylabel)
         axes[1].plot(result.t, balance, lw=1.0, color="k")
         axes[1].ticklabel_format(axis="y", style="sci", scilimits=(-2, 3), useOffset=False)
-    title = _title(result, f"energy (E(t0) = {E.total[0]:.7g} J, {what} {result.energy_error:.1e})", case_name)
+    title = _title(result, f"energy (E(t0) = {E.total[0]:.7g} J; {what} over the whole run "
+                           f"{result.energy_error_whole_run:.1e}, max per flight phase {result.energy_error:.1e})",
+                   case_name)
     _finish_time_figure(fig, axes, result, title, own)
     return fig
 

@@ -7,7 +7,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..dynamics.gibbs_appell import Energy, energies, energy
-from .results import ImpactRecord
+from .results import ImpactRecord, energy_scale
 
 
 class Chunk(NamedTuple):
@@ -23,6 +23,7 @@ class Chunk(NamedTuple):
     impact: ImpactRecord | None
     forces: np.ndarray | None = None  # (k, W, P) [N] resting-contact forces; None: all zero
     friction: np.ndarray | None = None  # (k, W, P, 3) [N] their tangential forces; None: all zero
+    balance: float = 0.0  # [J] signed change of E - W from the sample before, counted in the whole-run error
 
 
 def one_sample(E: Energy) -> Energy:
@@ -35,7 +36,9 @@ class Recorder:
 
     work : (K, 2) [J] the work of the inputs and of the damping since t0 (zeros
     for an undriven, undamped run). In a flight phase E(t) - E(start) equals
-    W(t) - W(start) up to the integration error, which is what energy_error measures.
+    W(t) - W(start) up to the integration error, which is what energy_error measures per
+    phase; balance_J adds up those errors, signed, with the energy jumps of the impacts that
+    should conserve E (e = 1, no friction impulse) into the error of the whole run.
 
     Everything is kept as a list of Chunk, each added by one ``list.append``:
     a KeyboardInterrupt anywhere leaves whole chunks only, so the Result built
@@ -46,8 +49,6 @@ class Recorder:
     def __init__(self, model, t0, q0, qdot0, n_walls=0):
         self.model = model
         self.force_shape = (n_walls, model.n_joints)
-        self.energy_floor = model.total_mass * float(np.linalg.norm(model.gravity)) * sum(
-            ld.length for ld in model.link_data)
         # Energy of every stored sample: needed for the flight-phase drift, then handed
         # to the Result so res.energy() does not evaluate M at every sample again.
         self.chunks = [Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, 2)),
@@ -56,8 +57,14 @@ class Recorder:
 
     def impact(self, rec, q, phase):
         last = self.chunks[-1]
+        # An impact with e = 1 and no friction impulse should keep E: its jump is an error of the run.
+        # Others dissipate by design (Newton's law with e < 1, Coulomb friction), and do not count.
+        conserving = np.all(np.asarray(rec.restitution) == 1.0) and (
+            rec.friction_impulses is None or not np.any(rec.friction_impulses))
+        jump = float(rec.energy_after.total - last.energy.total[-1]) if conserving else 0.0
         self.chunks.append(Chunk(np.array([rec.time]), q[None, :].copy(), rec.qdot_after[None, :].copy(),
-                                  np.array([phase]), last.work[-1:].copy(), one_sample(rec.energy_after), 0.0, rec))
+                                  np.array([phase]), last.work[-1:].copy(), one_sample(rec.energy_after), 0.0, rec,
+                                  balance=jump))
         self.n_impacts += 1
 
     def flight(self, T, Y, phase, forces=None, friction=None):
@@ -71,14 +78,13 @@ class Recorder:
         E_start = Energy(*(float(a[-1]) for a in last.energy))
         W_start = last.work[-1].sum()
         W = Y[:, 2 * N:2 * N + 2] if Y.shape[1] > 2 * N else np.zeros((T.size, 2))
-        # The floor m |g~| sum l: a chain at rest at the gravity datum has E ~ 0 (no scale of its own).
-        scale = max(abs(E_start.total), abs(E_start.kinetic) + abs(E_start.gravity) + abs(E_start.strain),
-                    float(np.max(np.abs(W.sum(axis=1) - W_start), initial=0.0)), self.energy_floor, 1e-300)
-        # All samples in one kernel call; the balance E(t) - E(0) - W(t) per sample.
+        scale = energy_scale(self.model, E_start, float(np.max(np.abs(W.sum(axis=1) - W_start), initial=0.0)))
+        # All samples in one kernel call; the balance E(t) - E(start) - (W(t) - W(start)) per sample.
         E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
-        err = float(np.abs(E.total - E_start.total - (W.sum(axis=1) - W_start)).max() / scale) if T.size else 0.0
+        balance = E.total - E_start.total - (W.sum(axis=1) - W_start)
+        err = float(np.abs(balance).max() / scale) if T.size else 0.0
         self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces,
-                                  friction))
+                                  friction, float(balance[-1]) if T.size else 0.0))
 
     def mode(self, t, q, qdot, phase, forces, friction):
         """After a contact-mode decision at t: its contact forces (W, P) and friction forces (W, P, 3) [N]
@@ -102,6 +108,13 @@ class Recorder:
     @property
     def energy_error(self) -> float:
         return max(c.error for c in self.chunks)
+
+    @property
+    def balance_J(self) -> float:
+        """Result.energy_error_whole_run_J [J]: the flight phases' balance errors at their ends plus the
+        energy jumps of the impacts that should conserve E; the projections of a contact-mode change
+        (mode(): the resting pairs onto g = 0 with v_n = 0) dissipate by design and do not count."""
+        return float(sum(c.balance for c in self.chunks))
 
     @property
     def impacts(self) -> list:

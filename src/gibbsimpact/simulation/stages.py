@@ -384,6 +384,7 @@ def finish(run, started: float) -> Result:
         impacts=run.recorder.impacts, status=run.status, message=run.message, settings=run.settings.record(),
         nfev=run.equations.nfev, n_steps=run.counters["n_steps"], n_examined=run.counters["n_examined"],
         wall_time=time.perf_counter() - started, energy_error=run.recorder.energy_error,
+        energy_error_whole_run_J=run.recorder.balance_J,
         _energy_cache=E_all, work=work_all if run.equations.driven else None, contact_forces=F_all,
         friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
         resting_time=run.counters["resting_time"],
