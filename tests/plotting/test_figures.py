@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.plotting import figures as plotting
+from gibbsimpact import plotting
+from gibbsimpact.plotting.impacts import _impact_labels
+from gibbsimpact.plotting.labels import _impact_note, _status_line
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
@@ -44,7 +46,7 @@ def test_import_does_not_load_matplotlib():
 
 def test_agg_backend_without_display():
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "MPLBACKEND")}
-    code = ("import matplotlib, gibbsimpact.plotting.figures as p; p._pyplot(); "
+    code = ("import matplotlib, gibbsimpact.plotting.style as p; p._pyplot(); "
             "print(matplotlib.get_backend().lower())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
     assert out.stdout.strip() == "agg"
@@ -284,7 +286,7 @@ def test_impact_numbers_never_overlap():
     times = np.sort(np.concatenate([rng.uniform(0.5, 2.5, 14), 2.76 + 0.004 * np.arange(8),
                                     1.7 + 0.01 * np.arange(6)]))
     width_pt = 500.0
-    labels = plotting._impact_labels(times, 0.0, 2.8, width_pt)
+    labels = _impact_labels(times, 0.0, 2.8, width_pt)
     char = 0.6 * 7.0 / width_pt * 2.8  # seconds per character, as _impact_labels assumes
     spans = [(t, t + len(text) * char) for t, text in labels]
     assert all(b[0] >= a[1] for a, b in itertools.pairwise(spans))
@@ -488,7 +490,7 @@ def test_end_stop_impacts_are_labelled_as_stops(prismatic, tmp_path):
     both = dataclasses.replace(res, impacts=[mixed], walls=(gi.Plane((0, -2, 0), (0, 1, 0)),))
     fig = plotting.plot_configurations(both, n_points=5)
     assert fig.axes[1].get_title().endswith("O3+stop 2 (d_max)")
-    assert "1: O3+stop 2 (d_max) at" in plotting._impact_note(both)
+    assert "1: O3+stop 2 (d_max) at" in _impact_note(both)
     plotting.plot_trajectory(both, n_points=5)
     from PIL import Image
 
@@ -509,6 +511,6 @@ def test_stop_message_loses_nested_remarks_whole():
                  phase=np.zeros(2, dtype=int), impacts=[], status="joint_limit",
                  message="joint 2 reached its limit d_2 <= d_max = 0.6 m at t = 0.25 s; results up to there are "
                          "kept (simulate(..., joint_limit='impact') bounces instead)")
-    line = plotting._status_line(res)
+    line = _status_line(res)
     assert line.endswith("results up to there are kept") and "bounces" not in line and "(" not in line[20:]
-    assert plotting._status_line(dataclasses.replace(res, status="finished")) == ""
+    assert _status_line(dataclasses.replace(res, status="finished")) == ""
