@@ -69,6 +69,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="uniform output interval in s (overrides [solver] output_dt_s)")
     r.add_argument("--method", metavar="METHOD",
                    help="scipy ODE solver (overrides [solver] method): " + ", ".join(_methods()))
+    from .sweep import _positive_int
+
+    r.add_argument("--csv-every", type=_positive_int, default=1, metavar="K",
+                   help="write every K-th sample (and the last) into timeseries.csv and contact_forces.csv "
+                        "(default 1: every sample; result.npz always keeps them all)")
     r.add_argument("--no-plots", action="store_true", help="do not draw figures")
     r.add_argument("--animate", action="store_true", help="also write animation.gif")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no report on stdout")
@@ -381,19 +386,20 @@ def _save_figure(fig, path: Path, dpi: int) -> Path:
     return path
 
 
-def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None) -> dict:
+def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None, csv_every: int = 1) -> dict:
     """Write every output file of a run into ``out``; returns {name: Path}.
 
     First removes the files an earlier run left there (clear_outputs), so the folder
     holds this run's files only. Each file is written atomically (io.atomic_path);
     summary.json comes last, so when it is there every other file of the run is too.
+    csv_every : K, every K-th sample (and the last) in the per-sample CSV files (io.to_csv's every).
     """
     from ..io.result_files import atomic_path, save_result, to_csv, write_summary_json
 
     log = log or (lambda s: None)
     out.mkdir(parents=True, exist_ok=True)
     clear_outputs(out)
-    paths = dict(to_csv(result, out))
+    paths = dict(to_csv(result, out, every=csv_every))
     source = case.path.read_text() if case.path is not None and case.path.exists() else None
     paths["result"] = save_result(result, out / "result.npz", metadata={"case": case.name, "case_toml": source})
     if plots:
@@ -588,7 +594,7 @@ def _simulate_and_write(path, case, args, overrides, out, progress, say) -> int:
     animate = case.output["animate"] or args.animate
     try:
         with _held_signals(out) as held:
-            paths = write_outputs(result, case, out, plots, animate, log=say)
+            paths = write_outputs(result, case, out, plots, animate, log=say, csv_every=args.csv_every)
     except KeyboardInterrupt as exc:
         return _error(f"interrupted ({exc}) while writing the results into {out}: the files there are complete, "
                       "the others missing (summary.json is written last)", EXIT_INTERRUPTED)
