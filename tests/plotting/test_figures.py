@@ -13,8 +13,8 @@ import pytest
 
 import gibbsimpact as gi
 from gibbsimpact import plotting
-from gibbsimpact.plotting.impacts import _impact_labels
-from gibbsimpact.plotting.labels import _impact_note, _status_line
+from gibbsimpact.plotting.impacts import _impact_labels, _impact_note
+from gibbsimpact.plotting.labels import _status_line
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
@@ -393,6 +393,34 @@ def test_every_figure_builds_for_prismatic_chains(prismatic, name):
 
     for f in figs.values():
         plt.close(f)
+
+
+def test_legends_say_what_each_contact_point_is(prismatic):
+    # A Pb arm has O1 ... O4 with O2 behind the guide and O4 the host's tip: the legends name them,
+    # and each name is checked against the geometry it claims.
+    from gibbsimpact.dynamics.link_points import points_on_link
+    from gibbsimpact.dynamics.kinematics import transforms
+
+    want = {
+        "R-Pb": ["joint 1", "rear end of link 2, behind its guide", "tip of link 2", "tip of link 1, guide of joint 2"],
+        "R-Pa": ["joint 1", "carriage of joint 2", "tip of link 2", "tip of link 1, host of carriage 2"],
+    }
+    for name, words in want.items():
+        res, figs = prismatic[name]
+        labels = [t.get_text() for t in figs["joint_positions"].axes[0].get_legend().get_texts()]
+        assert labels == [f"$O_{{{j}}}$ ({w})" for j, w in enumerate(words, start=1)]
+        traj = [t.get_text() for t in figs["trajectory"].axes[0].get_legend().get_texts()]
+        assert [f"path of {s}" for s in labels] == traj[:len(labels)]
+        model, q = res.model, res.q[-1]
+        O, T = model.joint_positions(q), transforms(model, q)
+        tip1 = points_on_link(model, q, T, 0, [model.chain.links[0].length])[0]
+        tip2 = points_on_link(model, q, T, 1, [model.chain.links[1].length])[0]
+        np.testing.assert_allclose(O[3], tip1, atol=1e-12)  # "tip of link 1"
+        np.testing.assert_allclose(O[2], tip2, atol=1e-12)  # "tip of link 2"
+        if name == "R-Pb":  # "rear end of link 2": link 2 at x = 0, d_2 behind the guide at link 1's tip
+            np.testing.assert_allclose(O[1], points_on_link(model, q, T, 1, [0.0])[0], atol=1e-12)
+            d2 = q[model.coordinate_names.index("d_2")]
+            assert np.linalg.norm(O[1] - O[3]) == pytest.approx(model.chain.links[1].length - d2, rel=1e-9)
 
 
 def test_prismatic_variable_is_in_metres_with_its_range(prismatic):

@@ -70,6 +70,28 @@ def _point_name(model, j: int) -> str:
     return f"link {flex[j - P - 1] + 1}" if j - P - 1 < len(flex) else f"point {j}"
 
 
+def _point_description(model, j: int) -> str:
+    """What contact point O_j (1-based, Model.n_joints) is on the chain: 'joint 2' (a revolute joint),
+    'carriage of joint 2' (SlidingPrismatic), 'rear end of link 2, behind its
+    guide' (FixedPrismatic), 'tip of link 3' (the last link), and for the points after O_(n+1) 'tip
+    of link 1, guide of joint 2' or 'tip of link 1, host of carriage 2'."""
+    n = model.n_links
+    if j <= n:
+        return {"R": f"joint {j}", "Pa": f"carriage of joint {j}",
+                "Pb": f"rear end of link {j}, behind its guide"}[model.joint_kinds[j - 1]]
+    if j == n + 1:
+        return f"tip of link {n}"
+    # The points after O_(n+1): the tips of the hosts of prismatic joints i >= 2, in joint order.
+    joint = [i for i, kd in enumerate(model.joint_kinds, start=1) if i > 1 and kd != "R"][j - n - 2]
+    what = "guide" if model.joint_kinds[joint - 1] == "Pb" else "host of carriage"
+    return f"tip of link {joint - 1}, {what} {'of joint ' if what == 'guide' else ''}{joint}"
+
+
+def _point_label(model, j: int) -> str:
+    """Legend label of contact point O_j (1-based): '$O_{3}$ (tip of link 2)'."""
+    return f"$O_{{{j}}}$ ({_point_description(model, j)})"
+
+
 def _contacts_text(result, rec) -> str:
     """The contacts of an impact: 'O2' for a joint point at a wall, 'link 1' for a link's span,
     'stop 2 (d_max)' for an end stop."""
@@ -97,15 +119,6 @@ def _split_contacts(rec):
     return hits, stops
 
 
-def _impact_note(result, limit: int = 8) -> str:
-    imps = result.impacts
-    if not imps:
-        return "no impacts"
-    items = [f"{k}: {_contacts_text(result, r)} at {r.time:.6f} s" for k, r in enumerate(imps[:limit], start=1)]
-    more = f"; ... ({len(imps)} in all, every one in impacts.csv)" if len(imps) > limit else ""
-    return "impacts (dotted lines): " + "; ".join(items) + more
-
-
 def _status_line(result, width: int = 150) -> str:
     """'' for a finished run; else the status, the time reached and the message, shortened to
     ``width`` characters (parenthetical remarks dropped first)."""
@@ -127,6 +140,12 @@ def _title(result, what, case_name=None, width_in: float = 9.5):
     if len(lines) > 2:
         lines = [lines[0], textwrap.shorten(" ".join(lines[1:]), per_line, placeholder=" ...")]
     return "\n".join(textwrap.wrap(title, int(1.1 * per_line)) + lines)
+
+
+def _wrap_note(note: str, width_in: float, fontsize: float = 7.0) -> str:
+    """``note`` broken into lines that fit a figure ``width_in`` inches wide (0.55 em per character:
+    textwrap, not matplotlib's wrap=True, which renders the text word by word to measure it)."""
+    return "\n".join(textwrap.wrap(note, max(40, int(width_in * 72.0 / (0.55 * fontsize)))))
 
 
 def _status_box(ax, result):

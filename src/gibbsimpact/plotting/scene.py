@@ -8,7 +8,7 @@ from ..contact.walls import Circle, Sphere
 from ..dynamics.kinematics import joint_positions, transforms
 from ..dynamics.link_points import link_points
 from .geometry import _link_parts, _plane_polygon_3d, _prismatic_marks, _stop_point, _to3, _wall_curves_2d
-from .style import _MARK_STYLE, _STOP_MARKER, _link_colour
+from .style import _MARK_STYLE, _SHADOW_STYLE, _STOP_MARKER, _link_colour
 
 
 def _draw_walls_2d(ax, walls, extent):
@@ -107,15 +107,23 @@ def _draw_walls_3d(ax, walls, lo, hi):
                                                      alpha=0.35, edgecolor="0.3", lw=0.8))
 
 
+def _shadow_points(model, q, n_points, floor: float) -> np.ndarray:
+    """The links' points (n_links, n_points, 3) [m] projected onto the floor X2 = floor [m]."""
+    p = link_points(model, q, n_points)
+    p[..., 1] = floor
+    return p
+
+
+def _draw_shadow(ax, model, q, n_points, floor: float, label: bool = False):
+    """The chain's shadow on the floor X2 = floor (3D axes): shows where the chain is in depth."""
+    for i, p in enumerate(_shadow_points(model, q, n_points, floor)):
+        ax.plot(*_to3(p), label="shadow on the floor" if label and i == 0 else None, **_SHADOW_STYLE)
+
+
 def _draw_chain_3d(ax, model, q, n_points, hit=(), normals=None, labels=True, floor=None, arrow=0.25, stops=()):
     _draw_links(lambda P, **st: ax.plot(*_to3(P), **st), model, q, n_points)
-    pts = link_points(model, q, n_points)
-    for i in range(pts.shape[0]):
-        if floor is not None:
-            # Shadow on the floor X2 = floor: shows where the chain is in depth.
-            sh = pts[i].copy()
-            sh[:, 1] = floor
-            ax.plot(*_to3(sh), lw=1.6, color="0.5", alpha=0.6)
+    if floor is not None:
+        _draw_shadow(ax, model, q, n_points, floor, label=labels)
     T = transforms(model, np.asarray(q, dtype=float))
     O = np.vstack((T[:, :3, 3], joint_positions(model, np.asarray(q, dtype=float))[T.shape[0]:]))
     ax.plot(*_to3(O), "o", ms=4, color="k", ls="none")

@@ -103,3 +103,9 @@ _MARK_STYLE = {
 
 #: Marker of an end-stop impact (a prismatic joint at an end of its range); stars are wall impacts.
 _STOP_MARKER = {"marker": "D", "ms": 8, "color": "red", "mec": "darkred", "ls": "none"}
+
+
+#: The chain at t0 in the trajectory figure: dashed dark grey (the chain at the end has the link colours).
+_T0_STYLE = {"color": "0.3", "ls": (0, (4, 2)), "lw": 1.5}
+#: The chain's shadow on the floor in 3D: a wide, pale, solid band, unlike the dashed chain at t0.
+_SHADOW_STYLE = {"color": "0.78", "lw": 3.2, "alpha": 0.7, "solid_capstyle": "round"}

@@ -7,14 +7,20 @@ import numpy as np
 
 from ..model.model import link_deflection
 from .geometry import is_planar
-from .impacts import _mark_impacts
-from .labels import _impact_note, _status_box, _tex, _title
+from .decimate import COLUMNS_PER_INCH, DENSE_TURNS, envelope, minmax_decimate, visible_turns
+from .impacts import _impact_lines, _impact_note, _number_impacts
+from .labels import _point_label, _status_box, _tex, _title, _wrap_note
 from .style import _P_STYLES, _RANGE_STYLE, _STYLES, _figure, _given_axes, _joint_colour, _legend, _link_colour, _style
 
 
 def _finish_time_figure(fig, axes, result, title, own: bool, number_axes=None, right: float = 1.0):
-    """Limits, grid, impact markers; on a figure of our own the title, the footnote and the layout."""
+    """Limits, grid, impact marks; on a figure of our own the title, the footnote and the layout.
+
+    The impact numbers are placed after the layout, for the axes' final widths (a row laid out for
+    the widths before it overlapped once tight_layout had narrowed the axes).
+    """
     axes = list(axes)
+    number_axes = axes[:1] if number_axes is None else list(number_axes)
     bottom = [ax for ax in axes if ax.get_subplotspec() is None or ax.get_subplotspec().is_last_row()]
     for ax in bottom or axes[-1:]:
         ax.set_xlabel("t [s]")
@@ -22,16 +28,38 @@ def _finish_time_figure(fig, axes, result, title, own: bool, number_axes=None, r
     for ax in axes:
         ax.set_xlim(t0, t1)
         ax.grid(True, lw=0.3, alpha=0.6)
+    _impact_lines(axes, result)
     if own:
-        # Subplot positions before tight_layout only estimate the widths the numbers get.
         fig.subplots_adjust(left=0.08, right=min(0.84, right))
-    _mark_impacts(axes, result, number_axes=axes[:1] if number_axes is None else number_axes)
-    if own:
+        for ax in number_axes:
+            _number_impacts(ax, result, placeholder=True)  # reserves the row's height in the layout
         fig.suptitle(title, fontsize=11 if "\n" not in title else 10)
-        fig.text(0.01, 0.005, _impact_note(result), fontsize=7, color="0.3", ha="left", va="bottom", wrap=True)
-        fig.tight_layout(rect=(0, 0.035, right, 1))
+        note = _wrap_note(_impact_note(result), fig.get_figwidth())
+        fig.text(0.01, 0.005, note, fontsize=7, color="0.3", ha="left", va="bottom")
+        fig.tight_layout(rect=(0, (10.0 * (note.count("\n") + 1) + 3.0) / (72.0 * fig.get_figheight()), right, 1))
     else:
         _status_box(axes[0], result)
+    for ax in number_axes:
+        _number_impacts(ax, result)
+
+
+def _curve(ax, t, y, label=None, **style):
+    """Draw the samples y (K,) against t (K,) [s] as decimate describes, with n buckets for the n pixel
+    columns of ``ax``: every sample, or past 2 n + 2 samples the extremes of each bucket; a curve with
+    more than DENSE_TURNS n visible turns as its envelope, a band in its colour (under the lines)
+    with its edges in its line style. Returns the artists drawn."""
+    t, y = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
+    n = max(50, int(round(ax.get_position().width * ax.figure.get_figwidth() * COLUMNS_PER_INCH)))
+    limit = int(DENSE_TURNS * n)
+    turns = visible_turns(t, y, n) if len(y) > limit and np.all(np.isfinite(y)) else 0
+    if turns <= limit:
+        return ax.plot(*minmax_decimate(t, y, n), label=label, **style)
+    tc, lo, hi = envelope(t, y, max(1, turns // 4))
+    colour = style.get("color", "k")
+    band = ax.fill_between(tc, lo, hi, color=colour, alpha=0.3, lw=0.0, zorder=1.5,
+                           label=None if label is None else f"{label} (envelope)")
+    edges = [ax.plot(tc, e, color=colour, ls=style.get("ls", "-"), lw=0.7)[0] for e in (lo, hi)]
+    return [band, *edges]
 
 
 # --------------------------------------------------------------------------
@@ -88,7 +116,7 @@ def plot_angles(result, case_name=None, ax=None):
             # One colour per joint variable over all panels; line styles cycle within a panel (never
             # dashed for d, whose range lines are dashed).
             style = dict(_style(pos, f"C{c % 10}"), ls=(_STYLES if g == "R" else _P_STYLES)[pos % 4])
-            a.plot(result.t, (result.qdot if rate else result.q)[:, k], label=_tex(name, dot=rate), **style)
+            _curve(a, result.t, (result.qdot if rate else result.q)[:, k], label=_tex(name, dot=rate), **style)
         if g == "P" and not rate:
             _draw_ranges(a, model, groups[g])
         a.set_ylabel(ylabels[g, rate])
@@ -147,9 +175,9 @@ def plot_modes(result, case_name=None, ax=None):
         for k, text in curves:
             name = model.coordinate_names[k]
             label = _tex(name) + f"  link {i + 1}, " + text
-            a_q.plot(result.t, result.q[:, k], label=label, **_style(c))
+            _curve(a_q, result.t, result.q[:, k], label=label, **_style(c))
             if a_v is not None:
-                a_v.plot(result.t, result.qdot[:, k], label=_tex(name, dot=True), **_style(c))
+                _curve(a_v, result.t, result.qdot[:, k], label=_tex(name, dot=True), **_style(c))
             c += 1
         if own:
             a_q.set_ylabel(f"link {i + 1}\n" + r"$\delta$ [m]")
@@ -238,12 +266,12 @@ def plot_deflection(result, case_name=None, ax=None):
         at = f"l_{{{i + 1}}}" if x == model.chain.links[i].length else f"l_{{{i + 1}}}/2"
         # Link colours as in the configuration drawings; styles cycle so that curves that coincide
         # (a symmetric motion) stay visible.
-        axes[0].plot(result.t, values, label=f"link {i + 1}: ${comp}({at})$", **_style(c, _link_colour(i)))
+        _curve(axes[0], result.t, values, label=f"link {i + 1}: ${comp}({at})$", **_style(c, _link_colour(i)))
     axes[0].set_ylabel("deflection [m]" if mid else "tip deflection [m]")
     axes[0].ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
     if len(axes) > 1:
         for pos, i in enumerate(pb):
-            axes[1].plot(result.t, result.q[:, model.theta_index[i]], color=_link_colour(i), lw=1.3,
+            _curve(axes[1], result.t, result.q[:, model.theta_index[i]], color=_link_colour(i), lw=1.3,
                          ls=_P_STYLES[pos % len(_P_STYLES)], label=f"link {i + 1}: $d_{{{i + 1}}}$")
         _draw_ranges(axes[1], model, [(0, None, i + 1, "Pb") for i in pb], colour=lambda j: _link_colour(j - 1))
         axes[1].set_ylabel("protruding\nlength d [m]")
@@ -280,13 +308,13 @@ def plot_contact_forces(result, case_name=None, ax=None):
     names = result.model.contact_point_names
     c = 0
     for w, j in np.argwhere(np.any(F != 0.0, axis=0)):
-        axes[0].plot(result.t, F[:, w, j], label=f"{names[j]} on wall {w + 1}", **_style(c, _joint_colour(int(j))))
+        _curve(axes[0], result.t, F[:, w, j], label=f"{names[j]} on wall {w + 1}", **_style(c, _joint_colour(int(j))))
         c += 1
     axes[0].set_ylabel("contact force [N]")
     if n_panels == 2:
         c = 0
         for w, j in np.argwhere(np.any(F != 0.0, axis=0)):
-            axes[1].plot(result.t, np.linalg.norm(Ft[:, w, j], axis=1), label=f"{names[j]} on wall {w + 1}",
+            _curve(axes[1], result.t, np.linalg.norm(Ft[:, w, j], axis=1), label=f"{names[j]} on wall {w + 1}",
                          **_style(c, _joint_colour(int(j))))
             c += 1
         axes[1].set_ylabel("friction force\n|F_t| [N]")
@@ -309,7 +337,8 @@ def _joint_components(result, values, what, unit, case_name, ax):
         fig = axes[0].figure
     for a, axis in enumerate(axes):
         for j in range(values.shape[1]):
-            axis.plot(result.t, values[:, j, a], label=f"$O_{{{j + 1}}}$", **_style(j, _joint_colour(j)))
+            _curve(axis, result.t, values[:, j, a], label=_point_label(result.model, j + 1),
+                   **_style(j, _joint_colour(j)))
         axis.set_ylabel(f"along $X_{a + 1}$ [{unit}]")
     _legend(axes[0], outside=own)
     _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
@@ -347,10 +376,10 @@ def plot_energy(result, case_name=None, ax=None):
     else:
         axes = _given_axes(ax, 2, "plot_energy")
         fig = axes[0].figure
-    axes[0].plot(result.t, E.kinetic, label="kinetic", **_style(0))
-    axes[0].plot(result.t, E.gravity, label="gravitational", **_style(1))
-    axes[0].plot(result.t, E.strain, label="strain", **_style(2))
-    axes[0].plot(result.t, E.total, lw=1.8, color="k", label="total")
+    _curve(axes[0], result.t, E.kinetic, label="kinetic", **_style(0))
+    _curve(axes[0], result.t, E.gravity, label="gravitational", **_style(1))
+    _curve(axes[0], result.t, E.strain, label="strain", **_style(2))
+    _curve(axes[0], result.t, E.total, lw=1.8, color="k", label="total")
     balance = E.total - E.total[0]
     if result.work is not None:
         # A work that stays zero (no inputs, or no damped link) is left out of the legend and the plot.
@@ -358,7 +387,7 @@ def plot_energy(result, case_name=None, ax=None):
                        else "work of damping")
         for c, text in enumerate(("work of inputs", dissipation)):
             if np.any(result.work[:, c] != 0.0) or not np.any(result.work != 0.0) and c == 0:
-                axes[0].plot(result.t, result.work[:, c], label=text, **_style(3 + c))
+                _curve(axes[0], result.t, result.work[:, c], label=text, **_style(3 + c))
         balance = balance - result.work.sum(axis=1)
         ylabel = r"$E - E(t_0) - W$ [J]"
         what = "max relative power-balance error in flight"
@@ -369,7 +398,7 @@ def plot_energy(result, case_name=None, ax=None):
     _legend(axes[0], outside=own)
     if len(axes) > 1:
         axes[1].set_ylabel(ylabel)
-        axes[1].plot(result.t, balance, lw=1.0, color="k")
+        _curve(axes[1], result.t, balance, lw=1.0, color="k")
         axes[1].ticklabel_format(axis="y", style="sci", scilimits=(-2, 3), useOffset=False)
     title = _title(result, f"energy (E(t0) = {E.total[0]:.7g} J, {what} {result.energy_error:.1e})", case_name)
     _finish_time_figure(fig, axes, result, title, own)
