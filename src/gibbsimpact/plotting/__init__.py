@@ -11,10 +11,11 @@ returned Figure is displayed inline. Without a display (no DISPLAY or
 WAYLAND_DISPLAY on Linux, no MPLBACKEND set) the non-interactive Agg backend
 is selected before pyplot is first imported.
 
-Every time plot marks the impact instants with dotted vertical lines numbered
-above the axes (impacts too close to be numbered one by one share a label
-"a-b", and numbers that would overlap are left out); the figure's footnote
-lists the first ones (time, joints). A run that stopped early says so, with
+Every time plot marks the impact instants (impacts: up to 12 numbered dotted
+lines, past that a rug of ticks and one label per contact episode; the
+footnote lists the first impacts or episodes) and draws its curves decimated
+to the pixel columns of its axes, a curve too dense to read as its envelope
+(decimate). A run that stopped early says so, with
 its status and message, under every figure's title (in a red box inside the
 axes when drawing into ``ax=``). Configurations are drawn in 2D (X1-X2 plane)
 when the motion is planar and in 3D otherwise; in 3D, X2 (the usual "up"
@@ -33,8 +34,10 @@ deflection in its own frame (model.link_deflection at x = l_i; at mid-span
 for clamped-clamped modes), with the protruding length of Pb links below.
 
 Modules: style (matplotlib access, colours, legends), labels (texts), impacts (impact marks on
-time axes), geometry (points of the drawings, numpy only), scene (drawing chains and walls),
-time_histories, configurations and animation (the figures), figures (all of them, saving).
+time axes, contact episodes), decimate (what a curve draws, numpy only), geometry (points of the
+drawings, numpy only), scene (drawing chains and walls), time_histories, configurations and
+animation (the figures), figures (all of them, saving). docs/case-format.md ("Impacts and long
+runs in the figures") states the rules.
 """
 
 # The public names of gibbsimpact.plotting as it was one module (documented paths keep working).

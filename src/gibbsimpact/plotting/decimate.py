@@ -5,8 +5,8 @@ columns, about 900 for a full-width axis and 400 for one of two side by side; n 
 are n equal time buckets here.
 
 * min/max decimation keeps, in each bucket, the sample of the smallest and of the largest value
-  (in time order), and the first and last samples: at most 2 n + 2 points, and the drawn line
-  covers exactly the pixels of the full one (every extreme of every column survives);
+  (in time order), and the first and last samples: at most 2 n + 2 points; every extreme of
+  every column survives, so the drawn line covers to within a pixel what the full one covers;
 * a curve that turns more than n / 6 times (turns by more than 1/100 of its range: a period
   under twelve pixel columns, about eight once a figure's layout has made room for its labels
   and legend, which a line 2 pixels wide fills into a band) is drawn as a filled band between
