@@ -18,9 +18,7 @@ STAGES = ["kernel", "model", "dynamics", "symbolic", "contact", "simulation", "p
           "study", "cli"]
 # (importing module, enclosing function): the alias methods that may import a later stage.
 ALIASES = {
-    ("model.model", f) for f in (
-        "mass_matrix", "bias_forces", "potential_forces", "forward_dynamics", "energy", "joint_positions",
-        "joint_jacobians", "linear_momentum", "angular_momentum", "center_of_mass")
+    ("model.model", f) for f in ("_dynamics", "_kinematics")  # what Model.mass_matrix, ... call
 } | {("simulation.results", f) for f in ("save", "to_csv", "summary", "plot", "figure", "save_figures")}
 
 

@@ -123,7 +123,7 @@ def test_momentum_conserved_without_gravity():
 def test_momentum_against_quadrature(rng):
     # L and H from the modal moments vs direct sampling of p(x), pdot(x) along each link.
     from gibbsimpact.dynamics.kinematics import frames
-    from gibbsimpact.model.model import gauss_legendre
+    from gibbsimpact.model.shapes import gauss_legendre
     from gibbsimpact.model.modes import shape
 
     model = spatial_chain()

@@ -6,7 +6,7 @@ import scipy.linalg as sl
 
 import gibbsimpact as gi
 from gibbsimpact.model.elements import assemble, element_mass, element_stiffness, hermite_shape
-from gibbsimpact.model.model import link_integrals
+from gibbsimpact.model.shapes import link_integrals
 
 from conftest import random_state
 

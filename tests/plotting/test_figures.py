@@ -450,7 +450,7 @@ def test_prismatic_variable_is_in_metres_with_its_range(prismatic):
 
 @pytest.mark.parametrize("name", PRISMATIC)
 def test_deflection_figure_is_the_tip_deflection(prismatic, name):
-    from gibbsimpact.model.model import link_deflection
+    from gibbsimpact.model.shapes import link_deflection
 
     res, figs = prismatic[name]
     model = res.model
@@ -474,7 +474,7 @@ def test_deflection_figure_is_the_tip_deflection(prismatic, name):
 
 def test_deflection_of_clamped_clamped_modes_is_at_mid_span(planar):
     # Clamped-clamped shapes vanish at the tip: the figure shows v(l/2) instead of a zero line.
-    from gibbsimpact.model.model import link_deflection
+    from gibbsimpact.model.shapes import link_deflection
 
     fig = plotting.plot_deflection(planar)
     ax = fig.axes[0]

@@ -422,7 +422,7 @@ def test_singular_mass_matrix_at_a_trial_stage_rejects_the_step(monkeypatch):
     # three trial states that are more than 1 mm from the start.
     import sys
 
-    sim = sys.modules["gibbsimpact.simulation.simulate"]  # the module (gi.simulate is the function)
+    sim = sys.modules["gibbsimpact.simulation.equations"]  # the right-hand side's module
     real = sim.forward_dynamics
     model = rigid_rod()
     q0 = model.state()
@@ -455,7 +455,7 @@ def test_simultaneous_impact_does_not_depend_on_rtol(rtol):
     # The contact band follows the integration error (simulate.contact_band): at a coarse
     # tolerance the published O1+O3 impact of case 1 stays one impact, at the published times
     # to within the tolerance's error, instead of splitting into O1 then O3 1e-9 s apart.
-    from gibbsimpact.simulation.simulate import contact_band
+    from gibbsimpact.simulation.contacts import contact_band
 
     case = gi.load_case(ROOT / "cases" / "circle_two_link.toml")
     res = case.simulate(rtol=rtol, atol=rtol * 1e-2)

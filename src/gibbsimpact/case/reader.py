@@ -35,7 +35,7 @@ from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics
 from ..model.elements import MAX_ELEMENTS
 from ..dynamics.inputs import INPUT_KINDS, InputSpec, is_angle_coordinate, named_inputs
 from ..simulation.joint_limits import joint_limits, limit_gaps
-from ..model.model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
+from ..model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
 from ..model.modes import MODE_DIRECTIONS, MODE_KINDS, Mode, natural_frequency
 from ..contact.walls import MAX_FRICTION, Circle, Plane, Sphere, describe
 

@@ -25,7 +25,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from .common import (EXIT_BAD_INPUT, EXIT_CODES, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK,  # noqa: F401
-                     EXIT_STOPPED, _error, _float, _load, _worst)
+                     EXIT_STOPPED, OPTION_NAMES, _error, _float, _load, _worst, add_method_option, add_rtol_option)
 
 #: Files ``gibbsimpact run`` may write into its output folder, besides <figure>.png for
 #: every name in plotting.FIGURES and OPTIONAL_FIGURES. Before writing, a run removes those of them that are
@@ -63,12 +63,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="output folder (default: the case's [output] directory, else out/<case name>); with "
                         "several case files each writes into DIR/<case file name without .toml>")
     r.add_argument("--t-end", type=_float, metavar="T", help="end time in s (overrides [time] t_end_s)")
-    r.add_argument("--rtol", type=_float, help="relative tolerance (overrides [solver] rtol)")
+    add_rtol_option(r)
     r.add_argument("--atol", type=_float, help="absolute tolerance (overrides [solver] atol)")
     r.add_argument("--output-dt", type=_float, metavar="DT",
                    help="uniform output interval in s (overrides [solver] output_dt_s)")
-    r.add_argument("--method", metavar="METHOD",
-                   help="scipy ODE solver (overrides [solver] method): " + ", ".join(_methods()))
+    add_method_option(r)
     from .sweep import _positive_int
 
     r.add_argument("--csv-every", type=_positive_int, default=1, metavar="K",
@@ -95,13 +94,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_sweep_parser(sub)
     return p
-
-
-def _methods() -> tuple:
-    """The solver names gibbsimpact.simulate accepts."""
-    from ..simulation.flight import SOLVERS
-
-    return tuple(SOLVERS)
 
 
 # --------------------------------------------------------------------------
@@ -376,16 +368,6 @@ def clear_outputs(out: Path) -> list:
     return removed
 
 
-def _save_figure(fig, path: Path, dpi: int) -> Path:
-    """Save one figure as ``path`` (.png) atomically, with plotting.save_figures' settings; closes it."""
-    from ..io.result_files import atomic_path
-    from ..plotting.figures import save_figures
-
-    with atomic_path(path) as tmp:
-        save_figures({tmp.stem: fig}, tmp.parent, dpi=dpi)  # writes <stem>.png, i.e. tmp
-    return path
-
-
 def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None, csv_every: int = 1) -> dict:
     """Write every output file of a run into ``out``; returns {name: Path}.
 
@@ -394,7 +376,7 @@ def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None,
     summary.json comes last, so when it is there every other file of the run is too.
     csv_every : K, every K-th sample (and the last) in the per-sample CSV files (io.to_csv's every).
     """
-    from ..io.result_files import atomic_path, save_result, to_csv, write_summary_json
+    from ..io.result_files import atomic_path, save_figure, save_result, to_csv, write_summary_json
 
     log = log or (lambda s: None)
     out.mkdir(parents=True, exist_ok=True)
@@ -408,7 +390,7 @@ def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None,
 
         figs = plot_result(result, case_name=case.name, n_points=case.output["points_per_link"])
         for name, fig in figs.items():
-            paths[name] = _save_figure(fig, out / f"{name}.png", case.output["dpi"])
+            paths[name] = save_figure(fig, out / f"{name}.png", case.output["dpi"])
     if animate:
         log("writing animation.gif ...")
         from ..plotting.figures import animate as make_animation
@@ -495,8 +477,7 @@ def cmd_run(args) -> int:
 
     several = len(args.case) > 1
     # Options override case-file keys and are held to the same ranges (case.RANGES).
-    options = {"t_end": "--t-end", "rtol": "--rtol", "atol": "--atol", "output_dt": "--output-dt",
-               "method": "--method"}
+    options = OPTION_NAMES
     overrides = {kw: getattr(args, kw) for kw in options if getattr(args, kw) is not None}
     code, runs = EXIT_OK, []
     for path in args.case:
@@ -580,7 +561,7 @@ def _isatty(stream) -> bool:
 
 def _simulate_and_write(path, case, args, overrides, out, progress, say) -> int:
     from ..dynamics.gibbs_appell import SingularMassMatrixError
-    from ..simulation.simulate import STATUS_INTERRUPTED
+    from ..simulation.status import STATUS_INTERRUPTED
 
     try:
         result = case.simulate(progress=progress, **overrides)

@@ -39,6 +39,24 @@ def _float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
 
 
+#: Options that override a case-file key (Case.override_problems keyword: its name on the command line).
+OPTION_NAMES = {"t_end": "--t-end", "rtol": "--rtol", "atol": "--atol", "output_dt": "--output-dt",
+                "method": "--method"}
+
+
+def add_rtol_option(parser) -> None:
+    """``--rtol`` of ``run`` and ``sweep`` (checked against [solver] rtol's range once the case is loaded)."""
+    parser.add_argument("--rtol", type=_float, help="relative tolerance (overrides [solver] rtol)")
+
+
+def add_method_option(parser) -> None:
+    """``--method`` of ``run`` and ``sweep``: a name of simulation.flight.SOLVERS (checked once the case is loaded)."""
+    from ..simulation.flight import SOLVERS
+
+    parser.add_argument("--method", metavar="METHOD",
+                        help="scipy ODE solver (overrides [solver] method): " + ", ".join(SOLVERS))
+
+
 _GIVE_A_CASE = "give the path of a case file (e.g. cases/circle_two_link.toml)"
 
 

@@ -146,31 +146,47 @@ class _LemkeFailure(RuntimeError):
     """One attempt of Lemke's method failed (ray, pivot limit or residual); carries the reason."""
 
 
-def _lemke_attempt(Ms: np.ndarray, qs: np.ndarray, tol: float, max_pivots: int, residual_tol: float):
-    """Lemke's method on the scaled LCP (Ms, qs), |qs|_inf = 1, with pivot and tie tolerance ``tol``.
+class _LemkeTableau:
+    """The basis of one Lemke attempt on the scaled LCP (Ms (n, n), qs (n,)), with pivot and tie tolerance tol.
 
-    Variables 0..n-1 are w, n..2n-1 are z, 2n is z0; the basis inverse B^-1 of the
-    columns of [I, -Ms, -1] and x_B = B^-1 q' are updated by each pivot and
-    refactorised every 20 pivots. Returns (z' (n,), pivots, residual).
+    Variables 0..n-1 are w, n..2n-1 are z, 2n is z0. ``basis`` (n,) holds the basic variables,
+    ``Binv`` the inverse B^-1 (n, n) of their columns of C = [I, -Ms, -1] (n, 2n + 1), and
+    ``xB`` = B^-1 q' (n,) their values; both start from B = I.
     """
-    n = qs.size
-    z0 = 2 * n
-    basis = np.arange(n)
-    Binv = np.asfortranarray(np.eye(n))
-    xB = qs.copy()
 
-    def column(j: int) -> np.ndarray:
-        # B^-1 times column j of [I, -Ms, -1].
+    def __init__(self, Ms: np.ndarray, qs: np.ndarray, tol: float):
+        self.Ms, self.qs, self.tol = Ms, qs, tol
+        self.n = n = qs.size
+        self.z0 = 2 * n
+        self.basis = np.arange(n)
+        self.Binv = np.asfortranarray(np.eye(n))
+        self.xB = qs.copy()
+        self._C = None
+
+    def columns(self) -> np.ndarray:
+        """C = [I, -Ms, -1] (n, 2n + 1), built once."""
+        if self._C is None:
+            n = self.n
+            self._C = np.hstack([np.eye(n), -self.Ms, -np.ones((n, 1))])
+        return self._C
+
+    def column(self, j: int) -> np.ndarray:
+        """B^-1 times column j of [I, -Ms, -1] (n,)."""
+        n, Binv = self.n, self.Binv
         if j < n:
             return Binv[:, j].copy()
-        if j < z0:
-            return -(Binv @ Ms[:, j - n])
+        if j < self.z0:
+            return -(Binv @ self.Ms[:, j - n])
         return -Binv.sum(axis=1)
 
-    def lexmin(y: np.ndarray, ptol: float) -> int:
-        # Lexicographic minimum of the rows (x_B, B^-1) / y over the rows with y > ptol: the
-        # minimum-ratio test, ties (within tol) broken by the columns of B^-1; z0 leaves
-        # whenever it ties. -1: no row blocks (a ray).
+    def ratio_test(self, y: np.ndarray, ptol: float) -> int:
+        """The leaving row for the entering column y (n,): -1 when no row blocks (a ray).
+
+        Lexicographic minimum of the rows (x_B, B^-1) / y over the rows with y > ptol: the
+        minimum-ratio test, ties (within tol) broken by the columns of B^-1; z0 leaves
+        whenever it ties.
+        """
+        xB, Binv, basis, tol = self.xB, self.Binv, self.basis, self.tol
         rows = np.flatnonzero(y > ptol)
         if rows.size <= 1:
             return int(rows[0]) if rows.size else -1
@@ -179,10 +195,10 @@ def _lemke_attempt(Ms: np.ndarray, qs: np.ndarray, tol: float, max_pivots: int, 
         rows = rows[ratio <= m + tol * max(1.0, abs(m))]
         if rows.size == 1:
             return int(rows[0])
-        at_z0 = basis[rows] == z0
+        at_z0 = basis[rows] == self.z0
         if at_z0.any():
             return int(rows[at_z0][0])
-        for j in range(n):
+        for j in range(self.n):
             ratio = Binv[rows, j] / y[rows]
             m = ratio.min()
             rows = rows[ratio <= m + tol * max(1.0, abs(m))]
@@ -190,7 +206,9 @@ def _lemke_attempt(Ms: np.ndarray, qs: np.ndarray, tol: float, max_pivots: int, 
                 break
         return int(rows[0])
 
-    def pivot(r: int, c: int, y: np.ndarray) -> int:
+    def pivot(self, r: int, c: int, y: np.ndarray) -> int:
+        """Variable c (entering column y = B^-1 C_c (n,)) replaces the basic variable of row r; returns that one."""
+        Binv, xB, basis = self.Binv, self.xB, self.basis
         # Gauss-Jordan step on row r: B^-1 <- B^-1 - y (B^-1_r / y_r), row r <- B^-1_r / y_r.
         row = Binv[r] / y[r]
         xr = xB[r] / y[r]
@@ -201,50 +219,68 @@ def _lemke_attempt(Ms: np.ndarray, qs: np.ndarray, tol: float, max_pivots: int, 
         basis[r] = c
         return left
 
+    def refactorise(self, pivots: int):
+        """B^-1 and x_B afresh from the basis columns (round-off of the updates does not build up)."""
+        try:
+            self.Binv[:] = np.linalg.inv(self.columns()[:, self.basis])
+        except np.linalg.LinAlgError:
+            raise _LemkeFailure(f"singular basis after {pivots} pivots") from None
+        self.xB[:] = self.Binv @ self.qs
+
+    def residual(self, xb: np.ndarray):
+        """(z' (n,), scaled residual) of the basic solution x_B = xb: max(|min(z', w')|, -z', -w') / max(1, |z'|_inf)."""
+        n = self.n
+        x = np.zeros(2 * n + 1)
+        x[self.basis] = xb
+        zs = x[n:self.z0]
+        ws = self.Ms @ zs + self.qs
+        res = max(float(np.abs(np.minimum(zs, ws)).max()), float(-zs.min()), float(-ws.min()))
+        return zs, res / max(1.0, float(np.abs(zs).max()))
+
+    def solution(self):
+        """(z' (n,), residual) of the final basis: from x_B, or re-solved directly when that is better."""
+        # The complementarity residual of the basic solution; if round-off shows, the final
+        # basis is re-solved directly (C_B x_B = q') and the better of the two kept.
+        zs, residual = self.residual(self.xB)
+        if residual > 1e-14:
+            try:
+                zs2, residual2 = self.residual(np.linalg.solve(self.columns()[:, self.basis], self.qs))
+                if residual2 < residual:
+                    zs, residual = zs2, residual2
+            except np.linalg.LinAlgError:
+                pass
+        return zs, residual
+
+
+def _lemke_attempt(Ms: np.ndarray, qs: np.ndarray, tol: float, max_pivots: int, residual_tol: float):
+    """Lemke's method on the scaled LCP (Ms, qs), |qs|_inf = 1, with pivot and tie tolerance ``tol``.
+
+    Variables 0..n-1 are w, n..2n-1 are z, 2n is z0; the basis inverse B^-1 of the
+    columns of [I, -Ms, -1] and x_B = B^-1 q' are updated by each pivot (_LemkeTableau) and
+    refactorised every 20 pivots. Returns (z' (n,), pivots, residual).
+    """
+    tab = _LemkeTableau(Ms, qs, tol)
+    n, z0 = tab.n, tab.z0
     # First pivot: z0 enters at the row of the lexicographically smallest (q'_i, e_i): the most
     # negative q', the last such row among ties; every row of (x_B, B^-1) is then lexico-positive.
-    entering = n + pivot(lexmin(np.ones(n), 0.0), z0, column(z0))
+    entering = n + tab.pivot(tab.ratio_test(np.ones(n), 0.0), z0, tab.column(z0))
     pivots = 1
-    C = None
     while True:
         if pivots >= max_pivots:
             raise _LemkeFailure(f"no solution after max_pivots={max_pivots} pivots")
         if pivots % 20 == 0:
-            # Refactorise: B^-1 and x_B afresh from the basis columns.
-            C = np.hstack([np.eye(n), -Ms, -np.ones((n, 1))]) if C is None else C
-            try:
-                Binv[:] = np.linalg.inv(C[:, basis])
-            except np.linalg.LinAlgError:
-                raise _LemkeFailure(f"singular basis after {pivots} pivots") from None
-            xB[:] = Binv @ qs
-        y = column(entering)
-        r = lexmin(y, tol * max(1.0, float(y.max()), -float(y.min())))
+            tab.refactorise(pivots)
+        y = tab.column(entering)
+        r = tab.ratio_test(y, tol * max(1.0, float(y.max()), -float(y.min())))
         if r < 0:
             raise _LemkeFailure(f"secondary ray after {pivots} pivots")
-        left = pivot(r, entering, y)
+        left = tab.pivot(r, entering, y)
         pivots += 1
         if left == z0:
             break
+        # The complement of the variable that left enters next.
         entering = left + n if left < n else left - n
-    # The complementarity residual of the basic solution; if round-off shows, the final
-    # basis is re-solved directly (C_B x_B = q') and the better of the two kept.
-    def residual_of(xb):
-        x = np.zeros(2 * n + 1)
-        x[basis] = xb
-        zs = x[n:z0]
-        ws = Ms @ zs + qs
-        res = max(float(np.abs(np.minimum(zs, ws)).max()), float(-zs.min()), float(-ws.min()))
-        return zs, res / max(1.0, float(np.abs(zs).max()))
-
-    zs, residual = residual_of(xB)
-    if residual > 1e-14:
-        C = np.hstack([np.eye(n), -Ms, -np.ones((n, 1))])
-        try:
-            zs2, residual2 = residual_of(np.linalg.solve(C[:, basis], qs))
-            if residual2 < residual:
-                zs, residual = zs2, residual2
-        except np.linalg.LinAlgError:
-            pass
+    zs, residual = tab.solution()
     if not residual <= residual_tol:
         raise _LemkeFailure(f"complementarity residual {residual:.3g} > {residual_tol:g} after {pivots} pivots")
     return zs, pivots, residual

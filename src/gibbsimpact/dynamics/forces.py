@@ -23,6 +23,7 @@ simulation integrates alongside the state (the energy audit).
 
 from __future__ import annotations
 
+import math
 from numbers import Real
 from typing import Callable
 
@@ -70,11 +71,64 @@ def damping_matrix(model, q=None) -> np.ndarray:
     return C
 
 
+class CallbackError(Exception):
+    """A function the user gave (an input, the progress callback) failed during a run.
+
+    callback : str, which one, as the user named it (``inputs['theta_2']``, ``inputs(t, q, qdot)``, ``progress``)
+    coordinate : str or None, the coordinate its value acts on
+    t : float [s], the simulated time of the failing call
+    cause : str, what went wrong (the exception it raised, or the value it returned)
+    """
+
+    def __init__(self, callback: str, coordinate, t: float, cause: str):
+        self.callback, self.coordinate, self.t, self.cause = callback, coordinate, float(t), cause
+        on = f" (on {coordinate})" if coordinate else ""
+        super().__init__(f"{callback}{on} failed at t = {self.t:.9g} s: {cause}")
+
+
 def _check_Q(Q, N: int, what: str) -> np.ndarray:
     a = np.asarray(Q, dtype=float)
     if a.shape != (N,) or not np.all(np.isfinite(a)):
         raise ValueError(f"simulate {what} must give {N} finite numbers (one per coordinate), got {Q!r}")
     return a
+
+
+def _guarded_vector(fun, model):
+    """Q(t, q, qdot) of a callable ``inputs``, raising CallbackError when it raises or gives a non-finite or
+    misshapen value (the run then stops with its results kept)."""
+    N, names = model.n_dof, model.coordinate_names
+
+    def Q(t, q, qd):
+        try:
+            v = np.asarray(fun(t, q, qd), dtype=float)
+        except Exception as exc:  # noqa: BLE001 - any failure of user code, named
+            raise CallbackError("inputs(t, q, qdot)", None, t, f"raised {exc!r}") from exc
+        if v.shape != (N,):
+            raise CallbackError("inputs(t, q, qdot)", None, t, f"returned shape {v.shape}, not ({N},)")
+        bad = ~np.isfinite(v)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise CallbackError("inputs(t, q, qdot)", names[k], t, f"returned {float(v[k])!r}")
+        return v
+
+    return Q
+
+
+def _guarded_term(f, name, coordinate):
+    """f(t, q, qdot) -> float of one named input, raising CallbackError when it raises or is not finite."""
+    what = f"inputs[{name!r}]"
+
+    def term(t, q, qd):
+        try:
+            v = f(t, q, qd)
+            x = float(v)
+        except Exception as exc:  # noqa: BLE001 - any failure of user code, named
+            raise CallbackError(what, coordinate, t, f"raised {exc!r}") from exc
+        if not math.isfinite(x):
+            raise CallbackError(what, coordinate, t, f"returned {x!r}")
+        return x
+
+    return term
 
 
 def generalized_force(model, inputs, t0: float, q0: np.ndarray, qdot0: np.ndarray) -> Callable | None:
@@ -84,16 +138,16 @@ def generalized_force(model, inputs, t0: float, q0: np.ndarray, qdot0: np.ndarra
         or a dict {coordinate name: number or callable f(t, q, qdot) -> float}.
     t0, q0, qdot0 : the initial state [s], (N,), (N,): each callable is evaluated
         there once, and a ValueError names the input whose name is unknown, whose
-        call fails or whose value is not finite.
+        call fails or whose value is not finite. Later, during the run, a callable that
+        raises or returns a non-finite value raises CallbackError (name, coordinate, time).
     """
     N = model.n_dof
     names = model.coordinate_names
     if inputs is None:
         return None
     if callable(inputs):
-        fun = inputs
-        _check_Q(_call(fun, "inputs", t0, q0, qdot0), N, "inputs(t, q, qdot)")
-        return lambda t, q, qd: _check_Q(fun(t, q, qd), N, "inputs(t, q, qdot)")
+        _check_Q(_call(inputs, "inputs", t0, q0, qdot0), N, "inputs(t, q, qdot)")
+        return _guarded_vector(inputs, model)
     if isinstance(inputs, dict):
         terms = []
         for name, f in inputs.items():
@@ -105,7 +159,7 @@ def generalized_force(model, inputs, t0: float, q0: np.ndarray, qdot0: np.ndarra
                 v = _call(f, f"inputs[{name!r}]", t0, q0, qdot0)
                 if np.ndim(v) != 0 or not np.isfinite(v):
                     raise ValueError(f"simulate inputs[{name!r}](t, q, qdot) must return one finite number, got {v!r}")
-                terms.append((k, f))
+                terms.append((k, _guarded_term(f, name, key)))
             elif isinstance(f, Real) and not isinstance(f, bool) and np.isfinite(f):
                 terms.append((k, float(f)))
             else:

@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import kernel as _k
-from .kinematics import as_vector, joint_positions, run_kernel, states
+from .kinematics import as_vector, joint_positions, one_state, run_kernel, states
 
 
 class SingularMassMatrixError(np.linalg.LinAlgError, ValueError):
@@ -39,31 +39,28 @@ def _vee_skew(S: np.ndarray) -> np.ndarray:
     )
 
 
-def _dynamics(model, q, qdot, job, Q=None):
-    out = run_kernel(model, states(q, qdot), job, Q)
-    return out
 
 
 def mass_matrix(model, q: np.ndarray) -> np.ndarray:
     """Mass matrix M(q), shape (N, N) [kg, kg m, kg m^2 by block]."""
     N = model.n_dof
-    return _dynamics(model, q, None, _k.JOB_M)[3:3 + N * N].reshape(N, N)
+    return one_state(model, q, None, _k.JOB_M)[3:3 + N * N].reshape(N, N)
 
 
 def _h_dV(model, q, qdot):
     N = model.n_dof
-    out = _dynamics(model, q, qdot, _k.JOB_H)
+    out = one_state(model, q, qdot, _k.JOB_H)
     return out[3:3 + N], out[3 + N:3 + 2 * N]
 
 
 def bias_forces(model, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
     """Velocity-product terms h(q, qdot), shape (N,) [N, N m]."""
-    return _h_dV(model, q, qdot)[0].copy()
+    return _h_dV(model, q, qdot)[0]
 
 
 def potential_forces(model, q: np.ndarray) -> np.ndarray:
     """dV/dq of gravity and strain energy, shape (N,) [N, N m]."""
-    return _h_dV(model, q, None)[1].copy()
+    return _h_dV(model, q, None)[1]
 
 
 def diagnose_singular(model, q: np.ndarray) -> str:
@@ -107,15 +104,6 @@ _EMPTY = np.empty
 _JOB_QDDOT = _k.JOB_QDDOT
 
 
-def _solve_call(model) -> tuple:
-    """What forward_dynamics' hot path needs, unpacked once per model (it saves ~2 us a call):
-    (compiled kernel, fdat, idat, zeros (N,), variant pair, (N,), N)."""
-    fdat, idat, zeros, v = model.kernel_data
-    N = zeros.size
-    call = model._solve_call = (_k.compiled(v), fdat, idat, zeros, v[0], v[1], (N,), N)
-    return call
-
-
 def _singular(model, q, qdot, Q):
     """Raise SingularMassMatrixError for the state where the kernel's q̈ found M singular (its
     pivots from a JOB_SOLVE call)."""
@@ -141,10 +129,8 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
     # straight to the kernel, which refuses (TypeError, no recompile) a non-contiguous one or one
     # of another type; only then are they converted. It takes read-only arrays (its signature
     # types q, qdot and Q read-only). The kernel does not check bounds: shapes are.
-    try:
-        f, fdat, idat, zeros, v0, v1, shape, N = model._solve_call
-    except AttributeError:
-        f, fdat, idat, zeros, v0, v1, shape, N = _solve_call(model)
+    f, fdat, idat, zeros, v0, v1, _ = model.kernel_call
+    shape, N = zeros.shape, zeros.size
     if Q is None and q.__class__ is _NDARRAY and qdot.__class__ is _NDARRAY and q.shape == shape \
             and qdot.shape == shape:
         out = _EMPTY(N)
@@ -176,8 +162,8 @@ def energy(model, q: np.ndarray, qdot: np.ndarray) -> Energy:
 
     E_k = 1/2 qdot^T M qdot,  V_g = -g~^T sum T_i m_r,i,  V_s = 1/2 delta^T K delta
     """
-    kin, grav, strain = run_kernel(model, states(q, qdot), _k.JOB_ENERGY)[3:6]
-    return Energy(float(kin), float(grav), float(strain), float(kin + grav + strain))
+    kin, grav, strain = one_state(model, q, qdot, _k.JOB_ENERGY)[3:6].tolist()
+    return Energy(kin, grav, strain, kin + grav + strain)
 
 
 def energies(model, qs: np.ndarray, qdots: np.ndarray) -> Energy:
@@ -189,7 +175,7 @@ def energies(model, qs: np.ndarray, qdots: np.ndarray) -> Energy:
 
 def center_of_mass(model, q: np.ndarray) -> np.ndarray:
     """Mass centre sum T_i m_r,i / m, shape (3,) [m]."""
-    return run_kernel(model, states(q), _k.JOB_MOMENTUM)[9:12] / model.total_mass
+    return one_state(model, q, None, _k.JOB_MOMENTUM)[9:12] / model.total_mass
 
 
 def momentum(model, q: np.ndarray, qdot: np.ndarray):
@@ -199,5 +185,5 @@ def momentum(model, q: np.ndarray, qdot: np.ndarray):
     L  = sum (Td m_r + T m_rdot),       m_rdot = int mu rdot
     H0 = sum int mu p x pdot (rotary inertia included), int mu p pdot^T = T P Td^T + T Pv T^T
     """
-    out = run_kernel(model, states(q, qdot), _k.JOB_MOMENTUM)
-    return out[3:6].copy(), out[6:9].copy(), out[9:12] / model.total_mass
+    out = one_state(model, q, qdot, _k.JOB_MOMENTUM)
+    return out[3:6], out[6:9], out[9:12] / model.total_mass

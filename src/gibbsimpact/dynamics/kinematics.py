@@ -42,6 +42,12 @@ class Frames(NamedTuple):
     Tdd0: np.ndarray | None
 
 
+def _wrong_states(model, qs, qds) -> ValueError:
+    N = model.n_dof
+    return ValueError(f"states of shapes {qs.shape}, {qds.shape}: this model needs q and qdot of {N} entries "
+                      f"each ({', '.join(model.coordinate_names)})")
+
+
 def run_kernel(model, st, job: int, Q: np.ndarray | None = None) -> np.ndarray:
     """Call the compiled kernel on the states st = (qs, qds) (K N,) each for the JOB_* bits ``job``."""
     fdat, idat, zeros, v = model.kernel_data
@@ -49,9 +55,33 @@ def run_kernel(model, st, job: int, Q: np.ndarray | None = None) -> np.ndarray:
     # The compiled kernel does not check bounds: states of the wrong size are refused here.
     N = zeros.size
     if qs.size != qds.size or qs.size == 0 or qs.size % N:
-        raise ValueError(f"states of shapes {qs.shape}, {qds.shape}: this model needs q and qdot of {N} entries "
-                         f"each ({', '.join(model.coordinate_names)})")
+        raise _wrong_states(model, qs, qds)
     return _k.run(v, fdat, idat, qs, qds, zeros if Q is None else Q, job)
+
+
+def one_state(model, q, qdot, job: int, Q: np.ndarray | None = None) -> np.ndarray:
+    """The kernel's output (kernel.layout) for one state q, qdot (N,) (qdot None: zeros) and the JOB_*
+    bits ``job``, in a new array: the hot path of the documented single-state functions.
+
+    float64 arrays of shape (N,) go straight to the kernel (which refuses, with a TypeError and no
+    recompile, one of another memory layout); anything else is converted by as_vector first. The
+    kernel does not check bounds: shapes are, here.
+    """
+    f, fdat, idat, zeros, v0, v1, _ = model.kernel_call
+    shape = zeros.shape
+    qd = zeros if qdot is None else qdot
+    out = model.kernel_output(job)
+    if q.__class__ is np.ndarray and qd.__class__ is np.ndarray and q.shape == shape and qd.shape == shape:
+        try:
+            f(fdat, idat, q, qd, zeros if Q is None else Q, job, v0, v1, out)
+            return out
+        except TypeError:
+            pass
+    q, qd = states(q, qdot)
+    if q.size != zeros.size or qd.size != zeros.size:
+        raise _wrong_states(model, q, qd)
+    f(fdat, idat, q, qd, zeros if Q is None else Q, job, v0, v1, out)
+    return out
 
 
 def section(model, out: np.ndarray, K: int, job: int, name: str) -> np.ndarray:
@@ -141,7 +171,7 @@ def frames(model, q: np.ndarray, qdot: np.ndarray | None = None) -> Frames:
     Frames with T, Td and Tdd0 (n+1, 4, 4).
     """
     job = _k.JOB_FRAMES
-    out = section(model, run_kernel(model, states(q, qdot), job), 1, job, "frames")
+    out = section(model, one_state(model, q, qdot, job), 1, job, "frames")
     F = out.reshape(model.n_links + 1, 3, 4, 4)
     T = F[:, 0].copy()
     if qdot is None:
@@ -160,8 +190,7 @@ def joint_positions(model, q: np.ndarray) -> np.ndarray:
     O_1 ... O_(n+1) are the frame origins (the joints and the last tip); with prismatic
     joints the tips of their host links follow (Model.n_joints).
     """
-    out = run_kernel(model, states(q), _k.JOB_POINTS)
-    return out[3:].reshape(model.n_joints, 3)
+    return one_state(model, q, None, _k.JOB_POINTS)[3:].reshape(model.n_joints, 3)
 
 
 def joint_positions_batch(model, qs: np.ndarray) -> np.ndarray:
@@ -175,7 +204,7 @@ def joint_positions_and_jacobians(model, q: np.ndarray) -> tuple[np.ndarray, np.
     """O_1 ... O_P, shape (P, 3) [m], and d O_j / d q, shape (P, 3, N), from one recursion."""
     job = _k.JOB_POINTS | _k.JOB_JACOBIANS
     n1, N = model.n_joints, model.n_dof
-    out = run_kernel(model, states(q), job)
+    out = one_state(model, q, None, job)
     return out[3:3 + 3 * n1].reshape(n1, 3), out[3 + 3 * n1:].reshape(n1, 3, N)
 
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from .. import kernel as _k
 from ..model.elements import hermite_shape
-from ..model.model import link_deflection, shape_functions
+from ..model.shapes import link_deflection, shape_functions
 from .kinematics import frames, run_kernel, section, states, transforms
 
 

@@ -41,14 +41,15 @@ from pathlib import Path
 import numpy as np
 
 from ..dynamics.gibbs_appell import Energy
-from ..model.model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
+from ..model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
 from ..model.modes import Mode
 from ..simulation.results import ImpactRecord, Result
 from ..contact.walls import Circle, Plane, Sphere, describe
 
 __all__ = [
     "FORMAT_VERSION", "atomic_path", "check_directory", "load_result", "model_from_dict", "model_to_dict",
-    "read_csv", "sample_rows", "save_result", "summary", "to_csv", "versions", "wall_from_dict", "wall_to_dict",
+    "read_csv", "sample_rows", "save_figure", "save_result", "summary", "to_csv", "versions", "wall_from_dict",
+    "wall_to_dict",
     "write_impacts_csv", "write_summary_json", "write_timeseries_csv",
 ]
 
@@ -105,6 +106,17 @@ def check_directory(directory) -> Path:
         pass
     probe.unlink()
     return d
+
+
+def save_figure(fig, path, dpi: int = 120) -> Path:
+    """Save a matplotlib Figure as the PNG file ``path`` atomically, with plotting.save_figures'
+    settings (dpi, tight bounding box); closes it in pyplot when pyplot holds it. Returns the Path."""
+    from ..plotting.figures import save_figures
+
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        save_figures({tmp.stem: fig}, tmp.parent, dpi=dpi)  # writes <stem>.png, i.e. tmp
+    return path
 
 
 # --------------------------------------------------------------------------

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.model import link_deflection
+from ..model.shapes import link_deflection
 from .geometry import is_planar
 from .decimate import COLUMNS_PER_INCH, DENSE_TURNS, envelope, minmax_decimate, visible_turns
 from .impacts import _impact_lines, _impact_note, _number_impacts

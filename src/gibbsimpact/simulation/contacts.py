@@ -128,7 +128,7 @@ class Contacts:
         (e_k = delta_k d / l_i for a slope).
         """
         from ..contact.candidates import end_joints
-        from ..model.model import link_deflection
+        from ..model.shapes import link_deflection
 
         model, N, F = self.model, self.N, len(self.flex)
         u = np.linspace(0.0, 1.0, self._TABLE_SAMPLES)

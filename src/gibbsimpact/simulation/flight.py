@@ -56,6 +56,8 @@ import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 from scipy.optimize import brentq, minimize_scalar
 
+from ..dynamics.forces import CallbackError
+
 SOLVERS = {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA, "RK23": RK23}
 
 _EPS = np.finfo(float).eps
@@ -88,6 +90,8 @@ class PhaseOutcome(NamedTuple):
     failed : None, or the solver's message when it failed
     interrupted : None, or how a KeyboardInterrupt stopped the phase (its accepted
         steps are in sample_t, sample_y; t, y is the last accepted state)
+    callback_error : None, or the CallbackError of a user callback that failed inside a
+        right-hand side (the accepted steps kept, as for an interrupt)
     """
 
     t: float
@@ -100,6 +104,7 @@ class PhaseOutcome(NamedTuple):
     n_examined: int
     failed: str | None
     interrupted: str | None = None
+    callback_error: Exception | None = None
 
 
 def hermite_positions(s: np.ndarray, h: float, ya: np.ndarray, fa: np.ndarray, yb: np.ndarray, fb: np.ndarray,
@@ -320,164 +325,232 @@ def integrate_phase(
     -------
     PhaseOutcome
     """
-    N = y0.shape[0] // 2 if n_q is None else n_q
-    if gap_batch is None:
-        def gap_batch(qs):
-            return np.stack([gap_matrix(qi) for qi in qs])
-    solver = SOLVERS[method](rhs, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step)
-    down = events.direction < 0
-    up = events.direction > 0
-
-    def derivative(t, y):
-        f = getattr(solver, "f", None)
-        return f if f is not None else rhs(t, y)
-
-    def E_single(k):
-        if gap_single is not None:
-            row, col, off = int(events.wall[k]), int(events.joint[k]), float(events.offset[k])
-            return lambda t, y: float(gap_single(y[:N], row, col)) + off
-        return lambda t, y: float(events.values(gap_matrix(y[:N]))[k])
-
-    def E_batch(k):
-        row, col, off = int(events.wall[k]), int(events.joint[k]), float(events.offset[k])
-        return lambda Y: gap_batch(np.ascontiguousarray(Y[:N].T))[:, row, col] + off
-
-    g0 = gap_matrix(y0[:N])
-    E_prev = events.values(g0)
-    n_gap = len(events.direction)
-    if extra is not None:
-        x_fun, x_dir = extra[0], np.asarray(extra[1], dtype=float)
-        X_prev = np.asarray(x_fun(t0, y0), dtype=float)
-    min_gap = float(g0.min()) if g0.size else np.inf
-    t_a, y_a, f_a = t0, y0.copy(), derivative(t0, y0)
-    sample_t, sample_y = [], []
-    n_steps = n_examined = 0
-    event, failed = None, None
-
-    interrupted = None
+    phase = _Phase(rhs, t0, y0, t_end, events, gap_matrix, method=method, rtol=rtol, atol=atol,
+                   max_step=max_step, output_dt=output_dt, t_origin=t_origin, lipschitz=lipschitz, slack=slack,
+                   n_q=n_q, check_in_step=check_in_step, gap_batch=gap_batch, extra=extra, gap_single=gap_single)
     try:
-        while solver.status == "running":
-            message = solver.step()
-            if solver.status == "failed":
-                failed = message
-                break
-            n_steps += 1
-            t_b, y_b = solver.t, solver.y.copy()
-            f_b = derivative(t_b, y_b)
-            h = t_b - t_a
-            dense = None
-
-            grid = np.empty(0)
-            if output_dt is not None:
-                # Grid points in (t_a, t_b]; the phase end itself is stored once, below.
-                k = np.arange(np.floor((t_a - t_origin) / output_dt), np.floor((t_b - t_origin) / output_dt) + 2)
-                grid = t_origin + output_dt * k
-                grid = grid[(grid > t_a) & ((grid <= t_b) if solver.status == "running" else (grid < t_b))]
-                if grid.size:
-                    dense = _interpolant(solver)
-
-            in_step = check_in_step and down.any()
-            if in_step:
-                # The in-step samples of check 2 and the step end: one kinematics call for the four.
-                if dense is not None:
-                    q_in = dense(t_a + _S_CHECK * h)[:N].T
-                    err = 0.0
-                else:
-                    q_in, q3 = hermite_positions(_S_CHECK, h, y_a, f_a, y_b, f_b, N)
-                    err = lipschitz * float(np.max(np.abs(q_in - q3)))
-                G4 = gap_batch(np.vstack((q_in, y_b[None, :N])))  # (4, W, J)
-                G_in, g_b = G4[:-1], G4[-1]
-            else:
-                g_b = gap_matrix(y_b[:N])
-            E_b = events.values(g_b)
-            step_min = float(g_b.min()) if g_b.size else np.inf
-
-            # 1. Sign changes at the step ends (solve_ivp's rule).
-            crossed = (down & (E_prev >= 0) & (E_b <= 0)) | (up & (E_prev <= 0) & (E_b >= 0))
-            # 2. In-step dips of the direction -1 events without a sign change.
-            candidates = np.nonzero(down & ~crossed & (E_prev > 0) & (E_b > 0))[0] if in_step else np.empty(0, int)
-            examine = np.zeros(E_b.shape, dtype=bool)
-            if candidates.size:
-                if G_in.size:
-                    step_min = min(step_min, float(G_in.min()))
-                E_in = G_in[:, events.wall, events.joint].T + events.offset[:, None]  # (K, 3)
-                E5 = np.concatenate((E_prev[:, None], E_in, E_b[:, None]), axis=1)[candidates]
-                low = E5.min(axis=1) - dip_allowance(E5) - err - slack
-                examine[candidates[low < 0]] = True
-            roots = {}
-            if extra is not None:
-                # Sign changes between the step ends and the dense output at 1/4, 1/2, 3/4 of the
-                # step (a state that does not change, e.g. a sticking contact, lets the solver take
-                # long steps over which a force can reach the cone and come back).
-                X_b = np.asarray(x_fun(t_b, y_b), dtype=float)
-                if dense is None:
-                    dense = _interpolant(solver)
-                ts = np.concatenate(([t_a], t_a + _S_CHECK * h, [t_b]))
-                Xs = [X_prev] + [np.asarray(x_fun(tk, dense(tk)), dtype=float) for tk in ts[1:-1]] + [X_b]
-                for i in range(len(x_dir)):
-                    def x_i(t, i=i):
-                        return float(x_fun(t, dense(t))[i])
-
-                    sgn = -float(x_dir[i])  # v = sgn X_i falls from >= 0 to <= 0 at a crossing
-                    bracket = _earliest_bracket(lambda t: sgn * x_i(t), ts, [sgn * X[i] for X in Xs])
-                    if bracket is not None:
-                        roots[n_gap + i] = brentq(x_i, *bracket, xtol=4 * _EPS, rtol=4 * _EPS)
-            if np.any(crossed) or np.any(examine):
-                if dense is None:
-                    dense = _interpolant(solver)
-                for k in np.nonzero(crossed)[0]:
-                    if up[k]:
-                        roots[int(k)] = brentq(lambda t: E_single(k)(t, dense(t)), t_a, t_b,
-                                               xtol=4 * _EPS, rtol=4 * _EPS)
-                    else:
-                        roots[int(k)] = _first_crossing(E_single(k), dense, t_a, t_b, E_prev[k], E_b[k], E_batch(k))
-                if np.any(examine):
-                    n_examined += 1
-                    for k in np.nonzero(examine)[0]:
-                        tk = _first_crossing(E_single(k), dense, t_a, t_b, E_prev[k], E_b[k], E_batch(k))
-                        if tk is not None:
-                            roots[int(k)] = tk
-            if roots:
-                event = min(roots, key=roots.get)
-                t_ev = roots[event]
-                y_ev = dense(t_ev)
-                if grid.size:
-                    grid = grid[grid < t_ev]
-                if grid.size:
-                    sample_t.append(grid)
-                    sample_y.append(dense(grid).T)
-                # Gaps over the step up to the event (in-step samples beyond it are not part of the phase).
-                sample_t.append(np.array([t_ev]))
-                sample_y.append(y_ev[None, :])
-                return PhaseOutcome(t_ev, y_ev, event, np.concatenate(sample_t), np.concatenate(sample_y),
-                                    min_gap, n_steps, n_examined, None)
-            min_gap = min(min_gap, step_min)  # the step of an event counts only up to the event, checked by its root
-            if output_dt is None:
-                sample_t.append(np.array([t_b]))
-                sample_y.append(y_b[None, :])
-            else:
-                if grid.size:
-                    sample_t.append(grid)
-                    sample_y.append(dense(grid).T)
-                if solver.status == "finished":
-                    sample_t.append(np.array([t_b]))
-                    sample_y.append(y_b[None, :])
-            t_a, y_a, f_a, E_prev = t_b, y_b, f_b, E_b
-            if extra is not None:
-                X_prev = X_b
+        while phase.solver.status == "running":
+            out = phase.step()
+            if out is not None:
+                return out
     except KeyboardInterrupt as exc:
-        # Ctrl-C (or the CLI's SIGTERM): keep the accepted steps. An interrupt between the
-        # two appends of one step leaves one list longer; the last accepted state ends it.
-        interrupted = str(exc) or "KeyboardInterrupt (Ctrl-C)"
-        k = min(len(sample_t), len(sample_y))
-        sample_t, sample_y = sample_t[:k], sample_y[:k]
-        if t_a > (sample_t[-1][-1] if sample_t else t0):
-            sample_t.append(np.array([t_a]))
-            sample_y.append(y_a[None, :])
+        # Ctrl-C (or the CLI's SIGTERM): keep the accepted steps.
+        phase.interrupted = str(exc) or "KeyboardInterrupt (Ctrl-C)"
+        phase.keep_accepted()
+    except CallbackError as exc:
+        # A user callback failed inside a right-hand side: keep the accepted steps, as for an interrupt.
+        phase.callback_error = exc
+        phase.keep_accepted()
+    return phase.outcome()
 
-    t_last = sample_t[-1][-1] if sample_t else t0
-    y_last = sample_y[-1][-1] if sample_y else y0
-    if (failed is not None or interrupted is not None) and not sample_t:
-        sample_t, sample_y = [np.empty(0)], [np.empty((0, y0.shape[0]))]
-    return PhaseOutcome(float(t_last), np.asarray(y_last), None, np.concatenate(sample_t),
-                        np.concatenate(sample_y), min_gap, n_steps, n_examined, failed, interrupted)
+
+class _Phase:
+    """The state of one flight phase between accepted steps (integrate_phase's arguments, the solver,
+    the event values at the last step end, the stored samples)."""
+
+    def __init__(self, rhs, t0, y0, t_end, events, gap_matrix, *, method, rtol, atol, max_step, output_dt,
+                 t_origin, lipschitz, slack, n_q, check_in_step, gap_batch, extra, gap_single):
+        self.rhs, self.t0, self.y0, self.events, self.gap_matrix = rhs, t0, y0, events, gap_matrix
+        self.output_dt, self.t_origin, self.lipschitz, self.slack = output_dt, t_origin, lipschitz, slack
+        self.check_in_step, self.gap_single = check_in_step, gap_single
+        self.N = N = y0.shape[0] // 2 if n_q is None else n_q
+        if gap_batch is None:
+            def gap_batch(qs):
+                return np.stack([gap_matrix(qi) for qi in qs])
+        self.gap_batch = gap_batch
+        self.solver = SOLVERS[method](rhs, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step)
+        self.down, self.up = events.direction < 0, events.direction > 0
+        g0 = gap_matrix(y0[:N])
+        self.E_prev = events.values(g0)
+        self.n_gap = len(events.direction)
+        self.extra = extra
+        if extra is not None:
+            self.x_fun, self.x_dir = extra[0], np.asarray(extra[1], dtype=float)
+            self.X_prev = np.asarray(self.x_fun(t0, y0), dtype=float)
+        self.min_gap = float(g0.min()) if g0.size else np.inf
+        self.t_a, self.y_a, self.f_a = t0, y0.copy(), self.derivative(t0, y0)
+        self.sample_t, self.sample_y = [], []
+        self.n_steps = self.n_examined = 0
+        self.failed = self.interrupted = self.callback_error = None
+
+    def derivative(self, t, y):
+        f = getattr(self.solver, "f", None)
+        return f if f is not None else self.rhs(t, y)
+
+    def E_single(self, k):
+        """E_k(t, y) -> float of one event (for its root search)."""
+        ev, N = self.events, self.N
+        if self.gap_single is not None:
+            row, col, off = int(ev.wall[k]), int(ev.joint[k]), float(ev.offset[k])
+            return lambda t, y: float(self.gap_single(y[:N], row, col)) + off
+        return lambda t, y: float(ev.values(self.gap_matrix(y[:N]))[k])
+
+    def E_batch(self, k):
+        """E_k at the states Y (2N, m) -> (m,), one batch of gaps."""
+        ev, N = self.events, self.N
+        row, col, off = int(ev.wall[k]), int(ev.joint[k]), float(ev.offset[k])
+        return lambda Y: self.gap_batch(np.ascontiguousarray(Y[:N].T))[:, row, col] + off
+
+    def step(self) -> PhaseOutcome | None:
+        """One accepted step [t_a, t_b]: its events (checks 1-3 of the module docstring) and samples.
+        Returns the phase's outcome when an event ends it, else None (the phase goes on or is over)."""
+        solver = self.solver
+        message = solver.step()
+        if solver.status == "failed":
+            self.failed = message
+            return None
+        self.n_steps += 1
+        t_b, y_b = solver.t, solver.y.copy()
+        f_b = self.derivative(t_b, y_b)
+        h = t_b - self.t_a
+        grid = self._grid(t_b)
+        dense = _interpolant(solver) if grid.size else None
+        g_b, G_in, err, in_step = self._step_gaps(h, y_b, f_b, dense)
+        E_b = self.events.values(g_b)
+        step_min = float(g_b.min()) if g_b.size else np.inf
+        # 1. Sign changes at the step ends (solve_ivp's rule).
+        down, up, E_prev = self.down, self.up, self.E_prev
+        crossed = (down & (E_prev >= 0) & (E_b <= 0)) | (up & (E_prev <= 0) & (E_b >= 0))
+        examine, step_min = self._dips(crossed, E_b, G_in, err, in_step, step_min)
+        roots = {}
+        if self.extra is not None:
+            X_b = np.asarray(self.x_fun(t_b, y_b), dtype=float)
+            if dense is None:
+                dense = _interpolant(solver)
+            roots.update(self._extra_roots(h, t_b, X_b, dense))
+        if np.any(crossed) or np.any(examine):
+            if dense is None:
+                dense = _interpolant(solver)
+            roots.update(self._gap_roots(crossed, examine, t_b, E_b, dense))
+        if roots:
+            return self._event_outcome(roots, grid, dense)
+        self.min_gap = min(self.min_gap, step_min)  # the step of an event counts only up to the event
+        self._store(grid, dense, t_b, y_b)
+        self.t_a, self.y_a, self.f_a, self.E_prev = t_b, y_b, f_b, E_b
+        if self.extra is not None:
+            self.X_prev = X_b
+        return None
+
+    def _grid(self, t_b) -> np.ndarray:
+        """Output grid points t_origin + k output_dt in (t_a, t_b] (the phase end itself is stored once)."""
+        if self.output_dt is None:
+            return np.empty(0)
+        t_a, dt, t_o = self.t_a, self.output_dt, self.t_origin
+        k = np.arange(np.floor((t_a - t_o) / dt), np.floor((t_b - t_o) / dt) + 2)
+        grid = t_o + dt * k
+        return grid[(grid > t_a) & ((grid <= t_b) if self.solver.status == "running" else (grid < t_b))]
+
+    def _step_gaps(self, h, y_b, f_b, dense):
+        """(g_b (W, J) at the step end, G_in (3, W, J) in-step gaps, err [m] interpolation bound, in_step)."""
+        N = self.N
+        in_step = self.check_in_step and self.down.any()
+        if not in_step:
+            return self.gap_matrix(y_b[:N]), None, 0.0, False
+        # The in-step samples of check 2 and the step end: one kinematics call for the four.
+        if dense is not None:
+            q_in = dense(self.t_a + _S_CHECK * h)[:N].T
+            err = 0.0
+        else:
+            q_in, q3 = hermite_positions(_S_CHECK, h, self.y_a, self.f_a, y_b, f_b, N)
+            err = self.lipschitz * float(np.max(np.abs(q_in - q3)))
+        G4 = self.gap_batch(np.vstack((q_in, y_b[None, :N])))  # (4, W, J)
+        return G4[-1], G4[:-1], err, True
+
+    def _dips(self, crossed, E_b, G_in, err, in_step, step_min):
+        """Check 2: the direction -1 events without a sign change whose in-step samples come within the
+        dip bound of zero, to be examined on the dense output. Returns (examine (K,) bool, step_min [m])."""
+        down, E_prev, ev = self.down, self.E_prev, self.events
+        candidates = np.nonzero(down & ~crossed & (E_prev > 0) & (E_b > 0))[0] if in_step else np.empty(0, int)
+        examine = np.zeros(E_b.shape, dtype=bool)
+        if candidates.size:
+            if G_in.size:
+                step_min = min(step_min, float(G_in.min()))
+            E_in = G_in[:, ev.wall, ev.joint].T + ev.offset[:, None]  # (K, 3)
+            E5 = np.concatenate((E_prev[:, None], E_in, E_b[:, None]), axis=1)[candidates]
+            low = E5.min(axis=1) - dip_allowance(E5) - err - self.slack
+            examine[candidates[low < 0]] = True
+        return examine, step_min
+
+    def _extra_roots(self, h, t_b, X_b, dense) -> dict:
+        """Roots of the non-gap events: sign changes between the step ends and the dense output at 1/4, 1/2,
+        3/4 of the step (a state that does not change, e.g. a sticking contact, lets the solver take
+        long steps over which a force can reach the cone and come back)."""
+        t_a, x_fun, roots = self.t_a, self.x_fun, {}
+        ts = np.concatenate(([t_a], t_a + _S_CHECK * h, [t_b]))
+        Xs = [self.X_prev] + [np.asarray(x_fun(tk, dense(tk)), dtype=float) for tk in ts[1:-1]] + [X_b]
+        for i in range(len(self.x_dir)):
+            def x_i(t, i=i):
+                return float(x_fun(t, dense(t))[i])
+
+            sgn = -float(self.x_dir[i])  # v = sgn X_i falls from >= 0 to <= 0 at a crossing
+            bracket = _earliest_bracket(lambda t: sgn * x_i(t), ts, [sgn * X[i] for X in Xs])
+            if bracket is not None:
+                roots[self.n_gap + i] = brentq(x_i, *bracket, xtol=4 * _EPS, rtol=4 * _EPS)
+        return roots
+
+    def _gap_roots(self, crossed, examine, t_b, E_b, dense) -> dict:
+        """Check 3: the first crossing of every crossed or examined gap event in [t_a, t_b]."""
+        t_a, E_prev, roots = self.t_a, self.E_prev, {}
+        for k in np.nonzero(crossed)[0]:
+            if self.up[k]:
+                roots[int(k)] = brentq(lambda t: self.E_single(k)(t, dense(t)), t_a, t_b,
+                                       xtol=4 * _EPS, rtol=4 * _EPS)
+            else:
+                roots[int(k)] = _first_crossing(self.E_single(k), dense, t_a, t_b, E_prev[k], E_b[k],
+                                                self.E_batch(k))
+        if np.any(examine):
+            self.n_examined += 1
+            for k in np.nonzero(examine)[0]:
+                tk = _first_crossing(self.E_single(k), dense, t_a, t_b, E_prev[k], E_b[k], self.E_batch(k))
+                if tk is not None:
+                    roots[int(k)] = tk
+        return roots
+
+    def _event_outcome(self, roots, grid, dense) -> PhaseOutcome:
+        """The phase ends at the earliest root: grid samples before it, then the event point."""
+        event = min(roots, key=roots.get)
+        t_ev = roots[event]
+        y_ev = dense(t_ev)
+        if grid.size:
+            grid = grid[grid < t_ev]
+        if grid.size:
+            self.sample_t.append(grid)
+            self.sample_y.append(dense(grid).T)
+        # Gaps over the step up to the event (in-step samples beyond it are not part of the phase).
+        self.sample_t.append(np.array([t_ev]))
+        self.sample_y.append(y_ev[None, :])
+        return PhaseOutcome(t_ev, y_ev, event, np.concatenate(self.sample_t), np.concatenate(self.sample_y),
+                            self.min_gap, self.n_steps, self.n_examined, None)
+
+    def _store(self, grid, dense, t_b, y_b) -> None:
+        """The samples of an accepted step without an event: the step end, or the output grid in it."""
+        if self.output_dt is None:
+            self.sample_t.append(np.array([t_b]))
+            self.sample_y.append(y_b[None, :])
+            return
+        if grid.size:
+            self.sample_t.append(grid)
+            self.sample_y.append(dense(grid).T)
+        if self.solver.status == "finished":
+            self.sample_t.append(np.array([t_b]))
+            self.sample_y.append(y_b[None, :])
+
+    def keep_accepted(self) -> None:
+        """After an interrupt or a failed callback: the samples of the accepted steps, ending at the last one.
+        One stopped between the two appends of one step leaves one list longer: cut it."""
+        k = min(len(self.sample_t), len(self.sample_y))
+        self.sample_t, self.sample_y = self.sample_t[:k], self.sample_y[:k]
+        if self.t_a > (self.sample_t[-1][-1] if self.sample_t else self.t0):
+            self.sample_t.append(np.array([self.t_a]))
+            self.sample_y.append(self.y_a[None, :])
+
+    def outcome(self) -> PhaseOutcome:
+        """The phase's outcome without an event: at t_end, or cut short (failed solver, interrupt, callback)."""
+        t_last = self.sample_t[-1][-1] if self.sample_t else self.t0
+        y_last = self.sample_y[-1][-1] if self.sample_y else self.y0
+        cut = self.failed is not None or self.interrupted is not None or self.callback_error is not None
+        if cut and not self.sample_t:
+            self.sample_t, self.sample_y = [np.empty(0)], [np.empty((0, self.y0.shape[0]))]
+        return PhaseOutcome(float(t_last), np.asarray(y_last), None, np.concatenate(self.sample_t),
+                            np.concatenate(self.sample_y), self.min_gap, self.n_steps, self.n_examined, self.failed,
+                            self.interrupted, self.callback_error)

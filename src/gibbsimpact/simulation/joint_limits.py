@@ -28,8 +28,6 @@ from .flight import EventSpec
 from ..contact.impact import solve_impulses
 from .results import ImpactRecord
 
-#: Status of a run stopped at a joint limit.
-STATUS_JOINT_LIMIT = "joint_limit"
 JOINT_LIMIT_MODES = ("stop", "impact")
 
 

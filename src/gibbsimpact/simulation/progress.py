@@ -5,9 +5,15 @@ from __future__ import annotations
 import time
 from contextlib import contextmanager
 
+from ..dynamics.forces import CallbackError
+
 
 class Clock:
-    """Calls progress(t, n_impacts) at most every `every` seconds of wall time (5 times a second)."""
+    """Calls progress(t, n_impacts) at most every `every` seconds of wall time (5 times a second).
+
+    A progress callable that raises stops the run (CallbackError "progress", with the time);
+    a KeyboardInterrupt passes through as the interrupt it is.
+    """
 
     def __init__(self, progress, every=0.2):
         self.progress, self.every, self.last, self.n_impacts = progress, every, time.monotonic(), 0
@@ -17,7 +23,10 @@ class Clock:
             now = time.monotonic()
             if now - self.last >= self.every:
                 self.last = now
-                self.progress(float(t), self.n_impacts)
+                try:
+                    self.progress(float(t), self.n_impacts)
+                except Exception as exc:  # noqa: BLE001 - any failure of user code, named
+                    raise CallbackError("progress", None, t, f"raised {exc!r}") from exc
 
 
 class ProgressBar:

@@ -1,4 +1,4 @@
-"""Simulation results: trajectory samples, impact records, status.
+"""Simulation results: trajectory samples, impact records, status (every status: gibbsimpact.simulation.status).
 
 Produced by :func:`gibbsimpact.simulate`; never mutated by the core after
 it is returned.
@@ -12,13 +12,8 @@ from typing import NamedTuple
 import numpy as np
 
 from ..dynamics.gibbs_appell import Energy, energies
+from .status import STATUS_FINISHED
 
-#: Status values of a Result.
-STATUS_FINISHED = "finished"  # reached t_span[1]
-STATUS_ZENO = "zeno"  # accumulation of impacts detected; stopped
-STATUS_MAX_IMPACTS = "max_impacts"  # impact budget exhausted
-STATUS_PENETRATION = "penetration"  # a joint was found beyond a wall between events
-STATUS_FAILED = "failed"  # the dynamics could not go on (singular M, non-finite state, solver failure)
 
 
 class ImpactRecord(NamedTuple):

@@ -29,7 +29,7 @@ import warnings
 import numpy as np
 
 from ..dynamics.link_points import link_points
-from ..model.model import link_deflection
+from ..model.shapes import link_deflection
 from ..contact.walls import describe
 
 __all__ = [

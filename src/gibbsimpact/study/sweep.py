@@ -10,7 +10,8 @@ sw.rows[0]      # {"run": 1, "run_id": ..., "restitution": 0.5, ..., "status": "
 ```
 
 and from the shell ``gibbsimpact sweep CASE.toml --vary restitution=0.5:1:6
---vary links.1.EI_N_m2=10,20,40 [--workers K] [--scheduler ADDRESS]``.
+--vary links.1.EI_N_m2=10,20,40 [--workers K] [--scheduler ADDRESS] [--method M]
+[--rtol R] [--plot COLUMN]``.
 
 Decisions
 ---------
@@ -61,13 +62,20 @@ Decisions
   written to a temporary file in its folder and moved into place with
   ``os.replace``, so a file present is complete.
 * **Table**: one row per run in grid (or list) order: ``run`` (1-based),
-  ``run_id``, one column per varied key, ``status``, ``message``,
-  ``n_impacts``, ``first_impact_s``, ``t_final_s`` (last sample, where a run
-  that stopped early stopped), ``energy_error``, ``nfev``, ``wall_time_s``,
-  ``result`` (``runs/<id>.npz``, relative to the folder of the table; empty
-  without a result). Numbers are written as the shortest text that reads back
-  to the same double; an empty cell is "no value". Every row with a result is
-  read back from its file, so a fresh row and a resumed row are the same text.
+  ``run_id``, one column per varied key, then ``status``, ``message``,
+  ``n_impacts``, ``first_impact_s``, ``t_final_s``, the derived columns
+  ``energy_lost_J``, ``max_impulse_N_s``, ``max_deflection_m``, then
+  ``energy_error``, ``nfev``, ``wall_time_s``, ``result`` (each defined, with
+  its unit, in study/table.py). Every row with a result is read back from its
+  file, so a fresh row and a resumed row are the same text. ``sw.plot(column)``
+  (:func:`plot_sweep`) draws a column over one or two varied keys into
+  ``sweep_<column>.png``.
+* **Options of every run**: ``t_end``, ``method`` and ``rtol`` set
+  ``time.t_end_s``, ``solver.method`` and ``solver.rtol`` of the case before
+  the overrides, checked as ``gibbsimpact run`` checks ``--t-end``,
+  ``--method``, ``--rtol`` (Case.override_problems); they are part of every
+  run's case and id, not columns. A key both varied and set by an option is
+  an error.
 * **Resume**: a run whose result file exists, reads back (``gi.load_result``)
   and carries its run id is not run again. ``invalid`` and ``error`` rows have
   no result file and are retried. An interrupted sweep (Ctrl-C, an exception)
@@ -105,22 +113,19 @@ from dataclasses import dataclass
 from numbers import Integral, Real
 from pathlib import Path
 
-from ..case.reader import Case, CaseError, case_from_dict, load_case
-from ..io.result_files import atomic_path
+from ..case.reader import OVERRIDE_KEYS, Case, CaseError, case_from_dict, load_case
+from .table import (RESULT_COLUMNS, RUNS_DIR, _row_from_file, _row_without_result, _write_atomic, _write_csv,
+                    _write_parquet, plot_sweep)
 
-__all__ = ["SweepResult", "sweep", "expand_runs", "run_id", "TABLE_NAME", "PARQUET_NAME", "RUNS_DIR",
-           "RESULT_COLUMNS"]
+__all__ = ["SweepResult", "sweep", "expand_runs", "run_id", "plot_sweep", "TABLE_NAME", "PARQUET_NAME",
+           "RUNS_DIR", "RESULT_COLUMNS"]
 
 TABLE_NAME = "sweep.csv"
 PARQUET_NAME = "sweep.parquet"
-RUNS_DIR = "runs"
 #: Statuses of a row besides those of a Result (finished, zeno, max_impacts, penetration, failed).
 STATUS_INVALID = "invalid"  # the loader rejected the run's case (e.g. a joint outside a wall)
 STATUS_ERROR = "error"  # the simulation raised, or the worker running it died
 STATUS_PENDING = "pending"  # not run: the sweep was interrupted
-#: Columns after ``run``, ``run_id`` and the varied keys.
-RESULT_COLUMNS = ("status", "message", "n_impacts", "first_impact_s", "t_final_s", "energy_error", "nfev",
-                  "wall_time_s", "result")
 #: Top-level case keys that do not change a run's result: left out of the run id.
 _NOT_IN_RUN_ID = ("name", "description", "output")
 _DASK_HINT = 'running a sweep on a dask cluster needs dask.distributed: pip install "gibbsimpact[dask]"'
@@ -160,6 +165,10 @@ class SweepResult:
         for r in self.rows:
             counts[r["status"]] = counts.get(r["status"], 0) + 1
         return counts
+
+    def plot(self, column: str, x=None, lines=None, dpi: int = 120, save: bool = True):
+        """Draw ``column`` against a varied key into ``out/sweep_<column>.png``: see :func:`plot_sweep`."""
+        return plot_sweep(self, column, x=x, lines=lines, dpi=dpi, save=save)
 
 
 # --------------------------------------------------------------------------
@@ -455,12 +464,18 @@ def _execute_pool(tasks: list, pending: list, on_done, workers: int) -> None:
     pool.shutdown(wait=True)
 
 
-def _dask_client(scheduler):
-    """(client, whether this sweep opened it)."""
+def _distributed():
+    """The dask.distributed module; ImportError naming the extra that installs it."""
     try:
         import distributed
     except ImportError as exc:
         raise ImportError(_DASK_HINT) from exc
+    return distributed
+
+
+def _dask_client(scheduler):
+    """(client, whether this sweep opened it)."""
+    distributed = _distributed()
     if isinstance(scheduler, distributed.Client):
         return scheduler, False
     return distributed.Client(scheduler), True
@@ -478,92 +493,7 @@ def _execute_dask(tasks: list, pending: list, on_done, client) -> None:
 
 
 # --------------------------------------------------------------------------
-# Files and rows
-
-def _write_atomic(path: Path, write) -> Path:
-    """Call write(binary file object) on a temporary file beside ``path`` and move it into place
-    (io.atomic_path: synced, then os.replace; nothing left behind on an error)."""
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            write(fh)
-    return path
-
-
-def _row_from_file(path: Path, rid: str):
-    """The result columns of a run from its NPZ file, or None when it is missing, unreadable or another run's."""
-    from ..io.result_files import load_result
-
-    if not path.is_file():
-        return None
-    try:
-        res, meta = load_result(path, with_metadata=True)
-    except Exception:  # noqa: BLE001 - a damaged file is a run still to do
-        return None
-    if not isinstance(meta, dict) or meta.get("run_id") != rid:
-        return None
-    return {
-        "status": res.status, "message": res.message, "n_impacts": len(res.impacts),
-        "first_impact_s": float(res.impacts[0].time) if res.impacts else None,
-        "t_final_s": float(res.t[-1]) if len(res.t) else None,
-        "energy_error": float(res.energy_error), "nfev": int(res.nfev), "wall_time_s": float(res.wall_time),
-        "result": f"{RUNS_DIR}/{path.name}",
-    }
-
-
-def _row_without_result(status: str, message: str) -> dict:
-    return {"status": status, "message": message, "n_impacts": None, "first_impact_s": None, "t_final_s": None,
-            "energy_error": None, "nfev": None, "wall_time_s": None, "result": None}
-
-
-def _cell(v) -> str:
-    """Table text of a value: shortest round-trip text of a float, JSON for booleans and arrays, '' for None."""
-    if v is None:
-        return ""
-    if isinstance(v, bool) or isinstance(v, (list, dict)):
-        return json.dumps(v)
-    if isinstance(v, float):
-        return repr(v)
-    return str(v)
-
-
-def _write_csv(path: Path, columns: list, rows: list) -> Path:
-    import csv
-    import io
-
-    text = io.StringIO()
-    w = csv.writer(text, lineterminator="\n")
-    w.writerow(columns)
-    for r in rows:
-        w.writerow([_cell(r.get(c)) for c in columns])
-    return _write_atomic(path, lambda fh: fh.write(text.getvalue().encode("utf-8")))
-
-
-def _write_parquet(path: Path, columns: list, rows: list):
-    """Write the table as Parquet when pyarrow is importable; otherwise remove a stale one and return None."""
-    try:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-    except ImportError:
-        path.unlink(missing_ok=True)
-        return None
-    types = {"run": pa.int64(), "run_id": pa.string(), "status": pa.string(), "message": pa.string(),
-             "n_impacts": pa.int64(), "first_impact_s": pa.float64(), "t_final_s": pa.float64(),
-             "energy_error": pa.float64(), "nfev": pa.int64(), "wall_time_s": pa.float64(), "result": pa.string()}
-    arrays = {}
-    for c in columns:
-        values = [r.get(c) for r in rows]
-        if any(isinstance(v, (list, dict)) for v in values):
-            values = [None if v is None else _cell(v) for v in values]
-        try:
-            arrays[c] = pa.array(values, type=types.get(c))  # a varied key: its type inferred
-        except (pa.ArrowInvalid, pa.ArrowTypeError, TypeError):  # mixed kinds in one column
-            arrays[c] = pa.array([None if v is None else _cell(v) for v in values], type=pa.string())
-    table = pa.table(arrays)
-    return _write_atomic(path, lambda fh: pq.write_table(table, fh))
-
-
-# --------------------------------------------------------------------------
-# The sweep
+# The sweep, step by step
 
 def _base_case(case) -> Case:
     if isinstance(case, Case):
@@ -574,8 +504,135 @@ def _base_case(case) -> Case:
     return load_case(case)
 
 
+def _check_route(workers, scheduler) -> None:
+    """ValueError for a bad ``workers``; ImportError for a ``scheduler`` without dask.distributed."""
+    if isinstance(workers, bool) or not isinstance(workers, Integral) or workers < 1:
+        raise ValueError(f"workers: give a whole number >= 1 (1 runs serially), got {workers!r}")
+    if scheduler is not None:  # before anything is written
+        _distributed()
+
+
+def _base_table(base_case: Case, options: dict) -> dict:
+    """A copy of the case table with the options of every run set (``t_end``, ``method``, ``rtol``
+    at their case-file keys, OVERRIDE_KEYS), checked as gibbsimpact run checks its options
+    (Case.override_problems: a CaseError with source "options")."""
+    given = {kw: v for kw, v in options.items() if v is not None}
+    problems = base_case.override_problems(**given)
+    if problems:
+        raise CaseError("options", problems)
+    base = copy.deepcopy(base_case.source)
+    for kw, v in given.items():
+        _set(base, tuple(OVERRIDE_KEYS[kw].split(".")), float(v) if isinstance(v, Real) else v)
+    return base
+
+
+def _plan(base_case: Case, base: dict, overrides, options: dict) -> tuple[list, list]:
+    """(tasks, varied keys): one task per run (its case table, id and overrides), checked before any run.
+
+    Raises CaseError: bad key paths and values (source "overrides"), no runs, duplicate runs,
+    a key both varied and set by an option (source "options").
+    """
+    runs, problems = _canonical_runs(base, expand_runs(overrides))
+    if not runs:
+        raise CaseError("overrides", [("", "no runs: give at least one value or one run")])
+    problems += _value_problems(base, runs, base_case.name)
+    if problems:
+        raise CaseError("overrides", problems)
+    keys = list(dict.fromkeys(p for run in runs for p in run))
+    twice = [(OVERRIDE_KEYS[kw], f"is varied and also set for every run by {kw}= (--{kw.replace('_', '-')} on the "
+                                 "command line); give it one way")
+             for kw, v in options.items() if v is not None and OVERRIDE_KEYS[kw] in keys]
+    if twice:
+        raise CaseError("options", twice)
+    source = str(base_case.path) if base_case.path is not None else base_case.name
+    tasks, first = [], {}
+    for k, run in enumerate(runs):
+        data = _with_overrides(base, run)
+        rid = run_id(data)
+        if rid in first:
+            raise CaseError("overrides", [("", f"runs {first[rid] + 1} and {k + 1} run the same case "
+                                              f"(run id {rid}); remove one")])
+        first[rid] = k
+        tasks.append({"run_id": rid, "data": data, "name": base_case.name, "source": source,
+                      "path": str(base_case.path) if base_case.path is not None else None,
+                      "overrides": {p: v for p, (_, v) in run.items()}})
+    return tasks, keys
+
+
+def _head(tasks: list, keys: list, k: int) -> dict:
+    """The first cells of run k's row: run number, run id, the varied values (None: not set)."""
+    return {"run": k + 1, "run_id": tasks[k]["run_id"], **{p: tasks[k]["overrides"].get(p) for p in keys}}
+
+
+def _rows_found(tasks: list, keys: list, runs_dir: Path) -> list:
+    """The row of every run whose result file is there (resume), None for a run still to do."""
+    rows = []
+    for k, t in enumerate(tasks):
+        found = _row_from_file(runs_dir / f"{t['run_id']}.npz", t["run_id"])
+        rows.append(None if found is None else {**_head(tasks, keys, k), **found})
+    return rows
+
+
+def _open_route(scheduler, pending: list, runs_dir: Path):
+    """(dask client or None, whether this sweep opened it), then the runs folder is made.
+
+    The cluster is reached before anything is written: an unreachable scheduler is an
+    error, not a table."""
+    client, own_client = _dask_client(scheduler) if scheduler is not None and pending else (None, False)
+    try:
+        runs_dir.mkdir(parents=True, exist_ok=True)
+    except BaseException:
+        if own_client:
+            client.close()
+        raise
+    return client, own_client
+
+
+def _recorder(tasks: list, keys: list, rows: list, runs_dir: Path, progress, total: int):
+    """(on_done(k, outcome), done): on_done writes run k's result file, fills rows[k] from it,
+    appends k to done and reports to ``progress``."""
+    done = []
+
+    def on_done(k, outcome):
+        rid = tasks[k]["run_id"]
+        if outcome["status"] == "result":
+            path = _write_atomic(runs_dir / f"{rid}.npz", lambda fh: fh.write(outcome["npz"]))
+            found = _row_from_file(path, rid)
+            row = found if found is not None else _row_without_result(
+                STATUS_ERROR, f"the result file {path} does not read back")
+        else:
+            row = _row_without_result(outcome["status"], outcome["message"])
+        rows[k] = {**_head(tasks, keys, k), **row}
+        done.append(k)
+        if progress is not None:
+            progress(rows[k], len(done), total)
+
+    return on_done, done
+
+
+def _execute(tasks: list, pending: list, on_done, workers: int, client) -> None:
+    """Run the pending tasks on dask (a client), a process pool (workers > 1) or here."""
+    if not pending:
+        return
+    if client is not None:
+        _execute_dask(tasks, pending, on_done, client)
+    elif workers > 1 and len(pending) > 1:
+        _execute_pool(tasks, pending, on_done, workers)
+    else:
+        _execute_serial(tasks, pending, on_done)
+
+
+def _write_table(out: Path, columns: list, rows: list, tasks: list, keys: list) -> tuple:
+    """(CSV path, Parquet path or None) of the table; a run not done is a "pending" row."""
+    for k in range(len(rows)):
+        if rows[k] is None:
+            rows[k] = {**_head(tasks, keys, k), **_row_without_result(
+                STATUS_PENDING, "not run: the sweep was interrupted; run it again to resume")}
+    return _write_csv(out / TABLE_NAME, columns, rows), _write_parquet(out / PARQUET_NAME, columns, rows)
+
+
 def sweep(case, overrides, workers: int = 1, out=None, scheduler=None, t_end: float | None = None,
-          progress=None) -> SweepResult:
+          progress=None, method: str | None = None, rtol: float | None = None) -> SweepResult:
     """Run one case many times with keys overridden; write every result and one table.
 
     Parameters
@@ -590,116 +647,43 @@ def sweep(case, overrides, workers: int = 1, out=None, scheduler=None, t_end: fl
         ``sweep.parquet`` (with pyarrow), ``runs/<run id>.npz``
     scheduler : None, a dask.distributed address ``"tcp://host:port"``, a ``distributed.Client``
         or a cluster object: run on dask (then ``workers`` is ignored)
-    t_end : float [s] or None: the end time of every run (sets ``time.t_end_s`` of the case;
-        not a column)
+    t_end : float [s] or None: the end time of every run (sets ``time.t_end_s``)
     progress : callable(row, done, total) or None, called after each run simulated by this
         call (row: that run's table row)
+    method, rtol : None, or the scipy solver (a name of simulation.flight.SOLVERS) and the
+        relative tolerance of every run (set ``solver.method``, ``solver.rtol``). Like ``t_end``
+        they are part of every run's case (and id), not columns.
 
     Returns
     -------
-    SweepResult (rows in sweep order; ``n_run``, ``n_skipped``).
+    SweepResult (rows in sweep order; ``n_run``, ``n_skipped``); columns: study/table.py.
 
     Raises
     ------
     CaseError
         Before any run, for a bad key path or a value the case file would reject at that
-        key (source ``"overrides"``), duplicate runs, or a bad ``t_end`` (source ``"options"``).
+        key (source ``"overrides"``), duplicate runs, or a bad ``t_end``, ``method`` or
+        ``rtol``, or one that sets a varied key (source ``"options"``).
     ImportError
         With a scheduler but without dask.distributed.
     """
     base_case = _base_case(case)
-    if isinstance(workers, bool) or not isinstance(workers, Integral) or workers < 1:
-        raise ValueError(f"workers: give a whole number >= 1 (1 runs serially), got {workers!r}")
-    if scheduler is not None:  # before anything is written
-        try:
-            import distributed  # noqa: F401
-        except ImportError as exc:
-            raise ImportError(_DASK_HINT) from exc
-    if t_end is not None:
-        problems = base_case.override_problems(names={"t_end": "t_end"}, t_end=t_end)
-        if problems:
-            raise CaseError("options", problems)
-
-    base = copy.deepcopy(base_case.source)
-    if t_end is not None:
-        _set(base, ("time", "t_end_s"), float(t_end))
-    runs, problems = _canonical_runs(base, expand_runs(overrides))
-    if not runs:
-        raise CaseError("overrides", [("", "no runs: give at least one value or one run")])
-    problems += _value_problems(base, runs, base_case.name)
-    if problems:
-        raise CaseError("overrides", problems)
-
-    source = str(base_case.path) if base_case.path is not None else base_case.name
-    tasks, first = [], {}
-    for k, run in enumerate(runs):
-        data = _with_overrides(base, run)
-        rid = run_id(data)
-        if rid in first:
-            raise CaseError("overrides", [("", f"runs {first[rid] + 1} and {k + 1} run the same case "
-                                              f"(run id {rid}); remove one")])
-        first[rid] = k
-        tasks.append({"run_id": rid, "data": data, "name": base_case.name, "source": source,
-                      "path": str(base_case.path) if base_case.path is not None else None,
-                      "overrides": {p: v for p, (_, v) in run.items()}})
-    keys = list(dict.fromkeys(p for run in runs for p in run))
+    _check_route(workers, scheduler)
+    options = {"t_end": t_end, "method": method, "rtol": rtol}
+    tasks, keys = _plan(base_case, _base_table(base_case, options), overrides, options)
     columns = ["run", "run_id", *keys, *RESULT_COLUMNS]
-
     out = Path(out) if out is not None else base_case.output_directory / "sweep"
     runs_dir = out / RUNS_DIR
-
-    def head(k):
-        return {"run": k + 1, "run_id": tasks[k]["run_id"], **{p: tasks[k]["overrides"].get(p) for p in keys}}
-
-    rows = [None] * len(tasks)
-    for k, t in enumerate(tasks):
-        found = _row_from_file(runs_dir / f"{t['run_id']}.npz", t["run_id"])
-        if found is not None:
-            rows[k] = {**head(k), **found}
-    pending = [k for k in range(len(tasks)) if rows[k] is None]
-    n_skipped = len(tasks) - len(pending)
-    done = []
-    # Reach the cluster before anything is written: an unreachable scheduler is an error, not a table.
-    client, own_client = _dask_client(scheduler) if scheduler is not None and pending else (None, False)
+    rows = _rows_found(tasks, keys, runs_dir)
+    pending = [k for k, r in enumerate(rows) if r is None]
+    client, own_client = _open_route(scheduler, pending, runs_dir)
+    on_done, done = _recorder(tasks, keys, rows, runs_dir, progress, len(pending))
     try:
-        runs_dir.mkdir(parents=True, exist_ok=True)
-    except BaseException:
-        if own_client:
-            client.close()
-        raise
-
-    def on_done(k, outcome):
-        rid = tasks[k]["run_id"]
-        if outcome["status"] == "result":
-            path = _write_atomic(runs_dir / f"{rid}.npz", lambda fh: fh.write(outcome["npz"]))
-            found = _row_from_file(path, rid)
-            row = found if found is not None else _row_without_result(
-                STATUS_ERROR, f"the result file {path} does not read back")
-        else:
-            row = _row_without_result(outcome["status"], outcome["message"])
-        rows[k] = {**head(k), **row}
-        done.append(k)
-        if progress is not None:
-            progress(rows[k], len(done), len(pending))
-
-    try:
-        if not pending:
-            pass
-        elif client is not None:
-            _execute_dask(tasks, pending, on_done, client)
-        elif workers > 1 and len(pending) > 1:
-            _execute_pool(tasks, pending, on_done, workers)
-        else:
-            _execute_serial(tasks, pending, on_done)
+        _execute(tasks, pending, on_done, workers, client)
     finally:
         if own_client:
             client.close()
         # Also when interrupted: the table shows what is done and what is pending.
-        for k in range(len(rows)):
-            if rows[k] is None:
-                rows[k] = {**head(k), **_row_without_result(
-                    STATUS_PENDING, "not run: the sweep was interrupted; run it again to resume")}
-        table = _write_csv(out / TABLE_NAME, columns, rows)
-        parquet = _write_parquet(out / PARQUET_NAME, columns, rows)
+        table, parquet = _write_table(out, columns, rows, tasks, keys)
     return SweepResult(out=out, table=table, parquet=parquet, columns=tuple(columns), rows=tuple(rows),
-                       n_run=len(done), n_skipped=n_skipped)
+                       n_run=len(done), n_skipped=len(tasks) - len(pending))

@@ -1,0 +1,276 @@
+"""What a chain is made of: Link (one Euler-Bernoulli beam, its mass, stiffness and discretisation)
+and Chain (the links, their joints and the base), with the rules that tie joints to links
+(docs/theory.md §7, §8). Both are frozen dataclasses, validated once when they are built.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from numbers import Real
+from typing import Callable
+
+import numpy as np
+
+from .elements import MAX_ELEMENTS
+from .joints import JOINT_TYPES, FixedBase, Revolute
+from .modes import MODE_DIRECTIONS, Mode
+
+
+def _positive_scalar_or_callable(name: str, value):
+    if callable(value):
+        return value
+    if isinstance(value, bool) or not isinstance(value, Real):
+        raise ValueError(f"{name}={value!r} must be a positive number or a callable of x [m]")
+    if not np.isfinite(value) or value <= 0:
+        raise ValueError(f"{name}={value!r} must be positive and finite")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Link:
+    """One flexible link: an Euler-Bernoulli beam with assumed modes or Hermite finite elements.
+
+    Parameters
+    ----------
+    length : float
+        l [m], > 0.
+    mass_per_length : float or callable
+        mu [kg/m], > 0; a callable ``mu(x)`` of an array of abscissae for a
+        non-uniform link.
+    EI : float, (float, float) or callable
+        Bending stiffness [N m^2]. A scalar is used for both directions; a pair
+        is ``(EI_y, EI_z)``: ``EI_z`` resists the y-deflection v (in-plane),
+        ``EI_y`` the z-deflection w. Callables of x are allowed in each place.
+    modes : sequence of Mode
+        Assumed modes; empty (and ``elements=0``) for a rigid link.
+    elements : int
+        n_e >= 1 Hermite cubic finite elements (docs/theory.md §4), clamped
+        at the link frame: 2 n_e elastic coordinates per bending direction,
+        (deflection [m], slope [rad]) at nodes 1 .. n_e. 0: none. Exclusive with ``modes``.
+    element_directions : tuple of "y", "z"
+        Bending directions discretised by the elements: ("y",) in-plane only
+        (default), ("y", "z") for a spatial chain (the z set uses EI_y).
+    damping : float
+        zeta >= 0, structural damping ratio of the link's first elastic mode:
+        stiffness-proportional damping Q = -beta K delta_dot with beta = 2 zeta / omega_1
+        (gibbsimpact.forces). 0 (default): undamped. Needs modes or elements.
+    rotary_inertia : (float, float, float)
+        ``(j_x, j_y, j_z)`` [kg m]: rotary inertia of the cross-section per unit
+        length about the link-frame axes. The link frame then carries
+        ``J = l diag(j_x, j_y, j_z)`` [kg m^2] (docs/theory.md §6).
+    """
+
+    length: float
+    mass_per_length: float | Callable = 1.0
+    EI: float | tuple | Callable = 1.0
+    modes: tuple = ()
+    rotary_inertia: tuple = (0.0, 0.0, 0.0)
+    elements: int = 0
+    element_directions: tuple = ("y",)
+    damping: float = 0.0
+
+    def __post_init__(self):
+        if isinstance(self.length, bool) or not isinstance(self.length, Real) or not np.isfinite(self.length) or self.length <= 0:
+            raise ValueError(f"Link length={self.length!r} must be a positive number of metres")
+        object.__setattr__(self, "length", float(self.length))
+        object.__setattr__(
+            self, "mass_per_length", _positive_scalar_or_callable("Link mass_per_length", self.mass_per_length)
+        )
+        ei = self.EI
+        if isinstance(ei, (tuple, list, np.ndarray)):
+            if len(ei) != 2:
+                raise ValueError(f"Link EI={ei!r} must be a scalar or a pair (EI_y, EI_z) in N m^2")
+            ei = tuple(_positive_scalar_or_callable(f"Link EI[{k}]", v) for k, v in enumerate(ei))
+        else:
+            e = _positive_scalar_or_callable("Link EI", ei)
+            ei = (e, e)
+        object.__setattr__(self, "EI", ei)
+        modes = self.modes
+        if isinstance(modes, Mode):
+            modes = (modes,)
+        try:
+            modes = tuple(modes)
+        except TypeError:
+            raise ValueError(f"Link modes={self.modes!r} must be a list of gibbsimpact.Mode") from None
+        for k, m in enumerate(modes):
+            if not isinstance(m, Mode):
+                raise ValueError(f"Link modes[{k}]={m!r} is not a gibbsimpact.Mode; build it as Mode('clamped-clamped', 'y')")
+        if len(set(modes)) != len(modes):
+            raise ValueError(f"Link modes={modes!r} lists the same mode twice: its mass matrix would be singular")
+        object.__setattr__(self, "modes", modes)
+        ne = self.elements
+        if isinstance(ne, bool) or not isinstance(ne, (int, np.integer)) or not 0 <= ne <= MAX_ELEMENTS:
+            raise ValueError(f"Link elements={ne!r} must be an integer in [0, {MAX_ELEMENTS}] (0: no finite elements)")
+        object.__setattr__(self, "elements", int(ne))
+        if ne and modes:
+            raise ValueError(
+                f"Link elements={ne} and modes={modes!r} both given; a link is discretised either by "
+                "assumed modes or by finite elements: drop one"
+            )
+        dirs = (self.element_directions,) if isinstance(self.element_directions, str) else self.element_directions
+        try:
+            dirs = tuple(dirs)
+        except TypeError:
+            dirs = None
+        if not dirs or any(d not in MODE_DIRECTIONS for d in dirs) or len(set(dirs)) != len(dirs):
+            raise ValueError(
+                f"Link element_directions={self.element_directions!r} must be ('y',), ('z',) or ('y', 'z'): "
+                "'y' is in-plane bending v, 'z' out-of-plane bending w"
+            )
+        object.__setattr__(self, "element_directions", dirs)
+        z = self.damping
+        if isinstance(z, bool) or not isinstance(z, Real) or not np.isfinite(z) or not 0.0 <= z <= 10.0:
+            raise ValueError(f"Link damping={z!r} must be a damping ratio in [0, 10] (e.g. 0.02 for 2 %)")
+        if z > 0 and not (modes or ne):
+            raise ValueError(f"Link damping={z!r} needs elastic coordinates: give the link modes or elements")
+        object.__setattr__(self, "damping", float(z))
+        j = np.asarray(self.rotary_inertia, dtype=float) if not isinstance(self.rotary_inertia, str) else None
+        if j is None or j.shape != (3,) or not np.all(np.isfinite(j)) or np.any(j < 0):
+            raise ValueError(
+                f"Link rotary_inertia={self.rotary_inertia!r} must be three non-negative numbers (j_x, j_y, j_z) in kg m"
+            )
+        object.__setattr__(self, "rotary_inertia", tuple(float(v) for v in j))
+
+    @property
+    def EI_y(self):
+        """Stiffness against the z-deflection w [N m^2]."""
+        return self.EI[0]
+
+    @property
+    def EI_z(self):
+        """Stiffness against the y-deflection v [N m^2]."""
+        return self.EI[1]
+
+
+@dataclass(frozen=True)
+class Chain:
+    """A serial chain of links on a free-flying or a fixed base.
+
+    Free base (``base="free"``, the default): joint O_1 (proximal end of link 1)
+    flies freely; two massless virtual links of zero length and link 1's joint
+    give three rotations ``Rx(theta_-1) Ry(theta_0) Rz(theta_1)``; every further
+    link adds a revolute joint about its own z axis.
+
+    Fixed base (``base=gi.FixedBase(position, angle)``): joint 1 sits at the
+    base frame T_0; no base coordinates.
+
+    Planar floating base (``base="planar"``): coordinates X1, X2 translate the
+    base frame in the X1-X2 plane; joint 1 must be revolute (theta_1 is the
+    floating orientation).
+
+    Joints (docs/theory.md §7.1): gi.Revolute() (theta_i [rad]),
+    gi.SlidingPrismatic (Pa, a carriage on the host link, d_i [m]) and
+    gi.FixedPrismatic (Pb, the link slides through a guide at the host's tip,
+    d_i = protruding length [m]). Prismatic joints make the chain planar: a
+    fixed or a planar floating base, in-plane bending only.
+
+    Parameters
+    ----------
+    links : sequence of Link (n >= 1)
+    joints : sequence of n joints, or None for all revolute
+    base : "free" (spatial floating base), "planar" or FixedBase
+    """
+
+    links: tuple
+    joints: tuple | None = None
+    base: object = "free"
+
+    def __post_init__(self):
+        links = self.links
+        if isinstance(links, Link):
+            links = (links,)
+        try:
+            links = tuple(links)
+        except TypeError:
+            raise ValueError(f"Chain links={self.links!r} must be a list of gibbsimpact.Link") from None
+        if not links:
+            raise ValueError("Chain links=[] is empty; give at least one gibbsimpact.Link")
+        for k, lk in enumerate(links):
+            if not isinstance(lk, Link):
+                raise ValueError(f"Chain links[{k}]={lk!r} is not a gibbsimpact.Link")
+        object.__setattr__(self, "links", links)
+        joints = self.joints
+        if joints is None:
+            joints = tuple(Revolute() for _ in links)
+        try:
+            joints = tuple(joints)
+        except TypeError:
+            raise ValueError(f"Chain joints={self.joints!r} must be a list of joints, one per link") from None
+        if len(joints) != len(links):
+            raise ValueError(f"Chain joints has {len(joints)} entries for {len(links)} links; give one joint per link")
+        for k, jt in enumerate(joints):
+            if not isinstance(jt, JOINT_TYPES):
+                raise ValueError(
+                    f"Chain joints[{k}]={jt!r} is not a joint; use gi.Revolute(), gi.SlidingPrismatic(...) "
+                    "or gi.FixedPrismatic(...)")
+        object.__setattr__(self, "joints", joints)
+        if not (self.base in ("free", "planar") or isinstance(self.base, FixedBase)):
+            raise ValueError(f"Chain base={self.base!r} must be 'free', 'planar' or "
+                             "gi.FixedBase(position=(b1, b2), angle=beta)")
+        _check_joints(links, joints, self.base)
+
+    @property
+    def n_links(self) -> int:
+        return len(self.links)
+
+    @property
+    def free_base(self) -> bool:
+        """True for a floating base, spatial ('free') or planar ('planar')."""
+        return isinstance(self.base, str)
+
+    @property
+    def planar(self) -> bool:
+        """True when the chain moves in the X1-X2 plane only (docs/theory.md §8):
+        a planar free base, or any prismatic joint."""
+        return self.base == "planar" or any(j.kind != "R" for j in self.joints)
+
+
+def _check_joints(links, joints, base):
+    """The rules of docs/theory.md §8, §7.3, §7.4 for prismatic joints."""
+    prismatic = [k for k, j in enumerate(joints) if j.kind != "R"]
+    if base == "planar" and joints[0].kind != "R":
+        raise ValueError(f"Chain joints[0] (joint 1)={joints[0]!r}: on a planar free base (base='planar') joint 1 "
+                         "must be gi.Revolute(); its theta_1 is the floating orientation")
+    if not prismatic and base != "planar":
+        return
+    if base == "free":
+        raise ValueError(
+            f"Chain joints[{prismatic[0]}] (joint {prismatic[0] + 1})={joints[prismatic[0]]!r}: prismatic joints are planar "
+            "(docs/theory.md §8); use base='planar' for a floating chain or gi.FixedBase(...)")
+    for k, lk in enumerate(links):
+        if lk.elements and lk.element_directions != ("y",) or any(md.direction != "y" for md in lk.modes):
+            raise ValueError(f"Chain links[{k}] (link {k + 1}) bends out of plane; a planar chain (prismatic joints or "
+                             "base='planar') allows in-plane bending only: element_directions=('y',), y-modes")
+    for k in prismatic:
+        jt = joints[k]
+        lo, hi = jt.range
+        if jt.kind == "Pb":
+            lk = links[k]
+            if lk.modes:
+                raise ValueError(
+                    f"Chain links[{k}] (link {k + 1}) slides through a FixedPrismatic guide and has assumed modes; a Pb link "
+                    "is discretised by stretching finite elements: give it elements=n_e (or none: rigid)")
+            if callable(lk.mass_per_length) or any(callable(e) for e in lk.EI):
+                raise ValueError(f"Chain links[{k}] (link {k + 1}) slides through a FixedPrismatic guide: its mass_per_length "
+                                 "and EI must be constants (a prismatic member has one cross-section)")
+            if hi > lk.length + 1e-12:
+                raise ValueError(f"Chain joints[{k}] (joint {k + 1}) FixedPrismatic range={jt.range!r}: d_max must be <= the "
+                                 f"link's length {lk.length:g} m (d is the protruding length)")
+            continue
+        if k == 0:
+            continue  # a rigid rail on the base: any range, c irrelevant
+        host = links[k - 1]
+        c = jt.half_length
+        if host.modes:
+            raise ValueError(
+                f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic on links[{k - 1}] (link {k}), which has assumed modes: a carriage "
+                "host must be a finite-element link (elements=n_e) or rigid")
+        if host.elements and c <= 0:
+            raise ValueError(
+                f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic half_length={c!r} on a finite-element host: give c > 0. "
+                "A point slider follows the host's slope v'(d), whose derivative v'' jumps at every element "
+                "node, so M(q) would jump there and energy would not be conserved (docs/theory.md §7.3)")
+        if lo < c - 1e-12 or hi > host.length - c + 1e-12:
+            raise ValueError(
+                f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic range={jt.range!r}: the carriage must stay on the host, "
+                f"c <= d_min < d_max <= l_host - c = {host.length - c:g} m (c = {c:g} m)")

@@ -1,0 +1,154 @@
+"""The joints of a chain (docs/theory.md §7): Revolute (R), SlidingPrismatic (Pa) and FixedPrismatic
+(Pb), and the FixedBase a chain may stand on instead of flying freely (docs/theory.md §8).
+
+Each is a frozen dataclass, validated once when it is built; ``kind`` ('R', 'Pa', 'Pb') is
+what the rest of the package reads.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from numbers import Real
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Revolute:
+    """A revolute joint: link i turns by theta_i [rad] about the z axis at the host's tip (docs/theory.md §7.2).
+
+    G_i = E_(i-1) Rz(theta_i); on a fixed base E_0 = I (the motor sits at the base origin).
+    """
+
+    kind = "R"
+
+
+@dataclass(frozen=True)
+class FixedBase:
+    """A fixed base: joint 1 sits at the constant frame T_0 = Trans(b1, b2, b3) Rz(beta) (docs/theory.md §8).
+
+    Parameters
+    ----------
+    position : (b1, b2) or (b1, b2, b3) [m]
+    angle : beta [rad], the base x axis measured from X1 about X3
+    """
+
+    position: tuple = (0.0, 0.0)
+    angle: float = 0.0
+
+    def __post_init__(self):
+        p = np.asarray(self.position, dtype=float) if not isinstance(self.position, str) else np.array([])
+        if p.shape not in ((2,), (3,)) or not np.all(np.isfinite(p)):
+            raise ValueError(f"FixedBase position={self.position!r} must be 2 or 3 finite numbers (m)")
+        object.__setattr__(self, "position", tuple(float(v) for v in np.pad(p, (0, 3 - p.size))))
+        a = self.angle
+        if isinstance(a, bool) or not isinstance(a, Real) or not np.isfinite(a):
+            raise ValueError(f"FixedBase angle={a!r} must be a finite number of radians")
+        object.__setattr__(self, "angle", float(a))
+
+    @property
+    def transform(self) -> np.ndarray:
+        """T_0 (4, 4)."""
+        c, s = np.cos(self.angle), np.sin(self.angle)
+        T = np.eye(4)
+        T[:2, :2] = [[c, -s], [s, c]]
+        T[:3, 3] = self.position
+        return T
+
+
+def _joint_range(kind: str, value) -> tuple[float, float]:
+    if value is None:
+        raise ValueError(f"{kind} needs range=(d_min, d_max) in metres: the joint's travel (joint limits "
+                         "are events of the simulation)")
+    try:
+        lo, hi = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{kind} range={value!r} must be a pair (d_min, d_max) in metres") from None
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo >= hi:
+        raise ValueError(f"{kind} range={value!r} must be finite with d_min < d_max (metres)")
+    return lo, hi
+
+
+def _joint_angle(kind: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, Real) or not np.isfinite(value):
+        raise ValueError(f"{kind} angle={value!r} must be a finite number of radians")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class SlidingPrismatic:
+    """Pa: a carriage fixed to link i slides along the host link i-1 (docs/theory.md §7.3).
+
+    The carriage has half-length c and rides on the host's centreline with two
+    contact points at host abscissae d - c and d + c; its frame sits at the
+    midpoint of their chord, x axis along the chord, and link i is clamped to
+    it at the fixed angle gamma:
+
+        G_i = Trans(d, vbar(d)) Rz(phibar(d)) Rz(gamma)
+        vbar = [v(d + c) + v(d - c)] / 2,   phibar = [v(d + c) - v(d - c)] / (2 c)
+
+    On the base (joint 1) the host is a straight rigid rail along the base x axis.
+
+    Parameters
+    ----------
+    angle : float
+        gamma [rad], link i's axis relative to the carriage.
+    half_length : float
+        c [m] >= 0; must be > 0 on a finite-element host (a point slider makes
+        M jump at every element node and breaks energy conservation).
+    range : (float, float)
+        (d_min, d_max) [m], the carriage centre's travel; on a host link
+        c <= d_min < d_max <= l_host - c.
+    """
+
+    angle: float = 0.0
+    half_length: float = 0.0
+    range: tuple | None = None
+    kind = "Pa"
+
+    def __post_init__(self):
+        object.__setattr__(self, "angle", _joint_angle("SlidingPrismatic", self.angle))
+        c = self.half_length
+        if isinstance(c, bool) or not isinstance(c, Real) or not np.isfinite(c) or c < 0:
+            raise ValueError(f"SlidingPrismatic half_length={c!r} must be a number >= 0 (metres)")
+        object.__setattr__(self, "half_length", float(c))
+        object.__setattr__(self, "range", _joint_range("SlidingPrismatic", self.range))
+
+
+@dataclass(frozen=True)
+class FixedPrismatic:
+    """Pb: link i slides through a guide fixed at the host's tip (docs/theory.md §7.4).
+
+    The guide sits at the host's deflected tip, along its tangent turned by
+    gamma; link i's frame is at its rear end:
+
+        G_i = E_(i-1) Rz(gamma) Trans(d - l_i, 0)
+
+    d is the protruding length (guide to link i's tip). Only the protruding part
+    bends (stretching Hermite elements of length d / n_e); the part behind the
+    guide is straight but keeps its mass. On the base (joint 1) the guide is at
+    the base origin.
+
+    Parameters
+    ----------
+    angle : float
+        gamma [rad], the guide axis relative to the host's tip tangent.
+    range : (float, float)
+        (d_min, d_max) [m] with 0 < d_min < d_max <= l_i.
+    """
+
+    angle: float = 0.0
+    range: tuple | None = None
+    kind = "Pb"
+
+    def __post_init__(self):
+        object.__setattr__(self, "angle", _joint_angle("FixedPrismatic", self.angle))
+        lo, hi = _joint_range("FixedPrismatic", self.range)
+        if lo <= 0:
+            raise ValueError(f"FixedPrismatic range={self.range!r}: d_min must be > 0 (the protruding "
+                             "length; the link's stiffness grows like 1/d^3 as d -> 0)")
+        object.__setattr__(self, "range", (lo, hi))
+
+
+#: Joint types a chain accepts.
+JOINT_TYPES = (Revolute, SlidingPrismatic, FixedPrismatic)

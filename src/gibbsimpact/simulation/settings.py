@@ -1,0 +1,129 @@
+"""Every option of simulate, validated once into one immutable record (the loop reads nothing else)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from numbers import Real
+
+import numpy as np
+
+from ..contact.walls import WALL_TYPES
+from .flight import SOLVERS
+from .joint_limits import JOINT_LIMIT_MODES
+
+ACCUMULATION_MODES = ("rest", "stop")
+
+
+def _positive(name, v, allow_inf=False) -> float:
+    if isinstance(v, bool) or not isinstance(v, Real) or not (v > 0) or (not allow_inf and not np.isfinite(v)):
+        raise ValueError(f"simulate {name}={v!r} must be a positive number")
+    return float(v)
+
+
+def _count(name, v) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+        raise ValueError(f"simulate {name}={v!r} must be an integer >= 1")
+    return int(v)
+
+
+def _fraction(name, v) -> float:
+    if isinstance(v, bool) or not isinstance(v, Real) or not 0.0 <= v <= 1.0:
+        raise ValueError(f"simulate {name}={v!r} must be a number in [0, 1]")
+    return float(v)
+
+
+def _t_span(t_span) -> tuple[float, float]:
+    ts = np.asarray(t_span, dtype=float) if not isinstance(t_span, str) else np.array([])
+    if ts.shape != (2,) or not np.all(np.isfinite(ts)) or not ts[1] > ts[0]:
+        raise ValueError(f"simulate t_span={t_span!r} must be (t0, t_end) in seconds with t_end > t0")
+    return float(ts[0]), float(ts[1])
+
+
+def _walls(walls) -> tuple:
+    if isinstance(walls, WALL_TYPES):
+        walls = (walls,)
+    walls = tuple(walls)
+    for k, w in enumerate(walls):
+        if not isinstance(w, WALL_TYPES):
+            raise ValueError(f"simulate walls[{k}]={w!r} is not a wall; use gi.Circle, gi.Sphere or gi.Plane")
+    return walls
+
+
+def _choice(name, v, choices, meaning: str):
+    if v not in choices:
+        raise ValueError(f"simulate {name}={v!r} must be {meaning}")
+    return v
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The options of one run (simulate's arguments, validated; units as in simulate's docstring)."""
+
+    t0: float
+    t_end: float
+    walls: tuple
+    restitution: float
+    rtol: float
+    atol: float
+    method: str
+    output_dt: float | None
+    max_step: float
+    contact_tol: float
+    grazing_velocity: float
+    penetration_tol: float
+    zeno_interval: float
+    zeno_count: int
+    max_impacts: int
+    progress: object
+    inputs: object
+    joint_limit: str
+    joint_restitution: float
+    accumulation: str
+    link_contacts: bool
+    in_step_check: bool
+
+    @classmethod
+    def from_arguments(cls, t_span, walls, restitution, method, output_dt, progress, inputs, zeno_count,
+                       max_impacts, joint_limit, joint_restitution, accumulation, link_contacts, **positive) -> Settings:
+        """Validate simulate's options (each error names the argument and what it must be)."""
+        t0, t_end = _t_span(t_span)
+        walls = _walls(walls)
+        restitution = _fraction("restitution", restitution)
+        _choice("method", method, SOLVERS, f"a solve_ivp method; use one of {', '.join(SOLVERS)}")
+        in_step_check = bool(positive.pop("in_step_check", True))
+        values = {name: _positive(name, v, allow_inf=(name == "max_step")) for name, v in positive.items()}
+        if output_dt is not None:
+            output_dt = _positive("output_dt", output_dt)
+        if not (progress is None or isinstance(progress, bool) or callable(progress)):
+            raise ValueError(f"simulate progress={progress!r} must be None, True (a progress bar on stderr) "
+                             "or a callable progress(t, n_impacts)")
+        zeno_count, max_impacts = _count("zeno_count", zeno_count), _count("max_impacts", max_impacts)
+        _choice("joint_limit", joint_limit, JOINT_LIMIT_MODES, "'stop' (end the run at a joint limit) or "
+                "'impact' (an end-stop impact with joint_restitution)")
+        joint_restitution = _fraction("joint_restitution", joint_restitution)
+        if not isinstance(link_contacts, (bool, np.bool_)):
+            raise ValueError(f"simulate link_contacts={link_contacts!r} must be True (links' closest points are "
+                             "contact candidates too) or False (joints only)")
+        _choice("accumulation", accumulation, ACCUMULATION_MODES, "'rest' (go on in resting contact) or 'stop' "
+                "(end the run with status 'zeno')")
+        return cls(t0=t0, t_end=t_end, walls=walls, restitution=restitution, method=method, output_dt=output_dt,
+                   progress=progress, inputs=inputs, zeno_count=zeno_count, max_impacts=max_impacts, joint_limit=joint_limit,
+                   joint_restitution=joint_restitution, accumulation=accumulation,
+                   link_contacts=bool(link_contacts), in_step_check=in_step_check, **values)
+
+    @property
+    def wall_restitution(self) -> np.ndarray:
+        """e of every wall (W,): its own ``restitution``, else the run's."""
+        return np.array([self.restitution if w.restitution is None else w.restitution for w in self.walls])
+
+    def record(self) -> dict:
+        """The options as Result.settings stores them (plain values; inputs and progress are not kept)."""
+        return dict(
+            method=self.method, rtol=self.rtol, atol=self.atol, restitution=self.restitution,
+            wall_restitution=[w.restitution for w in self.walls], output_dt=self.output_dt, max_step=self.max_step,
+            contact_tol=self.contact_tol, grazing_velocity=self.grazing_velocity,
+            penetration_tol=self.penetration_tol, zeno_interval=self.zeno_interval, zeno_count=self.zeno_count,
+            max_impacts=self.max_impacts, t_span=[self.t0, self.t_end], joint_limit=self.joint_limit,
+            joint_restitution=self.joint_restitution, accumulation=self.accumulation,
+            link_contacts=self.link_contacts,
+        )

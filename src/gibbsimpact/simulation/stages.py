@@ -1,0 +1,392 @@
+"""The stages of the event loop (docs/theory.md §14): start, impact, contact mode, flight, check, dispatch, finish.
+
+Each stage is a function of the run (:class:`Run`: what the run is made of, fixed at the start,
+and the loop's state, which the stages advance). The rules they implement are stated in
+gibbsimpact.simulation.simulate's module docstring, each with a test.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..contact.resting import RestingContacts
+from ..contact.walls import describe
+from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
+from ..dynamics.kinematics import joint_positions
+from .accumulation import Accumulation
+from .contacts import Contacts, contact_band, event_spec, impact_stage as solve_impact, phase_events
+from .equations import Equations
+from .flight import integrate_phase
+from .joint_limits import EndStops, check_initial, joint_limits
+from .recorder import Recorder
+from .results import Result
+from .status import STATUS_FINISHED, stop
+from .validity import warn_state
+
+#: Budget of contact-mode events (release, slip, stick, drift) of one run: a contact mode that keeps
+#: switching without settling ends the run (status "failed") instead of crawling on.
+MAX_MODE_EVENTS = 100_000
+#: Consecutive events without progress in time that end a run (status "failed") instead of hanging.
+MAX_STALLED = 100
+MODE_EVENTS = ("release", "drift", "slip", "stick")
+
+
+@dataclass
+class Run:
+    """One run: its parts (fixed at the start) and the loop's state (advanced by the stages)."""
+
+    model: object
+    settings: object
+    contacts: Contacts
+    limits: list
+    stops: EndStops | None
+    resting: RestingContacts
+    monitor: Accumulation
+    recorder: Recorder
+    equations: Equations
+    clock: object
+    lipschitz: float  # L_q [m per unit of q], a bound on |dg/dq|
+    t: float
+    y: np.ndarray  # (q, qdot[, W_in, W_damp]) (2N or 2N + 2,)
+    band: float  # the contact band [m]
+    near: np.ndarray  # (W, J) pairs in the contact band since the last impact stage
+    phase: int = 0
+    status: str | None = None
+    message: str = ""
+    pending_impact: bool = True  # check the initial state for an impact in progress
+    pending_mode: bool = False  # decide the contact mode before the next flight phase
+    sink_pair: tuple | None = None  # (wall, joint) whose sink event ended the last phase
+    release: np.ndarray | None = None  # (W, J) a released pair, for the next mode decision
+    forced: np.ndarray | None = None  # (W, J) the pairs of an accumulation, for the next mode decision
+    slipping: dict | None = None  # {(wall, point): direction} of a pair whose "slip" event ended the phase
+    settled_at: float | None = None  # time of the last accumulation resolved into resting contact
+    stalled: int = 0  # consecutive phases that made no progress in time
+    flown: object = None  # the last flight phase's outcome until its samples are recorded
+    counters: dict = field(default_factory=lambda: {"n_steps": 0, "n_examined": 0, "resting_time": 0.0,
+                                                    "mode_events": 0})
+
+    @property
+    def N(self) -> int:
+        return self.model.n_dof
+
+    def end(self, reason: str, **values) -> None:
+        """Stop the run for ``reason`` (gibbsimpact.simulation.status.STOPS), the message filled with values."""
+        self.status, self.message = stop(reason, **values)
+
+
+# -- start -------------------------------------------------------------------------------------
+
+def _check_inside(model, q, walls, contact_tol, contacts=None):
+    """Raise ValueError naming every joint (and link, with link contacts) that starts beyond a wall."""
+    p = joint_positions(model, q)
+    bad = []
+    for w_i, w in enumerate(walls):
+        g = w.gap(p)
+        for j in np.nonzero(g < -contact_tol)[0]:
+            bad.append(f"joint O{j + 1} at {np.round(p[j], 6).tolist()} m is {-g[j]:.3g} m outside wall {w_i + 1} "
+                       f"({describe(w)})")
+    if contacts is not None and contacts.flex and not bad:
+        g = contacts.gaps(q)[:, contacts.n_joints:]
+        for w_i, f in np.argwhere(g < -contact_tol):
+            bad.append(f"link {contacts.flex[f] + 1} bends {-g[w_i, f]:.3g} m beyond wall {w_i + 1} "
+                       f"({describe(walls[w_i])}) between its joints")
+    if bad:
+        what = "a joint" if "joint" in bad[0] else "a link"
+        raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(bad) + ". Move the chain inside.")
+
+
+def _check_start(model, q0, qdot0, settings, limits, contacts):
+    """Refuse an initial state the run cannot start from; warn where it is outside the model's assumptions."""
+    check_initial(limits, q0)
+    _check_inside(model, q0, settings.walls, settings.contact_tol, contacts)
+    try:
+        mass_matrix(model, q0)
+        forward_dynamics(model, q0, qdot0)
+    except SingularMassMatrixError as exc:
+        raise SingularMassMatrixError(f"initial state q0: {exc}") from None
+    warn_state(model, q0, qdot0, settings.walls)  # outside the model's assumptions: warned, never changed
+
+
+def start(model, q0, qdot0, settings, clock) -> Run:
+    """Check the initial state and build the run's parts; the loop starts with an impact stage."""
+    s, walls = settings, settings.walls
+    limits = joint_limits(model)
+    contacts = Contacts(model, walls, s.link_contacts)
+    _check_start(model, q0, qdot0, s, limits, contacts)
+    stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
+    # |dg/dq| <= 1 + 2 sum l: a translation moves a joint 1:1, a rotation by at most its lever arm.
+    lipschitz = 1.0 + 2.0 * sum(ld.length for ld in model.link_data)
+    band = contact_band(s.contact_tol, lipschitz, s.rtol, s.atol, q0)
+    resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols)
+    equations = Equations(model, s, q0, qdot0, resting, clock)
+    return Run(
+        model=model, settings=s, contacts=contacts, limits=limits, stops=stops, resting=resting,
+        monitor=Accumulation((len(walls), contacts.n_cols), s.zeno_count, s.zeno_interval, band, contacts.names),
+        recorder=Recorder(model, s.t0, q0, qdot0, len(walls)), equations=equations, clock=clock,
+        lipschitz=lipschitz, t=s.t0, y=np.concatenate((q0, qdot0, np.zeros(2 if equations.driven else 0))),
+        band=band, near=np.zeros((len(walls), contacts.n_cols), dtype=bool),
+    )
+
+
+def gap_functions(run):
+    """(gap matrix g(q) -> (R, J), batch g(qs) -> (K, R, J)) [m]: the walls' rows, and the joint limits' row."""
+    g, batch = run.contacts.gaps, run.contacts.gaps_batch
+    if run.stops is None:
+        return g, batch
+    return run.stops.wrap(g), run.stops.wrap_batch(batch)
+
+
+# -- impact ------------------------------------------------------------------------------------
+
+def _accumulation(run, accumulation) -> None:
+    """An accumulation of impacts: its pairs go on resting, unless that cannot be (status "zeno")."""
+    rest = run.settings.accumulation == "rest" and bool(run.settings.walls)
+    run.forced = run.monitor.recent_pairs() & run.resting.can_rest
+    why = ("accumulation='stop'" if not rest else
+           "resting contact is modelled for joints only, not for a link's span or the "
+           "tip of a prismatic host" if not run.forced.any() else
+           "resting contact did not resolve it" if run.settled_at == run.t else None)
+    if why is not None:
+        run.end("zeno", accumulation=accumulation, why=why)
+        return
+    run.settled_at = run.t
+    run.monitor.reset()
+
+
+def impact(run) -> None:
+    """Stage 1, after a hit or sink event (or at the start): one impact of every candidate in the contact band."""
+    s, N = run.settings, run.N
+    if run.pending_impact and s.walls:
+        q, qd = run.y[:N], run.y[N:2 * N]
+        in_band_before = run.near
+        run.band = run.monitor.band = contact_band(s.contact_tol, run.lipschitz, s.rtol, s.atol, q)
+        rec, run.near = solve_impact(run.model, run.contacts, s.wall_restitution, run.t, q, qd, run.band,
+                                     s.grazing_velocity, run.sink_pair, run.resting.active)
+        if rec is not None:
+            _record_impact(run, rec, q)
+            accumulation = run.monitor.add(rec, in_band_before)
+            if accumulation is not None:
+                _accumulation(run, accumulation)
+                if run.status is not None:
+                    return
+            if run.recorder.n_impacts >= s.max_impacts:
+                run.end("max_impacts", max_impacts=s.max_impacts, t=run.t)
+                return
+        run.pending_mode = s.accumulation == "rest" and bool(s.walls)
+    run.pending_impact = False
+
+
+def _record_impact(run, rec, q) -> None:
+    """The state after an impact (the record's qdot_after), recorded as the start of a new phase."""
+    N = run.N
+    run.y = np.concatenate((q, rec.qdot_after, run.y[2 * N:]))
+    run.phase += 1
+    run.recorder.impact(rec, q, run.phase)
+    run.clock.n_impacts = run.recorder.n_impacts
+
+
+# -- contact mode ------------------------------------------------------------------------------
+
+def mode(run) -> None:
+    """Stage 2, after an impact stage, a release, slip, stick or drift event: which pairs rest (resting.py)."""
+    if not run.pending_mode:
+        return
+    s, N, resting = run.settings, run.N, run.resting
+    t, q, qd = run.t, run.y[:N], run.y[N:2 * N]
+    g, nrm, Jac, _, _ = run.contacts.full(q)
+    v = np.einsum("wjc,wjcn,n->wj", nrm, Jac, qd)
+    cand = resting.candidates(g, v, run.band, s.grazing_velocity, run.release, run.forced)
+    if len(cand) or resting.any():
+        applied = run.equations.applied
+        q, qd = resting.decide(q, qd, applied(t, q, qd), cand, run.slipping)
+        run.monitor.streak[resting.active] = 0
+        run.y = np.concatenate((q, qd, run.y[2 * N:]))
+        P = run.model.n_joints
+        run.recorder.mode(t, q, qd, run.phase, *(f[:, :P] for f in resting.force_matrix(q, qd, applied(t, q, qd))))
+    run.release = run.forced = run.slipping = None
+    run.pending_mode = False
+
+
+# -- flight ------------------------------------------------------------------------------------
+
+def _phase_events(run):
+    """(EventSpec, kinds, extra) of the phase starting at run.y: hit / sink / leave of every pair, the resting
+    pairs' drift events, the joint limits', and the resting pairs' release (and slip / stick) events."""
+    s, N, resting = run.settings, run.N, run.resting
+    g_start = run.contacts.gaps(run.y[:N])
+    sink_depth = max(1e-6 * s.contact_tol, 64 * np.finfo(float).eps * (1.0 + float(np.abs(run.y[:3]).max())))
+    events, kinds = phase_events(run.near, g_start, run.band, sink_depth, skip=resting.active)
+    extra = None
+    if resting.any():
+        rows, drift_kinds = resting.drift_events()
+        drift = event_spec(rows)
+        events = type(events)(*(np.concatenate((a, b)) for a, b in zip(events, drift)))
+        kinds = kinds + drift_kinds
+    if run.stops is not None:
+        events, kinds = run.stops.events(events, kinds, run.y[:N], s.contact_tol, sink_depth)
+    if resting.any():
+        extra, release_kinds = resting.release_events(run.equations.applied)
+        kinds = kinds + release_kinds
+    return events, kinds, extra
+
+
+def _contact_forces(run, T, Y):
+    """Normal (K, W, P) and tangential (K, W, P, 3) [N] resting-contact forces at the samples of a phase."""
+    N, P, applied = run.N, run.model.n_joints, run.equations.applied
+    F = [run.resting.force_matrix(yk[:N], yk[N:2 * N], applied(tk, yk[:N], yk[N:2 * N])) for tk, yk in zip(T, Y)]
+    return np.stack([f[0][:, :P] for f in F]), np.stack([f[1][:, :P] for f in F])
+
+
+def flight(run):
+    """Stage 3: integrate until the first event or t_end; record the samples. Returns (outcome, kinds) or None
+    when the integration failed (the run is then stopped)."""
+    s, N = run.settings, run.N
+    events, kinds, extra = _phase_events(run)
+    run.equations.resting_phase = run.resting.any()
+    gap_matrix, gap_batch = gap_functions(run)
+    try:
+        run.flown = out = integrate_phase(
+            run.equations, run.t, run.y, s.t_end, events, gap_matrix, method=s.method, rtol=s.rtol, atol=s.atol,
+            max_step=s.max_step, output_dt=s.output_dt, t_origin=s.t0, lipschitz=run.lipschitz,
+            slack=s.contact_tol, n_q=N, check_in_step=s.in_step_check, gap_batch=gap_batch, extra=extra,
+            gap_single=lambda q, w, c: run.contacts.gap_single(q, w, c, gap_matrix),
+        )
+    except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
+        run.end("integration", t=run.t, error=exc)
+        return None
+    run.counters["n_steps"] += out.n_steps
+    run.counters["n_examined"] += out.n_examined
+    if out.sample_t.size:
+        forces = _contact_forces(run, out.sample_t, out.sample_y) if run.resting.any() else (None, None)
+        run.recorder.flight(out.sample_t, out.sample_y, run.phase, *forces)
+    run.flown = None
+    if out.interrupted is not None:
+        raise KeyboardInterrupt(out.interrupted)  # its samples are recorded: the driver stops the run
+    if out.callback_error is not None:
+        raise out.callback_error  # likewise
+    return out, kinds
+
+
+# -- check -------------------------------------------------------------------------------------
+
+def check(run, out) -> bool:
+    """After a phase: stop the run on a solver failure, a penetration, a non-finite state, t_end or a stalled
+    loop; otherwise advance run.t, run.y to the phase end. True when an event is left to dispatch."""
+    s, t = run.settings, run.t
+    if out.failed is not None:
+        singular = run.equations.singular
+        run.end("solver", t=t, error=out.failed,
+                singular="" if singular is None else f"; the mass matrix was singular at a trial state {singular}")
+        return False
+    run.equations.singular = None
+    # Between events no contact point may be beyond a wall (step ends and in-step samples).
+    if out.min_gap < -s.penetration_tol:
+        what = "a wall or a joint limit" if run.stops is not None else "a wall"
+        run.end("penetration", depth=-out.min_gap, what=what, t=t)
+        return False
+    if run.resting.any():
+        run.counters["resting_time"] += out.t - t
+    run.t, run.y = out.t, out.y
+    if not np.all(np.isfinite(run.y)):
+        run.end("non_finite", t=run.t)
+        return False
+    if out.event is None:
+        run.end("t_end", t_end=s.t_end)
+        return False
+    run.stalled = run.stalled + 1 if run.t - t <= 1e-14 * max(1.0, abs(run.t)) else 0
+    if run.stalled >= MAX_STALLED:
+        run.end("stalled", t=run.t, count=MAX_STALLED)
+        return False
+    return True
+
+
+# -- dispatch ----------------------------------------------------------------------------------
+
+def _mode_event(run, kind, w_i, j) -> None:
+    """A resting pair's force reached zero (it leaves the active set), its drift reached contact_tol
+    (projection), its friction reached the cone (it slips) or its slip stopped (it may stick)."""
+    run.counters["mode_events"] += 1
+    if run.counters["mode_events"] > MAX_MODE_EVENTS:
+        run.end("mode_events", count=MAX_MODE_EVENTS, t=run.t)
+        return
+    if kind == "release":
+        run.release = np.zeros(run.resting.active.shape, dtype=bool)
+        run.release[w_i, j] = True
+    elif kind == "slip":
+        N, t = run.N, run.t
+        q, qd = run.y[:N], run.y[N:2 * N]
+        run.slipping = {(w_i, j): run.resting.slip_direction(q, qd, run.equations.applied(t, q, qd), (w_i, j))}
+    run.pending_mode = True
+
+
+def _limit_event(run, kind, j) -> None:
+    """A joint limit's event (the gap matrix's last row): leave its band, stop, or an end-stop impact."""
+    s, N, stops = run.settings, run.N, run.stops
+    if kind == "leave":
+        stops.near[j] = False
+    elif s.joint_limit == "stop":
+        run.end("joint_limit", joint=run.limits[j].joint, limit=run.limits[j].name, t=run.t)
+    else:
+        rec = stops.impact(run.model, run.t, run.y[:N], run.y[N:2 * N], j, s.joint_restitution,
+                           s.grazing_velocity, kind == "sink")
+        if rec is not None:
+            _record_impact(run, rec, run.y[:N])
+            accumulation = stops.accumulation(rec.time, j, s.zeno_count, s.zeno_interval)
+            if accumulation is not None:
+                run.end("end_stop_accumulation", accumulation=accumulation)
+                return
+            # Resting pairs may have been pushed by the end-stop impulse.
+            run.pending_impact = run.resting.any()
+
+
+def dispatch(run, out, kinds) -> None:
+    """What the event that ended the phase leads to: a mode decision, a joint limit's rule, an impact stage,
+    or re-arming a pair that left the contact band."""
+    kind, w_i, j = kinds[out.event]
+    if kind in MODE_EVENTS:
+        _mode_event(run, kind, w_i, j)
+    elif w_i == len(run.settings.walls):
+        _limit_event(run, kind, j)
+    else:
+        run.sink_pair = (w_i, j) if kind == "sink" else None
+        if kind == "leave":
+            run.near[w_i, j] = False  # re-arm the normal event of this pair; no impact
+            run.monitor.left_band(w_i, j)
+        else:
+            run.pending_impact = True
+
+
+# -- finish ------------------------------------------------------------------------------------
+
+def interrupted(run, what: str) -> None:
+    """A KeyboardInterrupt stopped the run: keep the accepted steps of a phase whose samples were not recorded."""
+    flown = run.flown
+    if flown is not None and flown.sample_t.size and not run.recorder.ends_with(flown.sample_t):
+        run.recorder.flight(flown.sample_t, flown.sample_y, run.phase)
+    t_last = float(run.recorder.chunks[-1].t[-1])
+    run.end("interrupted", what=what, t=t_last, t_end=run.settings.t_end)
+
+
+def callback_failed(run, error) -> None:
+    """A user callback failed (gibbsimpact.dynamics.forces.CallbackError): stop, keeping what was recorded."""
+    run.end("callback", error=error, t=float(run.recorder.chunks[-1].t[-1]))
+
+
+def finish(run, started: float) -> Result:
+    """The Result of the run: every recorded sample, impact and force, its status and counters."""
+    if run.status is None:
+        run.status = STATUS_FINISHED
+    t_all, q_all, qdot_all, phase_all, work_all, E_all, F_all, Ft_all = run.recorder.arrays()
+    walls = run.settings.walls
+    return Result(
+        model=run.model, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,
+        impacts=run.recorder.impacts, status=run.status, message=run.message, settings=run.settings.record(),
+        nfev=run.equations.nfev, n_steps=run.counters["n_steps"], n_examined=run.counters["n_examined"],
+        wall_time=time.perf_counter() - started, energy_error=run.recorder.energy_error,
+        _energy_cache=E_all, work=work_all if run.equations.driven else None, contact_forces=F_all,
+        friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
+        resting_time=run.counters["resting_time"],
+    )
