@@ -423,6 +423,18 @@ def test_legends_say_what_each_contact_point_is(prismatic):
             assert np.linalg.norm(O[1] - O[3]) == pytest.approx(model.chain.links[1].length - d2, rel=1e-9)
 
 
+def test_contact_force_legend_says_what_the_point_is():
+    import dataclasses
+
+    from conftest import burst_result
+
+    res = burst_result(bursts=((0.5, 3),))
+    F = np.zeros((len(res.t), 1, res.model.n_joints))
+    F[res.t > 0.6, 0, 2] = 4.0  # O3 rests on the floor
+    fig = plotting.plot_contact_forces(dataclasses.replace(res, contact_forces=F))
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["$O_{3}$ (tip of link 2) on wall 1"]
+
+
 def test_prismatic_variable_is_in_metres_with_its_range(prismatic):
     from matplotlib.figure import Figure
 

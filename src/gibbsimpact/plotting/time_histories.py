@@ -305,7 +305,7 @@ def plot_contact_forces(result, case_name=None, ax=None):
     else:
         axes = _given_axes(ax, n_panels, "plot_contact_forces")
         fig = axes[0].figure
-    names = result.model.contact_point_names
+    names = [_point_label(result.model, j + 1) for j in range(result.model.n_joints)]
     c = 0
     for w, j in np.argwhere(np.any(F != 0.0, axis=0)):
         _curve(axes[0], result.t, F[:, w, j], label=f"{names[j]} on wall {w + 1}", **_style(c, _joint_colour(int(j))))
@@ -315,7 +315,7 @@ def plot_contact_forces(result, case_name=None, ax=None):
         c = 0
         for w, j in np.argwhere(np.any(F != 0.0, axis=0)):
             _curve(axes[1], result.t, np.linalg.norm(Ft[:, w, j], axis=1), label=f"{names[j]} on wall {w + 1}",
-                         **_style(c, _joint_colour(int(j))))
+                   **_style(c, _joint_colour(int(j))))
             c += 1
         axes[1].set_ylabel("friction force\n|F_t| [N]")
     _legend(axes[0], outside=own)
