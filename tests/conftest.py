@@ -123,3 +123,33 @@ def deepest_point(model, q, i, wall):
     res = minimize_scalar(lambda x: wall.gap(material_points(model, q, i, [x]))[0], method="bounded",
                           bounds=(xs[max(k - 1, 0)], xs[min(k + 1, xs.size - 1)]), options={"xatol": 1e-12})
     return float(res.x), float(-res.fun)
+
+
+#: Starts and sizes of the 7 accumulations of fixed_base_fe_arm run to 1 s (`gibbsimpact run
+#: cases/fixed_base_fe_arm.toml --t-end 1`): 101 impacts of the tip O3 on the floor.
+FE_ARM_BURSTS = ((0.525317, 15), (0.537676, 16), (0.631847, 14), (0.641583, 11), (0.683349, 14),
+                 (0.745233, 17), (0.757550, 14))
+
+
+def burst_result(bursts=FE_ARM_BURSTS, t_end=1.0, dt=1e-3, modes=1):
+    """A Result (no dynamics: smooth made-up states) of a two-link arm on a fixed base whose tip O3
+    strikes a floor in bursts [(start [s], impacts)], each an accumulation of rebounds whose
+    intervals shrink by e = 0.6 from 0.34 ms (0.85 ms in all at most), samples every ``dt`` plus
+    both sides of each impact; ``modes`` clamped-free y-modes per link."""
+    from gibbsimpact.simulation.results import ImpactRecord, Result
+
+    link = gi.Link(1.0, 1.0, 25.0, modes=[gi.Mode("clamped-free", "y", k + 1) for k in range(modes)])
+    model = gi.Model(gi.Chain([link, link], base=gi.FixedBase((0.0, 0.6), 0.0)), gravity=(0.0, -9.81, 0.0))
+    times = np.concatenate([np.zeros(0)] + [start + np.r_[0.0, np.cumsum(3.4e-4 * 0.6 ** np.arange(n - 1))]
+                                            for start, n in bursts])
+    t = np.sort(np.concatenate([np.arange(0.0, t_end + 0.5 * dt, dt), times, times]))
+    N = model.n_dof
+    w = 2 * np.pi * np.arange(1, N + 1) / N  # rad/s, one per coordinate
+    q = 0.3 * np.sin(np.outer(t, w))
+    qdot = 0.3 * w * np.cos(np.outer(t, w))
+    phase = np.searchsorted(times, t, side="left")
+    E = gi.Energy(0.0, 0.0, 0.0, 0.0)
+    impacts = [ImpactRecord(float(ti), (3,), (0,), np.array([[0.0, 1.0, 0.0]]), np.ones(1), -np.ones(1),
+                            0.6 * np.ones(1), 0.6 * np.ones(1), np.zeros(N), np.zeros(N), E, E) for ti in times]
+    return Result(model=model, walls=(gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)),), t=t, q=q, qdot=qdot,
+                  phase=phase, impacts=impacts, status="finished", message="")

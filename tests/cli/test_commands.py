@@ -173,6 +173,27 @@ def test_missing_file_and_bad_options_exit_2(tmp_path, capsys):
     assert info.value.code == 2
 
 
+def test_csv_every_option(tmp_path, capsys):
+    # timeseries.csv of every 10th sample (and the last); result.npz keeps them all.
+    from gibbsimpact.io import result_files as io
+
+    out = tmp_path / "o"
+    code, _, _ = run_main(["run", CASES / "circle_two_link.toml", "--t-end", "0.05", "--no-plots", "--quiet",
+                           "--csv-every", "10", "--out", out], capsys)
+    assert code == 0
+    res = gi.load_result(out / "result.npz")
+    K = len(res.t)
+    full = io.write_timeseries_csv(res, tmp_path / "full.csv").read_text().splitlines()
+    part = (out / "timeseries.csv").read_text().splitlines()
+    rows = list(range(0, K, 10)) + ([] if (K - 1) % 10 == 0 else [K - 1])
+    assert K > 40 and part == [full[0]] + [full[1 + r] for r in rows]
+    for bad in ("0", "x"):
+        with pytest.raises(SystemExit) as info:
+            cli.main(["run", str(CASES / "circle_two_link.toml"), "--csv-every", bad])
+        assert info.value.code == 2
+    assert "--csv-every" in capsys.readouterr().err
+
+
 def test_show_describes_the_model(capsys):
     code, out, err = run_main(["show", CASES / "circle_two_link.toml"], capsys)
     assert code == 0

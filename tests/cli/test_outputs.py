@@ -132,10 +132,10 @@ def test_essential_files_come_first(tmp_path, capsys, monkeypatch):
     seen = []
     real = gio.write_timeseries_csv
 
-    def spy(result, path):
+    def spy(result, path, *every):
         seen.append(sorted(p.name for p in path.parent.iterdir()))
         seen.append(json.loads((path.parent / "summary.json").read_text())["output_files"])
-        return real(result, path)
+        return real(result, path, *every)
 
     import gibbsimpact.plotting.figures as figures
 

@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
-from gibbsimpact.plotting import figures as plotting
+from gibbsimpact import plotting
+from gibbsimpact.plotting.impacts import _impact_labels, _impact_note
+from gibbsimpact.plotting.labels import _status_line
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
@@ -44,7 +46,7 @@ def test_import_does_not_load_matplotlib():
 
 def test_agg_backend_without_display():
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "MPLBACKEND")}
-    code = ("import matplotlib, gibbsimpact.plotting.figures as p; p._pyplot(); "
+    code = ("import matplotlib, gibbsimpact.plotting.style as p; p._pyplot(); "
             "print(matplotlib.get_backend().lower())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
     assert out.stdout.strip() == "agg"
@@ -284,7 +286,7 @@ def test_impact_numbers_never_overlap():
     times = np.sort(np.concatenate([rng.uniform(0.5, 2.5, 14), 2.76 + 0.004 * np.arange(8),
                                     1.7 + 0.01 * np.arange(6)]))
     width_pt = 500.0
-    labels = plotting._impact_labels(times, 0.0, 2.8, width_pt)
+    labels = _impact_labels(times, 0.0, 2.8, width_pt)
     char = 0.6 * 7.0 / width_pt * 2.8  # seconds per character, as _impact_labels assumes
     spans = [(t, t + len(text) * char) for t, text in labels]
     assert all(b[0] >= a[1] for a, b in itertools.pairwise(spans))
@@ -393,6 +395,46 @@ def test_every_figure_builds_for_prismatic_chains(prismatic, name):
         plt.close(f)
 
 
+def test_legends_say_what_each_contact_point_is(prismatic):
+    # A Pb arm has O1 ... O4 with O2 behind the guide and O4 the host's tip: the legends name them,
+    # and each name is checked against the geometry it claims.
+    from gibbsimpact.dynamics.link_points import points_on_link
+    from gibbsimpact.dynamics.kinematics import transforms
+
+    want = {
+        "R-Pb": ["joint 1", "rear end of link 2, behind its guide", "tip of link 2", "tip of link 1, guide of joint 2"],
+        "R-Pa": ["joint 1", "carriage of joint 2", "tip of link 2", "tip of link 1, host of carriage 2"],
+    }
+    for name, words in want.items():
+        res, figs = prismatic[name]
+        labels = [t.get_text() for t in figs["joint_positions"].axes[0].get_legend().get_texts()]
+        assert labels == [f"$O_{{{j}}}$ ({w})" for j, w in enumerate(words, start=1)]
+        traj = [t.get_text() for t in figs["trajectory"].axes[0].get_legend().get_texts()]
+        assert [f"path of {s}" for s in labels] == traj[:len(labels)]
+        model, q = res.model, res.q[-1]
+        O, T = model.joint_positions(q), transforms(model, q)
+        tip1 = points_on_link(model, q, T, 0, [model.chain.links[0].length])[0]
+        tip2 = points_on_link(model, q, T, 1, [model.chain.links[1].length])[0]
+        np.testing.assert_allclose(O[3], tip1, atol=1e-12)  # "tip of link 1"
+        np.testing.assert_allclose(O[2], tip2, atol=1e-12)  # "tip of link 2"
+        if name == "R-Pb":  # "rear end of link 2": link 2 at x = 0, d_2 behind the guide at link 1's tip
+            np.testing.assert_allclose(O[1], points_on_link(model, q, T, 1, [0.0])[0], atol=1e-12)
+            d2 = q[model.coordinate_names.index("d_2")]
+            assert np.linalg.norm(O[1] - O[3]) == pytest.approx(model.chain.links[1].length - d2, rel=1e-9)
+
+
+def test_contact_force_legend_says_what_the_point_is():
+    import dataclasses
+
+    from conftest import burst_result
+
+    res = burst_result(bursts=((0.5, 3),))
+    F = np.zeros((len(res.t), 1, res.model.n_joints))
+    F[res.t > 0.6, 0, 2] = 4.0  # O3 rests on the floor
+    fig = plotting.plot_contact_forces(dataclasses.replace(res, contact_forces=F))
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["$O_{3}$ (tip of link 2) on wall 1"]
+
+
 def test_prismatic_variable_is_in_metres_with_its_range(prismatic):
     from matplotlib.figure import Figure
 
@@ -488,7 +530,7 @@ def test_end_stop_impacts_are_labelled_as_stops(prismatic, tmp_path):
     both = dataclasses.replace(res, impacts=[mixed], walls=(gi.Plane((0, -2, 0), (0, 1, 0)),))
     fig = plotting.plot_configurations(both, n_points=5)
     assert fig.axes[1].get_title().endswith("O3+stop 2 (d_max)")
-    assert "1: O3+stop 2 (d_max) at" in plotting._impact_note(both)
+    assert "1: O3+stop 2 (d_max) at" in _impact_note(both)
     plotting.plot_trajectory(both, n_points=5)
     from PIL import Image
 
@@ -509,9 +551,9 @@ def test_stop_message_loses_nested_remarks_whole():
                  phase=np.zeros(2, dtype=int), impacts=[], status="joint_limit",
                  message="joint 2 reached its limit d_2 <= d_max = 0.6 m at t = 0.25 s; results up to there are "
                          "kept (simulate(..., joint_limit='impact') bounces instead)")
-    line = plotting._status_line(res)
+    line = _status_line(res)
     assert line.endswith("results up to there are kept") and "bounces" not in line and "(" not in line[20:]
-    assert plotting._status_line(dataclasses.replace(res, status="finished")) == ""
+    assert _status_line(dataclasses.replace(res, status="finished")) == ""
 
 
 def test_energy_title_gives_the_whole_run_and_the_per_phase_error(planar):

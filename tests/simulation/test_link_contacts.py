@@ -94,7 +94,7 @@ def test_link_impacts_are_stored_and_drawn(tmp_path):
     for a, b in zip(res.impacts, back.impacts):
         assert a.joints == b.joints
         np.testing.assert_array_equal(a.points, b.points)
-    from gibbsimpact.plotting.figures import _contacts_text
+    from gibbsimpact.plotting.labels import _contacts_text
 
     assert _contacts_text(res, res.impacts[0]) == "link 1"
     fig = res.plot("configurations")

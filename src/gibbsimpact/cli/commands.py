@@ -23,7 +23,7 @@ import textwrap
 from pathlib import Path
 
 from .common import (EXIT_BAD_INPUT, EXIT_CODES, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK,  # noqa: F401
-                     EXIT_OUTPUT, EXIT_STOPPED, _error, _float, _load, _worst, add_method_option,
+                     EXIT_OUTPUT, EXIT_STOPPED, _error, _float, _load, _positive_int, _worst, add_method_option,
                      add_rtol_option)
 from .outputs import OUTPUT_FILES, clear_outputs, output_names, write_outputs
 from .run import cmd_run
@@ -71,6 +71,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--output-dt", type=_float, metavar="DT",
                    help="uniform output interval in s (overrides [solver] output_dt_s)")
     add_method_option(r)
+    r.add_argument("--csv-every", type=_positive_int, default=1, metavar="K",
+                   help="write every K-th sample (and the last) into timeseries.csv and contact_forces.csv "
+                        "(default 1: every sample; result.npz always keeps them all)")
     r.add_argument("--no-plots", action="store_true", help="do not draw figures")
     r.add_argument("--animate", action="store_true", help="also write animation.gif")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no report on stdout")

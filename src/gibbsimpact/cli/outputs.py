@@ -135,8 +135,9 @@ def _write_file(report: OutputReport, name: str, write) -> None:
     report.failed[name] = "; ".join(reasons)
 
 
-def _data_files(result, case, report: OutputReport, pending: list) -> list:
-    """[(name, write(path) -> Path)] of the data files, in the order they are written."""
+def _data_files(result, case, report: OutputReport, pending: list, csv_every: int = 1) -> list:
+    """[(name, write(path) -> Path)] of the data files, in the order they are written; csv_every: every K-th
+    sample (and the last) in the per-sample CSV files (io.result_files.sample_rows)."""
     import numpy as np
 
     from ..io.result_files import (save_result, write_contact_forces_csv, write_impacts_csv, write_summary_json,
@@ -148,8 +149,8 @@ def _data_files(result, case, report: OutputReport, pending: list) -> list:
              ("result.npz", lambda p: save_result(result, p, metadata={"case": case.name, "case_toml": source})),
              ("impacts.csv", lambda p: write_impacts_csv(result, p))]
     if result.contact_forces is not None and np.any(result.contact_forces):
-        files.append(("contact_forces.csv", lambda p: write_contact_forces_csv(result, p)))
-    files.append(("timeseries.csv", lambda p: write_timeseries_csv(result, p)))
+        files.append(("contact_forces.csv", lambda p: write_contact_forces_csv(result, p, csv_every)))
+    files.append(("timeseries.csv", lambda p: write_timeseries_csv(result, p, csv_every)))
     return files
 
 
@@ -218,7 +219,7 @@ def _write_animation(result, case, report: OutputReport, interrupts: Interrupts,
 
 
 def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None,
-                  interrupts: Interrupts | None = None) -> OutputReport:
+                  interrupts: Interrupts | None = None, csv_every: int = 1) -> OutputReport:
     """Write every output file of a run into ``out``, the small essential ones first; returns an OutputReport.
 
     First removes the files an earlier run left there (clear_outputs). Then, each file atomically
@@ -229,6 +230,7 @@ def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None,
     the other data files are still tried, and the figures and the animation are skipped, as they are
     when the run was interrupted or a signal arrives while the results are written (``interrupts``).
     A KeyboardInterrupt (the second signal) aborts the writing; no temporary file stays behind.
+    csv_every : K >= 1, every K-th sample (and the last) in timeseries.csv and contact_forces.csv.
     """
     log = log or (lambda s: None)
     interrupts = interrupts if interrupts is not None else Interrupts()
@@ -240,7 +242,7 @@ def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None,
     except OSError as exc:  # every file will fail there too; the essential ones go to the fallback
         report.failed["(output folder)"] = f"{exc.strerror or exc} in {out}"
     pending = []
-    data = _data_files(result, case, report, pending)
+    data = _data_files(result, case, report, pending, csv_every)
     pending += [name for name, _ in data] + (["figures"] if plots else []) + (["animation.gif"] if animate else [])
     for name, write in data:
         _write_file(report, name, write)

@@ -198,7 +198,8 @@ def _simulate_and_write(path, case, args, overrides, out, progress, say) -> int:
     animate = case.output["animate"] or args.animate
     try:
         with _writing_signals(out) as interrupts:
-            report = write_outputs(result, case, out, plots, animate, log=say, interrupts=interrupts)
+            report = write_outputs(result, case, out, plots, animate, log=say, interrupts=interrupts,
+                                   csv_every=args.csv_every)
     except KeyboardInterrupt as exc:
         return _error(f"interrupted ({exc}) while writing the results into {out}: the files there are complete, "
                       "the others missing (summary.json, written first, lists those that were still to come)",

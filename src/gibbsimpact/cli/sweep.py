@@ -9,8 +9,8 @@ import tomllib
 from ..case import CaseError
 from ..study.sweep import RUNS_DIR, sweep
 from ..study.table import PLOT_COLUMNS, _cell, numeric_keys, plot_keys, plot_sweep, varied_keys
-from .common import (EXIT_BAD_INPUT, EXIT_OK, EXIT_STOPPED, OPTION_NAMES, _error, _float, _load, add_method_option,
-                     add_rtol_option)
+from .common import (EXIT_BAD_INPUT, EXIT_OK, EXIT_STOPPED, OPTION_NAMES, _error, _float, _load, _positive_int,
+                     add_method_option, add_rtol_option)
 
 #: The options of ``gibbsimpact run`` that ``sweep`` takes too, set in every run (Case.override_problems keywords).
 SWEEP_OPTIONS = ("t_end", "method", "rtol")
@@ -84,18 +84,6 @@ def parse_vary(option: str) -> tuple[str, list]:
     if any(not s for s in items):
         raise VaryError(f"--vary {option}: an empty value in the list")
     return key, [_value(s) for s in items]
-
-
-def _positive_int(text: str) -> int:
-    import argparse
-
-    try:
-        k = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if k < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {k}")
-    return k
 
 
 def add_parser(subparsers):

@@ -1,7 +1,7 @@
 """The figure of a sweep: one column of its table against a varied key, one line per value of another.
 
 Plain data in (the table's rows, as gibbsimpact.study.sweep returns them); matplotlib is
-imported only when the figure is drawn (plotting.figures._figure).
+imported only when the figure is drawn (plotting.style._figure).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from numbers import Real
 import numpy as np
 
 from ..simulation.results import STATUS_FINISHED
-from .figures import _figure, _given_axes, _legend, _style
+from .style import _figure, _given_axes, _legend, _style
 
 __all__ = ["plot_column"]
 

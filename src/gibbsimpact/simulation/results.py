@@ -199,14 +199,14 @@ class Result:
         return np.array([r.time for r in self.impacts])
 
     # -- output (thin delegations to gibbsimpact.io and gibbsimpact.plotting) --
-    def to_csv(self, directory) -> dict:
+    def to_csv(self, directory, every: int = 1) -> dict:
         """Write ``timeseries.csv`` and ``impacts.csv`` into ``directory``; returns their paths.
 
-        See :func:`gibbsimpact.io.to_csv` for the columns.
+        See :func:`gibbsimpact.io.to_csv` for the columns and ``every`` (every K-th sample only).
         """
         from ..io.result_files import to_csv
 
-        return to_csv(self, directory)
+        return to_csv(self, directory, every)
 
     def save(self, path, metadata: dict | None = None):
         """Store everything in an NPZ archive; ``gibbsimpact.load_result(path)`` reads it back exactly."""

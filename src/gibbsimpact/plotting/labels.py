@@ -1,0 +1,158 @@
+"""Texts of the figures: coordinate names in mathtext, the contacts of an impact, the footnote,
+titles and the early-stop status."""
+
+from __future__ import annotations
+
+import re
+import textwrap
+
+import numpy as np
+
+
+# --------------------------------------------------------------------------
+# Labels
+
+def _tex(name: str, dot: bool = False) -> str:
+    """Mathtext label of a coordinate name: theta_-1 -> theta_{-1}, delta_1_2 -> delta_{1,2}, d_2 -> d_{2}."""
+    if name.startswith("theta_"):
+        sym, sub = r"\theta", name[6:]
+    elif name.startswith("delta_"):
+        sym, sub = r"\delta", name[6:].replace("_", ",")
+    elif name.startswith("d_"):
+        sym, sub = "d", name[2:]
+    else:
+        sym, sub = "X", name[1:]
+    if dot:
+        sym = r"\dot{" + sym + "}"
+    return f"${sym}_{{{sub}}}$"
+
+
+def _joint_list(joints) -> str:
+    return "+".join(f"O{j}" for j in joints)
+
+
+def _is_stop(wall) -> bool:
+    """True for an end-stop contact (a prismatic joint at an end of its range: wall index -1)."""
+    return int(wall) < 0
+
+
+def _sample_at(result, time: float) -> np.ndarray:
+    """q at the first sample at or after ``time`` (an impact time: the state before the impact)."""
+    return result.q[min(int(np.searchsorted(result.t, time, side="left")), len(result.t) - 1)]
+
+
+def _stop_label(result, joint: int, q) -> str:
+    """'stop i (d_min)' / 'stop i (d_max)' for an end-stop impact of prismatic joint i at q, or
+    'stop i' when it is another limit (a carriage at the end of a Pb link's protruding part)."""
+    model = result.model
+    jt = model.chain.joints[joint - 1] if 1 <= joint <= model.n_links else None
+    if jt is None or jt.kind == "R":
+        return f"stop {joint}"
+    d = float(q[model.theta_index[joint - 1]])
+    lo, hi = jt.range
+    tol = 1e-3 * (hi - lo)
+    if abs(d - lo) <= tol:
+        return f"stop {joint} (d_min)"
+    if abs(d - hi) <= tol:
+        return f"stop {joint} (d_max)"
+    return f"stop {joint}"
+
+
+def _point_name(model, j: int) -> str:
+    """'O2' for contact point j (1-based) of model.contact_point_names; 'link 1' for the closest point
+    of a flexible link (contacts.Contacts: the columns after the P points)."""
+    from ..simulation.contacts import flexible_links
+
+    P = model.n_joints
+    if j <= P:
+        return f"O{j}"
+    flex = flexible_links(model)
+    return f"link {flex[j - P - 1] + 1}" if j - P - 1 < len(flex) else f"point {j}"
+
+
+def _point_description(model, j: int) -> str:
+    """What contact point O_j (1-based, Model.n_joints) is on the chain: 'joint 2' (a revolute joint),
+    'carriage of joint 2' (SlidingPrismatic), 'rear end of link 2, behind its
+    guide' (FixedPrismatic), 'tip of link 3' (the last link), and for the points after O_(n+1) 'tip
+    of link 1, guide of joint 2' or 'tip of link 1, host of carriage 2'."""
+    n = model.n_links
+    if j <= n:
+        return {"R": f"joint {j}", "Pa": f"carriage of joint {j}",
+                "Pb": f"rear end of link {j}, behind its guide"}[model.joint_kinds[j - 1]]
+    if j == n + 1:
+        return f"tip of link {n}"
+    # The points after O_(n+1): the tips of the hosts of prismatic joints i >= 2, in joint order.
+    joint = [i for i, kd in enumerate(model.joint_kinds, start=1) if i > 1 and kd != "R"][j - n - 2]
+    what = "guide" if model.joint_kinds[joint - 1] == "Pb" else "host of carriage"
+    return f"tip of link {joint - 1}, {what} {'of joint ' if what == 'guide' else ''}{joint}"
+
+
+def _point_label(model, j: int) -> str:
+    """Legend label of contact point O_j (1-based): '$O_{3}$ (tip of link 2)'."""
+    return f"$O_{{{j}}}$ ({_point_description(model, j)})"
+
+
+def _contacts_text(result, rec) -> str:
+    """The contacts of an impact: 'O2' for a joint point at a wall, 'link 1' for a link's span,
+    'stop 2 (d_max)' for an end stop."""
+    walls = tuple(rec.wall) if len(rec.wall) == len(rec.joints) else (0,) * len(rec.joints)
+    if not any(_is_stop(w) for w in walls) and all(j <= result.model.n_joints for j in rec.joints):
+        return _joint_list(rec.joints)
+    q = _sample_at(result, rec.time)
+    return "+".join(_stop_label(result, int(j), q) if _is_stop(w) else _point_name(result.model, int(j))
+                    for j, w in zip(rec.joints, walls))
+
+
+def _split_contacts(rec):
+    """(wall contacts [(contact point j, normal (3,), where it touched (3,) or None)], end-stop joints [i])
+    of an impact record. The point is ImpactRecord.points (None in older files: then O_j)."""
+    walls = tuple(rec.wall) if len(rec.wall) == len(rec.joints) else (0,) * len(rec.joints)
+    normals = np.asarray(rec.normals, dtype=float).reshape(-1, 3)
+    points = getattr(rec, "points", None)
+    hits, stops = [], []
+    for c, (j, w) in enumerate(zip(rec.joints, walls)):
+        if _is_stop(w):
+            stops.append(int(j))
+        else:
+            hits.append((int(j), normals[c] if c < len(normals) else np.zeros(3),
+                         None if points is None else np.asarray(points[c], dtype=float)))
+    return hits, stops
+
+
+def _status_line(result, width: int = 150) -> str:
+    """'' for a finished run; else the status, the time reached and the message, shortened to
+    ``width`` characters (parenthetical remarks dropped first)."""
+    if result.status == "finished":
+        return ""
+    head = f"STOPPED EARLY ({result.status}) at t = {float(result.t[-1]):.6g} s: "
+    msg, prev = str(result.message), None
+    while msg != prev:  # innermost first, so that nested remarks go whole
+        msg, prev = re.sub(r"\s*\([^()]*\)", "", msg), msg
+    return head + textwrap.shorten(msg, max(20, width - len(head)), placeholder=" ...")
+
+
+def _title(result, what, case_name=None, width_in: float = 9.5):
+    """Figure title; a run that stopped early gets its status below, wrapped to the figure width."""
+    title = f"{case_name}: {what}" if case_name else what
+    per_line = int(12.5 * width_in)  # characters of a 10 pt line
+    status = _status_line(result, width=2 * per_line)
+    lines = textwrap.wrap(status, per_line)
+    if len(lines) > 2:
+        lines = [lines[0], textwrap.shorten(" ".join(lines[1:]), per_line, placeholder=" ...")]
+    return "\n".join(textwrap.wrap(title, int(1.1 * per_line)) + lines)
+
+
+def _wrap_note(note: str, width_in: float, fontsize: float = 7.0) -> str:
+    """``note`` broken into lines that fit a figure ``width_in`` inches wide (0.55 em per character:
+    textwrap, not matplotlib's wrap=True, which renders the text word by word to measure it)."""
+    return "\n".join(textwrap.wrap(note, max(40, int(width_in * 72.0 / (0.55 * fontsize)))))
+
+
+def _status_box(ax, result):
+    """The early-stop status in a red box in the top left corner of ``ax`` (drawing into given axes)."""
+    status = _status_line(result, width=90)
+    if status:
+        text = "\n".join(textwrap.wrap(status, 60))
+        put = ax.text2D if ax.name == "3d" else ax.text
+        put(0.01, 0.99, text, transform=ax.transAxes, fontsize=7, color="darkred", va="top", ha="left", zorder=20,
+            bbox={"boxstyle": "round", "fc": "#fde0dc", "ec": "darkred", "alpha": 0.9})

@@ -1,0 +1,56 @@
+"""Configuration figures of long runs: one panel per contact episode; in 3D the chain at t0 and the
+floor shadow drawn unlike each other."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import FE_ARM_BURSTS, burst_result, single_link_sphere_model, single_link_sphere_state
+from gibbsimpact.plotting import plot_configurations, plot_trajectory
+
+
+def test_one_panel_per_contact_episode():
+    res = burst_result()  # 101 impacts in 7 bursts, each within 0.85 ms
+    fig = plot_configurations(res, n_points=5)
+    titles = [a.get_title() for a in fig.axes if a.get_visible()]
+    assert len(titles) == 1 + len(FE_ARM_BURSTS)  # t0, then one per episode (the run finished)
+    first = np.cumsum([0] + [n for _, n in FE_ARM_BURSTS])
+    for title, a, b, (start, _) in zip(titles[1:], first[:-1] + 1, first[1:], FE_ARM_BURSTS):
+        assert title.startswith(f"impacts {a}\u2013{b}: t = {start:.6f} \u2026 ") and title.endswith(", O3")
+    assert "101 impacts in 7 contact episodes, one panel each" in fig._suptitle.get_text()
+    # The panel shows the state before the episode's first impact, with its contact point starred.
+    panel = fig.axes[1]
+    stars = [ln for ln in panel.get_lines() if ln.get_marker() == "*"]
+    assert len(stars) == 1
+    # Impacts further apart than 1/300 of the run keep a panel each, titled as before.
+    apart = burst_result(bursts=((0.2, 1), (0.5, 1), (0.51, 1)))
+    titles = [a.get_title() for a in plot_configurations(apart, n_points=5).axes if a.get_visible()]
+    assert [t.split(":")[0] for t in titles[1:]] == ["impact 1", "impact 2", "impact 3"]
+
+
+@pytest.fixture(scope="module")
+def spatial():
+    import gibbsimpact as gi
+
+    model = single_link_sphere_model()
+    q, qd = single_link_sphere_state(model)
+    return gi.simulate(model, q, qd, (0.0, 0.2), walls=[gi.Sphere(1.0)], rtol=1e-8, atol=1e-10,
+                       output_dt=1e-2)
+
+
+def test_chain_at_t0_and_floor_shadow_look_different_in_3d(spatial):
+    import matplotlib.colors as mc
+
+    ax = plot_trajectory(spatial, n_points=11).axes[0]
+    assert ax.name == "3d"
+    legend = {t.get_text(): h for t, h in zip(ax.get_legend().get_texts(), ax.get_legend().legend_handles)}
+    t0, shadow = legend["chain at $t_0$"], legend["shadow on the floor"]
+    assert t0.get_linestyle() == "--" and shadow.get_linestyle() == "-"
+    assert mc.to_hex(t0.get_color()) != mc.to_hex(shadow.get_color())
+    assert shadow.get_linewidth() > t0.get_linewidth()
+    # The drawing itself: the link at t0 in the dashed style, its shadow in the wide pale one.
+    style = {(ln.get_linestyle(), mc.to_hex(ln.get_color()), ln.get_linewidth()) for ln in ax.get_lines()
+             if len(ln.get_xdata()) > 2}
+    assert ("--", mc.to_hex(t0.get_color()), t0.get_linewidth()) in style
+    assert ("-", mc.to_hex(shadow.get_color()), shadow.get_linewidth()) in style
