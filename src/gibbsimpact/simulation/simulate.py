@@ -137,10 +137,8 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
         Result.contact_forces) or "stop" (status "zeno" there)
     link_contacts : True: the closest point of every flexible link to every wall is a contact
         candidate too; False: joints only, as in the published case studies
-    max_cpu_time : [s] or None: the run stops with status "budget_exceeded" once it has used this much
-        CPU time (its thread's, checked every 256 right-hand sides); max_rhs_calls : int or None,
-        likewise after this many right-hand sides (gibbsimpact.simulation.budget). None: no limit.
-        gibbsimpact.simulation.cost.estimate_cost tells beforehand what a run should use
+    max_cpu_time [s], max_rhs_calls : None (no limit), or the CPU time (its thread's) and right-hand
+        sides after which the run stops with "budget_exceeded" (simulation.budget; cost estimates them)
     _in_step_check : private; False leaves solve_ivp's sign test at step ends only (benchmarks, tests)
 
     Returns
@@ -149,8 +147,8 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
     and everything computed until then. A KeyboardInterrupt (Ctrl-C, a notebook's interrupt)
     stops the run with status "interrupted"; a user callback (an input, progress) that raises or
     returns a non-finite value, with "callback_failed" and a message naming it, its coordinate
-    and the time; a run over a limit, with "budget_exceeded". Bad arguments raise ValueError before the first step, as does an input that
-    fails at the initial state.
+    and the time; a run over a limit, with "budget_exceeded". Bad arguments raise ValueError
+    before the first step, as does an input that fails at the initial state.
     """
     started = time.perf_counter()
     q0, qdot0 = model.check_state(q0, qdot0, "q0", "qdot0")
