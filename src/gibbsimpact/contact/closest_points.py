@@ -47,7 +47,6 @@ from typing import NamedTuple
 import numpy as np
 
 from .link_tables import _state, _tables
-from .walls import Circle, Plane, Sphere
 
 #: Error left in s (relative to the search interval's length) at which the Newton refinement stops.
 X_TOL = 1e-12
@@ -88,21 +87,17 @@ def _wall_params(walls) -> _WallParams:
     plane = np.zeros(W, dtype=bool)
     nv, off, proj, c, R = np.zeros((W, 3)), np.zeros(W), np.zeros((W, 3)), np.zeros((W, 3)), np.zeros(W)
     for k, wl in enumerate(walls):
-        if isinstance(wl, Plane):
+        # The wall kinds as the compiled code takes them (Wall.packed(): 0 plane, 1 circle, 2 sphere).
+        kind, p = wl.packed()
+        if kind == 0:  # (point, normal)
             plane[k] = True
             proj[k] = 1.0  # g' = n.P p1 with P = I holds for a plane too
-            nv[k] = wl.normal_vector
-            off[k] = float(np.dot(wl.normal_vector, wl.point))
-        elif isinstance(wl, Circle):
-            proj[k] = (1.0, 1.0, 0.0)
-            c[k, :2] = wl.center
-            R[k] = wl.radius
-        elif isinstance(wl, Sphere):
-            proj[k] = 1.0
-            c[k] = wl.center
-            R[k] = wl.radius
-        else:
-            raise TypeError(f"walls[{k}]={wl!r} is not a gibbsimpact Plane, Circle or Sphere")
+            nv[k] = p[3:]
+            off[k] = float(np.dot(p[3:], p[:3]))
+        else:  # (R, centre): a circle's 2D, a sphere's 3D
+            proj[k] = (1.0, 1.0, 0.0) if kind == 1 else 1.0
+            c[k, :2 if kind == 1 else 3] = p[1:3 if kind == 1 else 4]
+            R[k] = p[0]
     return _WallParams(plane, nv, off, proj, c, R)
 
 

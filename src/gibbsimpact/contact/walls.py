@@ -127,6 +127,13 @@ class Circle:
         dv = _dot(d, vt)
         return self.radius - r, n, -(_dot(vt, vt) - dv * dv / (r * r)) / r
 
+    def parameters(self) -> dict:
+        """Its geometry as case files and result files name it."""
+        return {"radius": self.radius, "center": list(self.center)}
+
+    def describe(self) -> str:
+        return f"circle R={self.radius:g} m centre ({self.center[0]:g}, {self.center[1]:g})"
+
     def packed(self) -> tuple:
         """(kind, 6 floats): this wall for the compiled contact terms (kernel.contact_terms)."""
         return 1, (self.radius, *self.center, 0.0, 0.0, 0.0)
@@ -180,6 +187,13 @@ class Sphere:
         dv = _dot(d, v)
         return self.radius - r, n, -(_dot(v, v) - dv * dv / (r * r)) / r
 
+    def parameters(self) -> dict:
+        """Its geometry as case files and result files name it."""
+        return {"radius": self.radius, "center": list(self.center)}
+
+    def describe(self) -> str:
+        return f"sphere R={self.radius:g} m centre ({', '.join(f'{c:g}' for c in self.center)})"
+
     def packed(self) -> tuple:
         """(kind, 6 floats): this wall for the compiled contact terms (kernel.contact_terms)."""
         return 2, (self.radius, *self.center, 0.0, 0.0)
@@ -226,12 +240,22 @@ class Plane:
         """Gap (K,) [m], normal (K, 3) and curvature term (K,) [m/s^2] (zero; None without v), as Circle.geometry."""
         return self.gap(p), self.normal(p), None if v is None else self.curvature(p, v)
 
+    def parameters(self) -> dict:
+        """Its geometry as case files and result files name it."""
+        return {"point": list(self.point), "normal": list(self.normal_vector)}
+
+    def describe(self) -> str:
+        return (f"plane through ({', '.join(f'{c:g}' for c in self.point)}) normal "
+                f"({', '.join(f'{c:g}' for c in self.normal_vector)})")
+
     def packed(self) -> tuple:
         """(kind, 6 floats): this wall for the compiled contact terms (kernel.contact_terms)."""
         return 0, (*self.point, *self.normal_vector)
 
 
 WALL_TYPES = (Circle, Sphere, Plane)
+#: Each wall class by the name case files and result files give it (``type``): the one table of wall kinds.
+WALL_KINDS = {cls.kind: cls for cls in WALL_TYPES}
 
 _PACKED: dict = {}
 
@@ -252,12 +276,7 @@ def packed_walls(walls):
 def describe(wall) -> str:
     """One-line description of a wall, for messages and summaries."""
     mu = f", friction {wall.friction:g}" if wall.friction else ""
-    if isinstance(wall, Circle):
-        return f"circle R={wall.radius:g} m centre ({wall.center[0]:g}, {wall.center[1]:g}){mu}"
-    if isinstance(wall, Sphere):
-        return f"sphere R={wall.radius:g} m centre ({', '.join(f'{c:g}' for c in wall.center)}){mu}"
-    return (f"plane through ({', '.join(f'{c:g}' for c in wall.point)}) normal "
-            f"({', '.join(f'{c:g}' for c in wall.normal_vector)}){mu}")
+    return wall.describe() + mu
 
 
 def tangent_basis(n: np.ndarray) -> np.ndarray:

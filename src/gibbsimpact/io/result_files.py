@@ -44,7 +44,7 @@ from ..dynamics.gibbs_appell import Energy
 from ..model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
 from ..model.modes import Mode
 from ..simulation.results import ImpactRecord, Result
-from ..contact.walls import Circle, Plane, Sphere, describe
+from ..contact.walls import WALL_KINDS, describe
 
 __all__ = [
     "FORMAT_VERSION", "atomic_path", "check_directory", "load_result", "model_from_dict", "model_to_dict",
@@ -488,28 +488,20 @@ def model_from_dict(d: dict) -> Model:
 
 
 def wall_to_dict(w) -> dict:
-    if isinstance(w, Circle):
-        d = {"type": "circle", "radius": w.radius, "center": list(w.center), "restitution": w.restitution}
-    elif isinstance(w, Sphere):
-        d = {"type": "sphere", "radius": w.radius, "center": list(w.center), "restitution": w.restitution}
-    elif isinstance(w, Plane):
-        d = {"type": "plane", "point": list(w.point), "normal": list(w.normal_vector), "restitution": w.restitution}
-    else:
+    if WALL_KINDS.get(getattr(w, "kind", None)) is not type(w):
         raise ValueError(f"cannot store wall {w!r}")
+    d = {"type": w.kind, **w.parameters(), "restitution": w.restitution}
     if w.friction:
         d["friction"] = w.friction
     return d
 
 
 def wall_from_dict(d: dict):
-    mu = d.get("friction", 0.0)
-    if d["type"] == "circle":
-        return Circle(radius=d["radius"], center=tuple(d["center"]), restitution=d["restitution"], friction=mu)
-    if d["type"] == "sphere":
-        return Sphere(radius=d["radius"], center=tuple(d["center"]), restitution=d["restitution"], friction=mu)
-    w = Plane(point=tuple(d["point"]), normal=tuple(d["normal"]), restitution=d["restitution"], friction=mu)
-    # The stored normal is already unit length; keep its exact digits.
-    object.__setattr__(w, "normal_vector", tuple(float(v) for v in d["normal"]))
+    kind = WALL_KINDS[d["type"]]
+    given = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items() if k not in ("type", "friction")}
+    w = kind(**given, friction=d.get("friction", 0.0))
+    if "normal" in d:  # the stored normal is already unit length: keep its exact digits
+        object.__setattr__(w, "normal_vector", tuple(float(v) for v in d["normal"]))
     return w
 
 
