@@ -11,6 +11,7 @@ docstring derives the O(n^2) composite-body recursion):
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -101,6 +102,7 @@ def _raise_singular(model, q, status, dmin, dmax):
 
 _NDARRAY = np.ndarray
 _EMPTY = np.empty
+_isfinite = math.isfinite
 _JOB_QDDOT = _k.JOB_QDDOT
 
 
@@ -155,6 +157,26 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
     if f(fdat, idat, q, qdot, zeros if Q is None else Q, _JOB_QDDOT, v0, v1, out) != 0.0:
         _singular(model, q, qdot, Q)
     return out
+
+
+def checked_forward_dynamics(model, q, qdot) -> np.ndarray:
+    """forward_dynamics(model, q, qdot) with q, qdot validated as Model.check_state does (its messages), at
+    the cost of one dot product when they are float64 (N,) arrays with finite entries: the call behind
+    Model.forward_dynamics. (forward_dynamics itself passes non-finite states through: a solver's trial
+    state may be one, and its NaN accelerations make the solver shrink the step.)"""
+    f, fdat, idat, zeros, v0, v1, _ = model.kernel_call
+    if q.__class__ is _NDARRAY and qdot.__class__ is _NDARRAY and q.shape == zeros.shape \
+            and qdot.shape == zeros.shape and _isfinite(q.dot(q) + qdot.dot(qdot)):
+        out = _EMPTY(zeros.size)
+        try:
+            status = f(fdat, idat, q, qdot, zeros, _JOB_QDDOT, v0, v1, out)
+        except TypeError:
+            pass
+        else:
+            if status:
+                _singular(model, q, qdot, None)
+            return out
+    return forward_dynamics(model, *model.check_state(q, qdot))
 
 
 def energy(model, q: np.ndarray, qdot: np.ndarray) -> Energy:

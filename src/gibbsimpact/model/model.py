@@ -287,7 +287,7 @@ class Model:
 
     def forward_dynamics(self, q, qdot):
         """Generalised accelerations qddot, shape (N,): M qddot = -h - dV/dq."""
-        return _dynamics().forward_dynamics(self, *self.check_state(q, qdot))
+        return _dynamics().checked_forward_dynamics(self, q, qdot)
 
     def energy(self, q, qdot):
         """Energy(kinetic, gravity, strain, total) in joules."""
