@@ -135,6 +135,7 @@ class Result:
     friction_forces: np.ndarray | None = None
     resting_time: float = 0.0
     _energy_cache: Energy | None = field(default=None, repr=False)
+    _episodes_cache: list | None = field(default=None, repr=False)
 
     def __repr__(self) -> str:
         """One line: status, time span, samples, N, impacts (the first few times), energy error, cost."""
@@ -192,6 +193,15 @@ class Result:
         from ..dynamics.kinematics import joint_velocities_batch
 
         return joint_velocities_batch(self.model, self.q, self.qdot)
+
+    @property
+    def episodes(self) -> list:
+        """The collision episodes, a list of gibbsimpact.simulation.episodes.Episode (computed at the first use)."""
+        from .episodes import episodes
+
+        if self._episodes_cache is None:
+            self._episodes_cache = episodes(self)
+        return self._episodes_cache
 
     @property
     def impact_times(self) -> np.ndarray:
