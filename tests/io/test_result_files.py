@@ -149,13 +149,14 @@ def test_csv_every_k_keeps_the_full_rows_at_those_samples(result, tmp_path):
     F[K // 3:K // 2, 0, 1] = np.linspace(1.0, 2.0, K // 2 - K // 3)  # some resting contact
     res = dataclasses.replace(result, contact_forces=F)
     full, part = io.to_csv(res, tmp_path / "full"), io.to_csv(res, tmp_path / "part", every=7)
-    assert set(full) == set(part) == {"timeseries", "impacts", "contact_forces"}
+    assert set(full) == set(part) == {"timeseries", "impacts", "episodes", "contact_forces"}
     rows = list(range(0, K, 7)) + ([] if (K - 1) % 7 == 0 else [K - 1])
     for name in ("timeseries", "contact_forces"):
         a, b = full[name].read_text().splitlines(), part[name].read_text().splitlines()
         assert len(b) == 1 + len(rows) == 1 + -(-K // 7) + ((K - 1) % 7 != 0)
         assert b == [a[0]] + [a[1 + r] for r in rows]
     assert full["impacts"].read_text() == part["impacts"].read_text()
+    assert full["episodes"].read_text() == part["episodes"].read_text()  # whole, as impacts.csv
     assert res.to_csv(tmp_path / "alias", every=7)["timeseries"].read_text() == part["timeseries"].read_text()
     for bad in (0, -2, 1.5, True, "3"):
         with pytest.raises(ValueError, match="every="):

@@ -44,7 +44,7 @@ from ..dynamics.kinematics import joint_positions_and_jacobians
 from .contact_points import contact_points, rebound_period
 from .contacts import Contacts, gap_lipschitz
 
-__all__ = ["Episode", "episodes", "dwell_times"]
+__all__ = ["BAND_SETTINGS", "Episode", "dwell_times", "episodes", "has_episodes"]
 
 
 class Episode(NamedTuple):
@@ -100,10 +100,20 @@ class Episode(NamedTuple):
         return len(self.impacts)
 
 
+#: The settings of a run that the rules read (the contact band, contacts.contact_band).
+BAND_SETTINGS = ("contact_tol", "rtol", "atol")
+
+
+def has_episodes(result) -> bool:
+    """Whether the Result records the contact band of its run (a Result of simulate or load_result does;
+    one built by hand without settings does not), so that :func:`episodes` applies."""
+    return all(k in result.settings for k in BAND_SETTINGS)
+
+
 def _run_settings(result) -> tuple[float, float, float, bool]:
     """(contact_tol [m], rtol, atol, link_contacts) of the run that made the Result."""
     s = result.settings
-    missing = [k for k in ("contact_tol", "rtol", "atol") if k not in s]
+    missing = [k for k in BAND_SETTINGS if k not in s]
     if missing:
         raise ValueError(f"result.settings has no {', '.join(missing)}: collision episodes need the contact band "
                          "of the run that made the Result (gibbsimpact.simulate records it); give a Result of "

@@ -135,7 +135,8 @@ class Result:
     friction_forces: np.ndarray | None = None
     resting_time: float = 0.0
     _energy_cache: Energy | None = field(default=None, repr=False)
-    _episodes_cache: list | None = field(default=None, repr=False)
+    # Not an __init__ argument: dataclasses.replace (new samples or forces) must not carry it over.
+    _episodes_cache: list | None = field(default=None, init=False, repr=False)
 
     def __repr__(self) -> str:
         """One line: status, time span, samples, N, impacts (the first few times), energy error, cost."""
