@@ -216,6 +216,29 @@ def test_summary_json_is_strict_and_complete(result, case, tmp_path):
     assert result.summary(case) == d
 
 
+def test_episodes_in_the_files(tmp_path):
+    # The flexible arm of issue 26 (one element): 23 impacts and resting phases in one episode.
+    from conftest import issue26_arm
+    from gibbsimpact.io.episode_files import EPISODE_COLUMNS
+
+    res = issue26_arm()
+    (ep,) = res.episodes
+    # result.npz keeps what the episodes are computed from, exactly: the same episodes come back.
+    assert gi.load_result(res.save(tmp_path / "r.npz")).episodes == res.episodes
+    cols = io.read_csv(res.to_csv(tmp_path)["episodes"])
+    assert list(cols) == EPISODE_COLUMNS
+    assert cols["episode"].tolist() == [1] and cols["contact_points"].tolist() == ["O2"]
+    assert (cols["first_impact"][0], cols["last_impact"][0], cols["n_impacts"][0]) == (1, 23, 23)
+    for name, value in (("start_s", ep.start), ("end_s", ep.end), ("impulse_N_s", ep.impulse),
+                        ("energy_lost_J", ep.energy_lost), ("restitution", ep.restitution),
+                        ("max_force_N", ep.max_force), ("max_penetration_m", ep.max_penetration)):
+        assert cols[name][0] == value, name  # the shortest text that reads back to the same double
+    assert cols["ended"].tolist() == ["true"] and cols["walls"].tolist() == [1]
+    s = json.loads(io.write_summary_json(res, tmp_path / "summary.json").read_text())
+    assert s["n_episodes"] == 1 and s["episodes"][0]["restitution"] == ep.restitution
+    assert s["episodes"][0]["contact_points"] == ["O2"] and s["episodes"][0]["walls"] == [1]
+
+
 def test_tagged_json_keeps_types():
     x = {"a": (1, 2.0, None), "b": [math.inf, -math.inf], "c": np.arange(3.0), "d": np.int64(4), "e": {1: "x"}}
     back = io._untag(json.loads(json.dumps(io._tag(x))))

@@ -35,6 +35,7 @@ Rules, with the symbols of the docs (b the contact band, §14.2):
 
 from __future__ import annotations
 
+from numbers import Real
 from typing import NamedTuple
 
 import numpy as np
@@ -280,7 +281,7 @@ def episodes(result, dwell: float | None = None) -> list[Episode]:
     Returns [] for a run without walls. Raises ValueError for a bad ``dwell`` or a Result whose settings
     lack contact_tol, rtol, atol.
     """
-    if dwell is not None and (isinstance(dwell, bool) or not np.isscalar(dwell) or not 0.0 <= float(dwell) < np.inf):
+    if dwell is not None and (isinstance(dwell, bool) or not isinstance(dwell, Real) or not 0.0 <= dwell < np.inf):
         raise ValueError(f"episodes dwell={dwell!r} must be None (each contact point's own) or a time >= 0 in s")
     if not result.walls or len(result.t) == 0:
         return []

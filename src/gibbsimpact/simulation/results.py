@@ -112,6 +112,17 @@ class Result:
         O_(j+1) while the pair rests on a wall with friction (sticking or slipping); None when
         no wall has friction
     resting_time : float [s], the simulated time spent with at least one pair in resting contact
+    episodes : list of Episode (property, computed from the above at its first use;
+        gibbsimpact.simulation.episodes, docs/theory.md §14.7): the collision episodes, each the
+        impacts and resting phases of one meeting of the chain with the walls. The chain is the body
+        (contacts of several links or walls that overlap in time are one episode); a pair is engaged
+        from its impact or resting force until its gap leaves the contact band, and the episode takes
+        in what starts within one period of the struck link's slowest vibration (0 for a point of a
+        rigid part: there each Newton impact is an episode). Each gives its start and end, impulse,
+        energy lost E(start) - E(end), effective restitution (the rigid chain's normal velocity of the
+        first contact from the generalised momenta after, gravity and inputs removed, over before: e for
+        one impact of a rigid chain, the angular-momentum ratio for an arm on a pivot), largest impulse
+        and resting force, and deepest penetration (below contact_tol with Newton's law)
     """
 
     model: object
