@@ -225,8 +225,8 @@ def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None,
 
     First removes the files an earlier run left there (clear_outputs). Then, each file atomically
     (io.atomic_path): summary.json (its ``output_files`` lists the files still pending), result.npz,
-    impacts.csv, episodes.csv, contact_forces.csv (when some pair rested), timeseries.csv, summary.json again (when
-    figures or the animation follow), the figures, animation.gif, and summary.json a last time. A file
+    impacts.csv, episodes.csv, contact_forces.csv (when some pair rested), timeseries.csv, summary.json
+    again (when figures or the animation follow), the figures, animation.gif, and summary.json a last time. A file
     that cannot be written (an OSError: disk full, quota, I/O error) is recorded, not raised: summary.json and result.npz then go to a temporary folder (report.fallback),
     the other data files are still tried, and the figures and the animation are skipped, as they are
     when the run was interrupted or a signal arrives while the results are written (``interrupts``).

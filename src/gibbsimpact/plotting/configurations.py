@@ -49,8 +49,8 @@ def _episode_panel(result, first: int, last: int) -> _Panel:
 
 def _panels(result) -> list:
     """The panels of plot_configurations: the initial state, the impact groups (impacts.impact_groups: the
-    collision episodes of a run; the first ones and the last, _MAX_PANELS in all) and, without impacts or when the run stopped after
-    its last impact, the final state."""
+    collision episodes of a run; the first ones and the last, _MAX_PANELS in all) and, without impacts or
+    when the run stopped after its last impact, the final state."""
     panels = [_Panel(float(result.t[0]), result.q[0], f"t = {result.t[0]:.6g} s (initial)", (), None, ())]
     t_end = float(result.t[-1])
     last = result.impacts[-1].time if result.impacts else -np.inf
@@ -134,8 +134,9 @@ def _configurations_figure(planar: bool, n: int, title: str):
 
 def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
     """The chain at t0 and at each collision episode with impacts (impacts.impact_groups: Result.episodes;
-    for a Result built by hand, impacts closer than 1/300 of the run); at most 11 episode panels, the first 10 and the last; a run that stopped early
-    also at its last state), walls drawn, equal axes; returns the Figure.
+    for a Result built by hand, impacts closer than 1/300 of the run; at most 11 episode panels, the first
+    10 and the last; a run that stopped early also at its last state), walls drawn, equal axes; returns
+    the Figure.
 
     Deformed links are drawn with their mode shapes, at the state before the episode's first impact;
     the episode's impacting points are red stars with their wall normal as a red arrow. ax : None (a

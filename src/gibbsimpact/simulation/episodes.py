@@ -150,7 +150,7 @@ def _samples(result) -> _Samples:
     force = np.zeros(gap.shape)
     if result.contact_forces is not None:
         F = np.asarray(result.contact_forces, dtype=float)
-        force[:, :, :F.shape[2]] = F
+        force[:, :F.shape[1], :F.shape[2]] = F[:, :gap.shape[1], :gap.shape[2]]
     # Impact i starts flight phase i + 1: its state after is the first sample of that phase.
     after = np.minimum(np.searchsorted(np.asarray(result.phase), np.arange(1, len(result.impacts) + 1)), K - 1)
     return _Samples(gap, band, force, after)
