@@ -80,3 +80,14 @@ def test_joint_limit_solver_keys(tmp_path):
     assert problems["joint_restitution"].startswith("must be in [0, 1]")
     with pytest.raises(CaseError, match="joint_limit: unknown value 'bounce'"):
         case.simulate_kwargs(joint_limit="bounce")
+
+
+def test_limit_solver_keys(tmp_path):
+    """[solver] max_cpu_time_s and max_rhs_calls: simulate's limits, held to their ranges, overridable."""
+    case = gi.load_case(write(tmp_path, GOOD + "\n[solver]\nmax_cpu_time_s = 60.0\nmax_rhs_calls = 500\n"))
+    assert case.solver == {"max_cpu_time": 60.0, "max_rhs_calls": 500}
+    assert case.simulate_kwargs(max_rhs_calls=10)["max_rhs_calls"] == 10
+    assert case.simulate(max_rhs_calls=10).status == "budget_exceeded"
+    d = dict(problems_of(tmp_path, GOOD + "\n[solver]\nmax_cpu_time_s = 0.0\nmax_rhs_calls = 2.5\n").problems)
+    assert d["solver.max_cpu_time_s"] == "must be in [0.001, 1e9] s (a millisecond to about 30 years), got 0"
+    assert d["solver.max_rhs_calls"] == "expected an integer, got the number 2.5"

@@ -194,3 +194,57 @@ def test_check_impact_names_the_point_and_only_ill_posed_ones():
     circle = (gi.Circle(1.5, (0.0, 0.0)),)
     assert check_impact(two_link_circle_model(), record([1, 2, 3], [0, 0, 0], [1.0, 1.0, 1.0]), circle) == []
     assert check_impact(issue26_model(elements=0), record([2], [0], [1.0]), floor) == []
+
+
+# -- spinning flexible links (no geometric stiffening: issue 24 item 4) ----------------------------
+
+BETA1_L = 1.8751040687119611  # first root of cos(b) cosh(b) = -1: clamped-free beam
+
+
+def _spinning_link(modes=("clamped-free",)):
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode(k, "y") for k in modes])
+    return gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.0))))
+
+
+def test_first_frequency_is_the_clamped_free_closed_form():
+    # omega_1 = (beta_1 l)^2 sqrt(EI / (mu l^4)): the clamped-free mode is exact, so only the quadrature
+    # of the modal integrals (error < 1e-12 on M, tests/model/test_quadrature.py) separates the two.
+    w1 = _spinning_link().link_data[0].first_frequency
+    assert w1 == pytest.approx(BETA1_L ** 2 * np.sqrt(20.0), rel=1e-9)
+    assert np.isnan(gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0)])).link_data[0].first_frequency)
+
+
+def test_spin_rate_is_the_angular_velocity_across_the_link():
+    model = _spinning_link()
+    q, qd = model.state(theta_1=0.7), model.state(theta_1=3.0, delta_1_1=0.2)
+    assert validity.spin_rates(model, q[None], qd[None])[0, 0] == pytest.approx(3.0, rel=1e-14)
+    # A free link spinning about its own axis (theta_-1 turns about X1, the link's x axis here) is not
+    # spinning across it; turning about X3 (theta_1) is.
+    free = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")])]))
+    rates = validity.spin_rates(free, np.zeros((2, free.n_dof)),
+                                np.array([free.state(theta_m1=5.0), free.state(theta_1=2.0, theta_m1=5.0)]))
+    assert rates[0, 0] == pytest.approx(0.0, abs=1e-14) and rates[1, 0] == pytest.approx(2.0, rel=1e-14)
+
+
+@pytest.mark.parametrize("fraction, warned", [(0.2, False), (0.5, True)])
+def test_a_link_spinning_near_its_bending_frequency_is_warned(fraction, warned):
+    model = _spinning_link()
+    w1 = model.link_data[0].first_frequency
+    q0, qd0 = model.state(), model.state(theta_1=fraction * w1)
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always", ValidityWarning)
+        res = gi.simulate(model, q0, qd0, (0.0, 0.05))
+    spin = [str(w.message) for w in record if "turns across its axis" in str(w.message)]
+    assert res.status == "finished"
+    assert bool(spin) is warned
+    if warned:
+        assert f"omega_1 = {w1:.4g} rad/s" in spin[0] and f"(limit {validity.SPIN_LIMIT:g})" in spin[0]
+
+
+@pytest.mark.parametrize("name", ["circle_two_link", "sphere_single_link"])
+def test_published_runs_spin_well_below_the_limit(name):
+    case = gi.load_case(CASES / f"{name}.toml")
+    res = case.simulate(t_end=1.0)
+    assert validity.check_spin(case.model, res) == []
+    rates = validity.spin_rates(case.model, res.q, res.qdot).max(axis=0)
+    assert np.all(rates < 0.15 * np.array([ld.first_frequency for ld in case.model.link_data]))

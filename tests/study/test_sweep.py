@@ -351,6 +351,34 @@ def test_cli_sweep_exit_codes(tmp_path, capsys):
     assert [r["status"] for r in read_table(tmp_path / "stop" / "sweep.csv")] == ["max_impacts", "finished"]
 
 
+def test_a_stiff_point_with_a_limit_does_not_stall_the_sweep(tmp_path, capsys):
+    """Issue 27: link 1 of the R-Pb arm at EI = 1e9 N m^2 needs ~1e7 right-hand sides per simulated second.
+    With max_rhs_calls its run stops with status budget_exceeded and its samples, and every other point
+    finishes. The limits are not part of the run ids: the sweep again with a larger limit runs only the
+    point the first limit stopped."""
+    pb = CASE.parent / "fixed_base_R_Pb_arm.toml"
+    grid = {"links[1].EI_N_m2": [25.0, 1e9, 30.0]}
+    res = sweep(pb, grid, out=tmp_path / "s", t_end=0.02, max_rhs_calls=20_000)
+    assert [r["status"] for r in res.rows] == ["finished", "budget_exceeded", "finished"]
+    stiff = res.rows[1]
+    assert stiff["nfev"] == 20_000 and 0 < stiff["t_final_s"] < 0.02
+    assert "max_rhs_calls = 20000 right-hand sides" in stiff["message"]
+    kept = gi.load_result(res.out / stiff["result"])
+    assert kept.status == "budget_exceeded" and kept.t.size > 1 and kept.t[-1] == stiff["t_final_s"]
+    assert [r["t_final_s"] for r in res.rows[::2]] == [0.02, 0.02]
+    again = sweep(pb, grid, out=tmp_path / "s", t_end=0.02, max_rhs_calls=20_000)
+    assert (again.n_run, again.n_skipped) == (0, 3)
+    larger = sweep(pb, grid, out=tmp_path / "s", t_end=0.02, max_rhs_calls=30_000)
+    assert (larger.n_run, larger.n_skipped) == (1, 2)
+    assert [r["run_id"] for r in larger.rows] == [r["run_id"] for r in res.rows]  # the ids ignore the limits
+    assert larger.rows[1]["nfev"] == 30_000 and larger.rows[1]["t_final_s"] > stiff["t_final_s"]
+    # The command line: the same limit, exit code 3 (a run did not finish), every row written.
+    assert cli(pb, "--vary", "links.1.EI_N_m2=25,1e9", "--t-end", 0.02, "--max-rhs-calls", 20000, "--quiet",
+               "--out", tmp_path / "c") == 3
+    assert "(first: run 2, budget_exceeded:" in capsys.readouterr().err
+    assert [r["status"] for r in read_table(tmp_path / "c" / "sweep.csv")] == ["finished", "budget_exceeded"]
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--vary", "links.3.EI_N_m2=10"], "gibbsimpact: error: --vary: links[3]: no such entry"),
     (["--vary", "restitution=0.5,2"], "gibbsimpact: error: --vary: restitution: must be in [0, 1]"),

@@ -113,6 +113,13 @@ class Case:
 
         return simulate(**self.simulate_kwargs(**overrides))
 
+    def estimate_cost(self, **overrides):
+        """What :meth:`simulate` with these overrides should cost, before it runs: the highest frequency, the
+        steps, right-hand sides and CPU time of its method (gibbsimpact.simulation.cost.estimate_cost)."""
+        from ..simulation.cost import estimate_cost
+
+        return estimate_cost(**self.simulate_kwargs(**overrides))
+
     def initial_energy(self):
         """Energy(kinetic, gravity, strain, total) at (q0, qdot0) [J]."""
         return self.model.energy(self.q0, self.qdot0)

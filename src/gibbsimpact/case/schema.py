@@ -15,6 +15,7 @@ from ..contact.walls import MAX_FRICTION
 from ..dynamics.inputs import INPUT_KINDS
 from ..model.elements import MAX_ELEMENTS
 from ..model.modes import MODE_KINDS
+from ..simulation.flight import SOLVERS
 from .keypaths import schema_key
 from .text import fmt
 
@@ -122,6 +123,8 @@ RANGES = {
     "solver.zeno_count": Range(1, 1e6, integer=True),
     "solver.max_impacts": Range(1, 1e6, integer=True, why="each impact keeps about 2 kB in memory"),
     "solver.joint_restitution": Range(0, 1, why="1 = elastic, 0 = plastic"),
+    "solver.max_cpu_time_s": Range(1e-3, 1e9, "s", why="a millisecond to about 30 years"),
+    "solver.max_rhs_calls": Range(1, 1e15, integer=True),
     "output.dpi": Range(10, 1200, integer=True, why="up to journal line-art resolution"),
     "output.animation_fps": Range(1, 100, integer=True, why="GIF frame delays are whole hundredths of a second"),
     "output.animation_speed": Range(1e-12, 1e12),
@@ -154,6 +157,9 @@ SOLVER_KEYS = {
     "joint_restitution": ("joint_restitution", "number", "coefficient of restitution of the end-stop impacts"),
     "accumulation": ("accumulation", "str", "after an accumulation of impacts: 'rest' (resting contact) or 'stop'"),
     "link_contacts": ("link_contacts", "bool", "closest points of flexible links are contact candidates (true)"),
+    "max_cpu_time_s": ("max_cpu_time", "number", "CPU seconds after which the run stops (status budget_exceeded)"),
+    "max_rhs_calls": ("max_rhs_calls", "number", "right-hand sides after which the run stops (status "
+                                                 "budget_exceeded)"),
 }
 #: [solver] string keys with a fixed set of values (and what each means).
 _SOLVER_CHOICES = {
@@ -164,7 +170,7 @@ _SOLVER_CHOICES = {
 OVERRIDE_KEYS = {"t_end": "time.t_end_s", **{kw: f"solver.{key}" for key, (kw, _, _) in SOLVER_KEYS.items()}}
 #: Keyword of a [solver] key -> its kind ("str", "bool", "number").
 _SOLVER_KINDS = {kw: kind for kw, kind, _ in SOLVER_KEYS.values()}
-_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA", "RK23")
+_METHODS = tuple(SOLVERS)  # the one solver list: simulation.flight.SOLVERS
 
 #: Output options with their defaults.
 OUTPUT_DEFAULTS = {

@@ -5,8 +5,8 @@
 Exit codes (EXIT_CODES in cli/common.py, also in ``--help``): 0 success; 2 bad input (invalid
 case file, bad option, unreadable file, an output folder that cannot be
 written), nothing simulated; 3 the simulation stopped early (status zeno,
-max_impacts, penetration, joint_limit or failed; the partial results are
-still written); 4 the results could not all be written into the output
+max_impacts, penetration, joint_limit, failed, callback_failed or budget_exceeded; the
+partial results are still written); 4 the results could not all be written into the output
 folder (the essential ones then go to a temporary folder);
 130 interrupted by Ctrl-C or SIGTERM (status "interrupted"; the partial
 data and summary.json are still written, not the figures); 1 an unexpected error.
@@ -23,8 +23,8 @@ import textwrap
 from pathlib import Path
 
 from .common import (EXIT_BAD_INPUT, EXIT_CODES, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK,  # noqa: F401
-                     EXIT_OUTPUT, EXIT_STOPPED, _error, _float, _load, _positive_int, _worst, add_method_option,
-                     add_rtol_option)
+                     EXIT_OUTPUT, EXIT_STOPPED, _error, _float, _load, _positive_int, _worst, add_limit_options,
+                     add_method_option, add_rtol_option)
 from .outputs import OUTPUT_FILES, clear_outputs, output_names, write_outputs
 from .run import cmd_run
 
@@ -32,6 +32,12 @@ from .run import cmd_run
 __all__ = ["EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT", "EXIT_STOPPED", "EXIT_OUTPUT", "EXIT_INTERRUPTED",
            "EXIT_CODES", "OUTPUT_FILES", "build_parser", "describe_case", "cmd_show", "cmd_equations",
            "output_names", "clear_outputs", "write_outputs", "cmd_run", "main"]
+
+
+def _run_help(prog) -> argparse.HelpFormatter:
+    """The help of ``run``: its column where the options up to ``--method METHOD`` put it (19); the longer
+    limits (``--max-rhs-calls N``) start their help on the next line instead of pushing every column right."""
+    return argparse.RawDescriptionHelpFormatter(prog, max_help_position=19)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -47,8 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
 
-    r = sub.add_parser("run", help="run cases and write CSV, JSON, NPZ and figures",
-                       formatter_class=argparse.RawDescriptionHelpFormatter,
+    r = sub.add_parser("run", help="run cases and write CSV, JSON, NPZ and figures", formatter_class=_run_help,
                        description=textwrap.fill(
                            "Run each CASE and write summary.json, result.npz, impacts.csv, timeseries.csv and PNG "
                            "figures into its output folder, in that order (summary.json again at the end, listing "
@@ -71,6 +76,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--output-dt", type=_float, metavar="DT",
                    help="uniform output interval in s (overrides [solver] output_dt_s)")
     add_method_option(r)
+    add_limit_options(r)
     r.add_argument("--csv-every", type=_positive_int, default=1, metavar="K",
                    help="write every K-th sample (and the last) into timeseries.csv and contact_forces.csv "
                         "(default 1: every sample; result.npz always keeps them all)")
@@ -176,6 +182,7 @@ def describe_case(case) -> str:
     t0, t1 = case.t_span
     solver = ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}" for k, v in case.solver.items())
     lines.append(f"time: {t0:g} -> {t1:g} s; solver: {solver or 'defaults of gibbsimpact.simulate'}")
+    lines.append(f"cost: {case.estimate_cost().describe()}")
     return "\n".join(lines)
 
 

@@ -16,8 +16,9 @@ EXIT_CODES = """exit codes:
   2    bad input: case file, option, or an output folder that cannot be
        written (one line names every problem); nothing is simulated
   3    a simulation stopped early (zeno, max_impacts, penetration,
-       joint_limit: a prismatic joint reached an end of its range, failed);
-       its results up to there are written
+       joint_limit: a prismatic joint reached an end of its range, failed,
+       callback_failed, budget_exceeded: --max-cpu-time or --max-rhs-calls
+       used up); its results up to there are written
   4    the results of a run could not all be written into its output
        folder (disk full, quota, I/O error): summary.json and result.npz
        come first, and go to a temporary folder when the output folder
@@ -47,7 +48,7 @@ def _float(text: str) -> float:
 
 #: Options that override a case-file key (Case.override_problems keyword: its name on the command line).
 OPTION_NAMES = {"t_end": "--t-end", "rtol": "--rtol", "atol": "--atol", "output_dt": "--output-dt",
-                "method": "--method"}
+                "method": "--method", "max_cpu_time": "--max-cpu-time", "max_rhs_calls": "--max-rhs-calls"}
 
 
 def add_rtol_option(parser) -> None:
@@ -61,6 +62,17 @@ def add_method_option(parser) -> None:
 
     parser.add_argument("--method", metavar="METHOD",
                         help="scipy ODE solver (overrides [solver] method): " + ", ".join(SOLVERS))
+
+
+def add_limit_options(parser, what: str = "the run") -> None:
+    """``--max-cpu-time`` and ``--max-rhs-calls`` of ``run`` and ``sweep``: limits of each run (status
+    budget_exceeded, the results kept), checked against their [solver] keys' ranges once the case is loaded."""
+    parser.add_argument("--max-cpu-time", type=_float, metavar="S",
+                        help=f"stop {what} after S seconds of CPU time with status budget_exceeded, keeping "
+                             "what it computed (overrides [solver] max_cpu_time_s)")
+    parser.add_argument("--max-rhs-calls", type=_positive_int, metavar="N",
+                        help=f"stop {what} after N right-hand-side evaluations, likewise (overrides [solver] "
+                             "max_rhs_calls)")
 
 
 _GIVE_A_CASE = "give the path of a case file (e.g. cases/circle_two_link.toml)"

@@ -16,6 +16,9 @@ from .common import (EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, E
                      OPTION_NAMES, _error, _load, _worst)
 from .outputs import Interrupts, write_outputs
 
+#: ``run`` warns before a run whose estimated CPU time exceeds this [s]: ten minutes.
+WARN_CPU_SECONDS = 600.0
+
 
 def _main_thread() -> bool:
     return threading.current_thread() is threading.main_thread()
@@ -150,6 +153,7 @@ def _run_one(path, case, args, overrides, out) -> int:
     progress = True if not args.quiet and _isatty(sys.stderr) else None
     say(f"gibbsimpact: running {case.name}: t = {t0:g} -> {t1:g} s, N = {case.model.n_dof}, "
         f"{len(case.walls)} wall(s)")
+    _say_cost(path, case, overrides, say)
     # Warnings of the run (numpy overflow, ...) are held back and summed up in one
     # line after the status or error line instead of interleaving with it.
     with warnings.catch_warnings(record=True) as caught:
@@ -173,6 +177,32 @@ def _run_one(path, case, args, overrides, out) -> int:
               f"{first.category.__name__}: {first.message} ({Path(first.filename).name}:{first.lineno}); "
               "check the results", file=sys.stderr)
     return code
+
+
+def _say_cost(path, case, overrides, say) -> None:
+    """The run's cost estimate on stdout (gibbsimpact.simulation.cost), and a warning on stderr, even with
+    --quiet, when its CPU time exceeds WARN_CPU_SECONDS: what sets the step and what would shorten the run."""
+    import numpy as np
+
+    from ..dynamics.gibbs_appell import SingularMassMatrixError
+    from ..simulation.cost import duration
+
+    try:
+        est = case.estimate_cost(**overrides)
+    except (SingularMassMatrixError, ValueError, np.linalg.LinAlgError):
+        return  # the run itself reports what is wrong with its initial state
+    say(f"  {est.describe()}")
+    if est.cpu_seconds is None or est.cpu_seconds <= WARN_CPU_SECONDS:
+        return
+    limited = any(overrides.get(kw, case.solver.get(kw)) is not None for kw in ("max_cpu_time", "max_rhs_calls"))
+    rtol = "a larger --rtol will not shorten it" if est.binding.startswith("stability") else \
+        "a larger --rtol shortens it"
+    bound = "its limit will stop it (status budget_exceeded)" if limited else \
+        "--max-cpu-time S stops it after S seconds, keeping what it computed"
+    print(f"gibbsimpact: warning: {path}: this run may take {duration(est.cpu_seconds)} of CPU: about "
+          f"{est.n_steps:.3g} steps of {est.method} for its highest frequency {est.omega_max:.4g} rad/s "
+          f"({est.binding}); {rtol}, --method Radau is not bound by the stability limit, {bound}",
+          file=sys.stderr, flush=True)
 
 
 def _isatty(stream) -> bool:

@@ -10,10 +10,10 @@ from ..case import CaseError
 from ..study.sweep import RUNS_DIR, sweep
 from ..study.table import PLOT_COLUMNS, _cell, numeric_keys, plot_keys, plot_sweep, varied_keys
 from .common import (EXIT_BAD_INPUT, EXIT_OK, EXIT_STOPPED, OPTION_NAMES, _error, _float, _load, _positive_int,
-                     add_method_option, add_rtol_option)
+                     add_limit_options, add_method_option, add_rtol_option)
 
 #: The options of ``gibbsimpact run`` that ``sweep`` takes too, set in every run (Case.override_problems keywords).
-SWEEP_OPTIONS = ("t_end", "method", "rtol")
+SWEEP_OPTIONS = ("t_end", "method", "rtol", "max_cpu_time", "max_rhs_calls")
 
 
 class VaryError(ValueError):
@@ -108,6 +108,7 @@ def add_parser(subparsers):
     s.add_argument("--t-end", type=_float, metavar="T", help="end time of every run in s (overrides [time] t_end_s)")
     add_method_option(s)
     add_rtol_option(s)
+    add_limit_options(s, "each run")
     s.add_argument("--plot", action="append", metavar="COLUMN", default=[],
                    help="draw a column of the table against the first varied key of numbers (one line per value "
                         "of the other key) into sweep_<COLUMN>.png; repeat for several: " + ", ".join(PLOT_COLUMNS))
@@ -191,7 +192,8 @@ def main(args) -> int:
     say(f"gibbsimpact: sweep of {case.name} over {', '.join(grid)}, {route}")
     try:
         result = sweep(case, grid, workers=args.workers, out=args.out, scheduler=args.scheduler,
-                       t_end=args.t_end, progress=_progress(say), method=args.method, rtol=args.rtol)
+                       t_end=args.t_end, progress=_progress(say), method=args.method, rtol=args.rtol,
+                       max_cpu_time=args.max_cpu_time, max_rhs_calls=args.max_rhs_calls)
     except CaseError as exc:
         if exc.source == "overrides":
             exc = CaseError("--vary", exc.problems)

@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import kernel as _k
 from ..dynamics.kinematics import as_vector
+from ..model.elements import hermite_local
 from ..model.modes import _normalisation, _sigma_terms, frequency_root
 
 _MIN_SAMPLES = 17
@@ -229,21 +230,6 @@ def _sample_count(links) -> int:
     return S
 
 
-def _hermite_local(eta, h, orders):
-    """(orders, 4, P): H1, h H2, H3, h H4 at eta (P,) and their s-derivatives, h (P,) (elements.py)."""
-    e = eta
-    e2 = e * e
-    e3 = e2 * e
-    out = np.empty((orders, 4, e.size))
-    out[0] = (1 - 3 * e2 + 2 * e3, h * (e - 2 * e2 + e3), 3 * e2 - 2 * e3, h * (e3 - e2))
-    if orders > 1:
-        out[1] = ((-6 * e + 6 * e2) / h, 1 - 4 * e + 3 * e2, (6 * e - 6 * e2) / h, -2 * e + 3 * e2)
-    if orders > 2:
-        h2 = h * h
-        out[2] = ((-6 + 12 * e) / h2, (-4 + 6 * e) / h, (6 - 12 * e) / h2, (-2 + 6 * e) / h)
-    return out
-
-
 def _stencils(tab: _Tables, L, s, orders):
     """Weights (orders, P, 2, width) and qe indices (P, 2, width) of v, w and their s-derivatives.
 
@@ -277,7 +263,7 @@ def _stencils(tab: _Tables, L, s, orders):
         h, ne = tab.h[Lf], tab.ne[Lf]
         # Element holding s (1-based); at a node the element to its left (elements.hermite_shape).
         e = np.clip(np.ceil(sf / h).astype(int), 1, ne)
-        H = _hermite_local((sf - (e - 1) * h) / h, h, orders)  # (orders, 4, Pf)
+        H = hermite_local((sf - (e - 1) * h) / h, h, orders)  # (orders, 4, Pf)
         wt[:, f, :, :4] = np.transpose(H, (0, 2, 1))[:, :, None, :]
         left, right = tab.node_q[Lf, e - 1], tab.node_q[Lf, e]   # (Pf, 2 slots, 2 (w, t))
         ix[f, :, :2] = left

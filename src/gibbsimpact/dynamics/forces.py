@@ -28,7 +28,6 @@ from numbers import Real
 from typing import Callable
 
 import numpy as np
-import scipy.linalg as sl
 
 
 def _pb_stiffness(link, d: float) -> np.ndarray:
@@ -58,8 +57,7 @@ def damping_matrix(model, q=None) -> np.ndarray:
         zeta = link.damping
         if zeta == 0.0:
             continue
-        w2 = sl.eigh(ld.K, ld.M_dd, eigvals_only=True)
-        beta = 2.0 * zeta / np.sqrt(w2.min())
+        beta = 2.0 * zeta / ld.first_frequency
         K = ld.K
         if model.chain.joints[i].kind == "Pb" and link.elements:
             if q is None:

@@ -27,22 +27,30 @@ import numpy as np
 MAX_ELEMENTS = 200
 
 
-def _hermite_local(eta: np.ndarray, h: float, derivative: int) -> np.ndarray:
-    """(4, K): H1, h H2, H3, h H4 at eta (K,) or their x-derivatives (order 0..3)."""
+def hermite_local(eta, h, orders: int) -> np.ndarray:
+    """(orders, 4, K): the element's Hermite cubics H1, h H2, H3, h H4 at eta = (x - x_(e-1)) / h (K,) and
+    their x-derivatives of order 0 .. orders - 1 (orders <= 4); h [m] a float or (K,).
+
+    H1 = 1 - 3 eta^2 + 2 eta^3,  H2 = eta - 2 eta^2 + eta^3,  H3 = 3 eta^2 - 2 eta^3,  H4 = eta^3 - eta^2,
+    d/dx = (1/h) d/deta. The one Hermite basis of the package's Python code (the kernel's compiled
+    twin is kernel._hermite_at, checked against it in tests/kernel).
+    """
+    if not 1 <= orders <= 4:
+        raise ValueError(f"orders={orders!r} must be 1 .. 4 (derivatives 0 .. 3)")
     e = np.asarray(eta, dtype=float)
-    one = np.ones_like(e)
-    if derivative == 0:
-        H = [1 - 3 * e**2 + 2 * e**3, e - 2 * e**2 + e**3, 3 * e**2 - 2 * e**3, -(e**2) + e**3]
-    elif derivative == 1:
-        H = [-6 * e + 6 * e**2, 1 - 4 * e + 3 * e**2, 6 * e - 6 * e**2, -2 * e + 3 * e**2]
-    elif derivative == 2:
-        H = [-6 + 12 * e, -4 + 6 * e, 6 - 12 * e, -2 + 6 * e]
-    elif derivative == 3:
-        H = [12 * one, 6 * one, -12 * one, 6 * one]
-    else:
-        raise ValueError("derivative must be 0..3")
-    scale = h ** (-derivative)  # d/dx = (1/h) d/deta
-    return np.array([H[0] * scale, h * H[1] * scale, H[2] * scale, h * H[3] * scale])
+    e2 = e * e
+    e3 = e2 * e
+    out = np.empty((orders, 4, e.size))
+    out[0] = (1 - 3 * e2 + 2 * e3, h * (e - 2 * e2 + e3), 3 * e2 - 2 * e3, h * (e3 - e2))
+    if orders > 1:
+        out[1] = ((-6 * e + 6 * e2) / h, 1 - 4 * e + 3 * e2, (6 * e - 6 * e2) / h, -2 * e + 3 * e2)
+    if orders > 2:
+        h2 = h * h
+        out[2] = ((-6 + 12 * e) / h2, (-4 + 6 * e) / h, (6 - 12 * e) / h2, (-2 + 6 * e) / h)
+    if orders > 3:
+        h3 = h * h * h
+        out[3] = (12 / h3 + 0 * e, 6 / (h * h) + 0 * e, -12 / h3 + 0 * e, 6 / (h * h) + 0 * e)
+    return out
 
 
 def hermite_shape(n_elements: int, length: float, x, derivative: int = 0) -> np.ndarray:
@@ -65,7 +73,9 @@ def hermite_shape(n_elements: int, length: float, x, derivative: int = 0) -> np.
     h = length / n_elements
     e = np.clip(np.ceil(x / h).astype(int), 1, n_elements)  # element of each x, 1-based
     eta = (x - (e - 1) * h) / h
-    loc = _hermite_local(eta, h, derivative)  # (4, K) for dofs (w_(e-1), t_(e-1), w_e, t_e)
+    if derivative not in (0, 1, 2, 3):
+        raise ValueError("derivative must be 0..3")
+    loc = hermite_local(eta, h, derivative + 1)[derivative]  # (4, K): dofs (w_(e-1), t_(e-1), w_e, t_e)
     out = np.zeros((2 * n_elements, x.size))
     cols = np.arange(x.size)
     # Dofs of node e-1 (absent for e = 1: the clamped node) and of node e.

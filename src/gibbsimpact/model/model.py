@@ -233,7 +233,7 @@ class Model:
 
         The common case, float64 arrays of shape (N,) with finite entries, costs a shape compare
         and one dot product (q.q + qdot.qdot is finite exactly when every entry is, or overflowed
-        beyond 1e154, which the full check below then clears), so that the alias methods cost
+        beyond 1e154 with numpy's RuntimeWarning, which the full check below then clears), so that the alias methods cost
         what the kernel costs.
         """
         N = len(self._names)
@@ -244,21 +244,19 @@ class Model:
             elif qdot.__class__ is np.ndarray and qdot.dtype is _F64 and qdot.shape == (N,) \
                     and isfinite(q.dot(q) + qdot.dot(qdot)):
                 return q, qdot
-        qa = np.asarray(q, dtype=float)
-        if qa.shape != (N,):
-            raise ValueError(f"{name_q} has shape {qa.shape}; this model needs shape ({N},) ordered as {', '.join(self._names)}")
-        if not np.all(np.isfinite(qa)):
-            bad = [self._names[i] for i in np.nonzero(~np.isfinite(qa))[0]]
-            raise ValueError(f"{name_q} has non-finite entries: {', '.join(bad)}")
-        if qdot is None:
-            return qa
-        qd = np.asarray(qdot, dtype=float)
-        if qd.shape != (N,):
-            raise ValueError(f"{name_qdot} has shape {qd.shape}; this model needs shape ({N},)")
-        if not np.all(np.isfinite(qd)):
-            bad = [self._names[i] for i in np.nonzero(~np.isfinite(qd))[0]]
-            raise ValueError(f"{name_qdot} has non-finite entries: {', '.join(bad)}")
-        return qa, qd
+        qa = self._checked_vector(q, name_q, f" ordered as {', '.join(self._names)}")
+        return qa if qdot is None else (qa, self._checked_vector(qdot, name_qdot, ""))
+
+    def _checked_vector(self, a, name: str, order: str) -> np.ndarray:
+        """``a`` as a float array (N,); a ValueError names its shape, or its non-finite coordinates."""
+        v = np.asarray(a, dtype=float)
+        N = len(self._names)
+        if v.shape != (N,):
+            raise ValueError(f"{name} has shape {v.shape}; this model needs shape ({N},){order}")
+        if not np.all(np.isfinite(v)):
+            bad = [self._names[i] for i in np.nonzero(~np.isfinite(v))[0]]
+            raise ValueError(f"{name} has non-finite entries: {', '.join(bad)}")
+        return v
 
     def state(self, **values) -> np.ndarray:
         """Build a q (or qdot) vector (N,) from coordinate names; missing ones are 0.

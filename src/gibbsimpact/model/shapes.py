@@ -77,6 +77,16 @@ class LinkData:
     end_phi: np.ndarray
     J_body: np.ndarray
     E0: np.ndarray
+
+    @property
+    def first_frequency(self) -> float:
+        """omega_1 [rad/s], the lowest natural frequency of the link's elastic coordinates with the link
+        clamped at its frame: sqrt of the smallest generalised eigenvalue of (K, M_dd); nan for a rigid link."""
+        if self.K.size == 0:
+            return float("nan")
+        import scipy.linalg as sl
+
+        return float(np.sqrt(sl.eigh(self.K, self.M_dd, eigvals_only=True).min()))
     has_rotary: bool
     end_is_rigid: bool
     directions: tuple = ()

@@ -21,7 +21,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from scipy.linalg import eigh
 
 from .contacts import flexible_links
 
@@ -107,13 +106,10 @@ def contact_points(model, link_contacts: bool = True) -> list[ContactPoint]:
 def rebound_period(model, i: int) -> float:
     """T_1 = 2 pi / omega_1 [s] of link i (0-based) clamped at its frame, 0 for a rigid link.
 
-    omega_1^2 is the smallest eigenvalue of K phi = omega^2 M_dd phi, the link's elastic stiffness
-    and mass blocks (LinkData.K [N/m], M_dd [kg], m x m): the slowest vibration of the link relative
-    to its frame (a cantilever for finite elements and clamped-free modes: 2 pi l^2 / (1.8751^2
-    sqrt(EI / mu)), 0.0565 s for l = 1 m, mu = 1 kg/m, EI = 1e3 N m^2).
+    omega_1 = LinkData.first_frequency, the smallest eigenvalue of K phi = omega^2 M_dd phi (the link's
+    elastic stiffness and mass blocks): the slowest vibration of the link relative to its frame (a
+    cantilever for finite elements and clamped-free modes: 2 pi l^2 / (1.8751^2 sqrt(EI / mu)), 0.0565 s
+    for l = 1 m, mu = 1 kg/m, EI = 1e3 N m^2).
     """
     ld = model.link_data[i]
-    if ld.K.shape[0] == 0:
-        return 0.0
-    w2 = float(eigh(ld.K, ld.M_dd, eigvals_only=True)[0])
-    return 2.0 * np.pi / np.sqrt(w2)
+    return 0.0 if ld.K.size == 0 else 2.0 * np.pi / ld.first_frequency

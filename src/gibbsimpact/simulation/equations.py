@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..dynamics.forces import damping_depends_on_q, damping_matrix, generalized_force
+from ..dynamics.forces import CallbackError, damping_depends_on_q, damping_matrix, generalized_force
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics
+from .budget import Budget
 
 
 class Equations:
@@ -23,6 +24,7 @@ class Equations:
 
     resting : the run's RestingContacts (asked for the constrained accelerations in a contact phase)
     clock : a progress throttle with ``tick(t)`` (gibbsimpact.simulation.progress.Clock)
+    budget : the run's limits (gibbsimpact.simulation.budget), checked when nfev reaches check_at
     """
 
     def __init__(self, model, settings, q0, qdot0, resting, clock):
@@ -36,6 +38,8 @@ class Equations:
         self.driven = self.Q_in is not None or self.damped or any(w.friction > 0 for w in settings.walls)
         self.zeros = np.zeros(N)
         self.nfev = 0
+        self.budget = Budget(settings.max_rhs_calls, settings.max_cpu_time)
+        self.check_at = self.budget.check_at
         self.resting_phase = False  # whether the phase under way has resting pairs (fixed during a phase)
         self.singular = None  # diagnosis of the last trial state with a singular M
 
@@ -55,7 +59,10 @@ class Equations:
         return None if f is None else f[0] + f[1]
 
     def __call__(self, t, y):
-        """y' (y.shape) at (t, y); NaN where M is singular, so that the solver rejects the step."""
+        """y' (y.shape) at (t, y); NaN where M is singular, so that the solver rejects the step.
+        Raises BudgetExceeded (the call not made) once the run has used up a limit."""
+        if self.nfev >= self.check_at:
+            self.check_at = self.budget.check(self.nfev, t)
         self.nfev += 1
         self.clock.tick(t)
         N = self.N
@@ -75,4 +82,10 @@ class Equations:
             # after an impact that excites high modes): NaN makes the solver reject the
             # step and shrink it. Only if it cannot go on is the diagnosis reported.
             self.singular = f"at t = {t:.9g} s: {exc}"
+            return np.full(y.shape, np.nan)
+        except CallbackError:
+            # An input given a non-finite trial state (a too-long step of a stiff chain) may well
+            # return NaN: that is the step's failure, not the input's; the solver rejects it.
+            if np.all(np.isfinite(y)):
+                raise
             return np.full(y.shape, np.nan)

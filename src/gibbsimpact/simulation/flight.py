@@ -57,6 +57,7 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 from scipy.optimize import brentq, minimize_scalar
 
 from ..dynamics.forces import CallbackError
+from .budget import BudgetExceeded
 
 SOLVERS = {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA, "RK23": RK23}
 
@@ -90,8 +91,9 @@ class PhaseOutcome(NamedTuple):
     failed : None, or the solver's message when it failed
     interrupted : None, or how a KeyboardInterrupt stopped the phase (its accepted
         steps are in sample_t, sample_y; t, y is the last accepted state)
-    callback_error : None, or the CallbackError of a user callback that failed inside a
-        right-hand side (the accepted steps kept, as for an interrupt)
+    stopped_by : None, or what stopped the phase from inside a right-hand side, the accepted
+        steps kept as for an interrupt: the CallbackError of a user callback that failed, or
+        the BudgetExceeded of a run that used up a limit
     """
 
     t: float
@@ -104,7 +106,7 @@ class PhaseOutcome(NamedTuple):
     n_examined: int
     failed: str | None
     interrupted: str | None = None
-    callback_error: Exception | None = None
+    stopped_by: Exception | None = None
 
 
 def hermite_positions(s: np.ndarray, h: float, ya: np.ndarray, fa: np.ndarray, yb: np.ndarray, fb: np.ndarray,
@@ -337,9 +339,10 @@ def integrate_phase(
         # Ctrl-C (or the CLI's SIGTERM): keep the accepted steps.
         phase.interrupted = str(exc) or "KeyboardInterrupt (Ctrl-C)"
         phase.keep_accepted()
-    except CallbackError as exc:
-        # A user callback failed inside a right-hand side: keep the accepted steps, as for an interrupt.
-        phase.callback_error = exc
+    except (CallbackError, BudgetExceeded) as exc:
+        # A user callback failed, or the run used up a limit, inside a right-hand side: keep the
+        # accepted steps, as for an interrupt.
+        phase.stopped_by = exc
         phase.keep_accepted()
     return phase.outcome()
 
@@ -371,7 +374,7 @@ class _Phase:
         self.t_a, self.y_a, self.f_a = t0, y0.copy(), self.derivative(t0, y0)
         self.sample_t, self.sample_y = [], []
         self.n_steps = self.n_examined = 0
-        self.failed = self.interrupted = self.callback_error = None
+        self.failed = self.interrupted = self.stopped_by = None
 
     def derivative(self, t, y):
         f = getattr(self.solver, "f", None)
@@ -545,12 +548,12 @@ class _Phase:
             self.sample_y.append(self.y_a[None, :])
 
     def outcome(self) -> PhaseOutcome:
-        """The phase's outcome without an event: at t_end, or cut short (failed solver, interrupt, callback)."""
+        """The phase's outcome without an event: at t_end, or cut short (failed solver, interrupt, callback, limit)."""
         t_last = self.sample_t[-1][-1] if self.sample_t else self.t0
         y_last = self.sample_y[-1][-1] if self.sample_y else self.y0
-        cut = self.failed is not None or self.interrupted is not None or self.callback_error is not None
+        cut = self.failed is not None or self.interrupted is not None or self.stopped_by is not None
         if cut and not self.sample_t:
             self.sample_t, self.sample_y = [np.empty(0)], [np.empty((0, self.y0.shape[0]))]
         return PhaseOutcome(float(t_last), np.asarray(y_last), None, np.concatenate(self.sample_t),
                             np.concatenate(self.sample_y), self.min_gap, self.n_steps, self.n_examined, self.failed,
-                            self.interrupted, self.callback_error)
+                            self.interrupted, self.stopped_by)

@@ -85,8 +85,9 @@ class Result:
     q, qdot : (K, N) coordinates and velocities at the samples
     phase : (K,) int, index of the flight phase (0 before the first impact)
     impacts : list of ImpactRecord
-    status : str, one of "finished", "zeno", "max_impacts", "penetration", "failed",
-        "interrupted" (a KeyboardInterrupt or the CLI's SIGTERM: the samples up to there)
+    status : str, a key of gibbsimpact.simulation.status.STATUSES: "finished", "zeno", "max_impacts",
+        "penetration", "failed", "joint_limit", "interrupted" (a KeyboardInterrupt or the CLI's
+        SIGTERM: the samples up to there), "callback_failed", "budget_exceeded" (a limit of the run)
     message : str, why the run ended
     settings : dict, the solver settings used (method, rtol, atol, restitution, ...)
     nfev : int, right-hand-side evaluations; n_steps : int, accepted steps

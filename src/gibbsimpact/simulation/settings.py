@@ -26,6 +26,11 @@ def _count(name, v) -> int:
     return int(v)
 
 
+def _limit(name, v, check):
+    """None (no limit) or the limit checked by ``check`` (_positive or _count)."""
+    return None if v is None else check(name, v)
+
+
 def _fraction(name, v) -> float:
     if isinstance(v, bool) or not isinstance(v, Real) or not 0.0 <= v <= 1.0:
         raise ValueError(f"simulate {name}={v!r} must be a number in [0, 1]")
@@ -81,6 +86,8 @@ class Settings:
     accumulation: str
     link_contacts: bool
     in_step_check: bool
+    max_cpu_time: float | None = None  # [s] of CPU; None: no limit
+    max_rhs_calls: int | None = None  # right-hand sides; None: no limit
 
     @classmethod
     def from_arguments(cls, t_span, walls, restitution, method, output_dt, progress, inputs, zeno_count,
@@ -91,6 +98,8 @@ class Settings:
         restitution = _fraction("restitution", restitution)
         _choice("method", method, SOLVERS, f"a solve_ivp method; use one of {', '.join(SOLVERS)}")
         in_step_check = bool(positive.pop("in_step_check", True))
+        max_cpu_time = _limit("max_cpu_time", positive.pop("max_cpu_time", None), _positive)
+        max_rhs_calls = _limit("max_rhs_calls", positive.pop("max_rhs_calls", None), _count)
         values = {name: _positive(name, v, allow_inf=(name == "max_step")) for name, v in positive.items()}
         if output_dt is not None:
             output_dt = _positive("output_dt", output_dt)
@@ -109,7 +118,8 @@ class Settings:
         return cls(t0=t0, t_end=t_end, walls=walls, restitution=restitution, method=method, output_dt=output_dt,
                    progress=progress, inputs=inputs, zeno_count=zeno_count, max_impacts=max_impacts, joint_limit=joint_limit,
                    joint_restitution=joint_restitution, accumulation=accumulation,
-                   link_contacts=bool(link_contacts), in_step_check=in_step_check, **values)
+                   link_contacts=bool(link_contacts), in_step_check=in_step_check, max_cpu_time=max_cpu_time,
+                   max_rhs_calls=max_rhs_calls, **values)
 
     @property
     def wall_restitution(self) -> np.ndarray:
@@ -125,5 +135,5 @@ class Settings:
             penetration_tol=self.penetration_tol, zeno_interval=self.zeno_interval, zeno_count=self.zeno_count,
             max_impacts=self.max_impacts, t_span=[self.t0, self.t_end], joint_limit=self.joint_limit,
             joint_restitution=self.joint_restitution, accumulation=self.accumulation,
-            link_contacts=self.link_contacts,
+            link_contacts=self.link_contacts, max_cpu_time=self.max_cpu_time, max_rhs_calls=self.max_rhs_calls,
         )

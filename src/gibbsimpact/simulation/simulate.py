@@ -83,6 +83,9 @@ Event-loop rules (each one has a test in tests/test_simulate.py):
   interrupt, or the command line's SIGTERM handler) stops the run with status
   "interrupted"; the Result holds every sample and impact recorded until
   then, including the accepted steps of the flight phase under way.
+* Budget: with max_cpu_time or max_rhs_calls, the right-hand side that finds a limit used up
+  raises (gibbsimpact.simulation.budget) and the run stops with status "budget_exceeded",
+  keeping its samples as at an interrupt.
 """
 
 from __future__ import annotations
@@ -92,10 +95,11 @@ import time
 import numpy as np
 
 from ..dynamics.forces import CallbackError
+from .budget import BudgetExceeded
 from .progress import Clock, progress_reporter
 from .results import Result
 from .settings import Settings
-from .stages import callback_failed, check, dispatch, finish, flight, impact, interrupted, mode, start
+from .stages import check, dispatch, finish, flight, impact, interrupted, mode, start, stopped_inside
 from .validity import warn_result
 
 
@@ -104,7 +108,8 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
              contact_tol: float = 1e-9, grazing_velocity: float = 1e-6, penetration_tol: float = 1e-6,
              zeno_interval: float = 1e-6, zeno_count: int = 10, max_impacts: int = 10000, progress=None,
              inputs=None, joint_limit: str = "stop", joint_restitution: float = 0.5, accumulation: str = "rest",
-             link_contacts: bool = True, _in_step_check: bool = True) -> Result:
+             link_contacts: bool = True, max_cpu_time: float | None = None, max_rhs_calls: int | None = None,
+             _in_step_check: bool = True) -> Result:
     """Simulate flight phases, impacts and resting contact from (q0, qdot0) over t_span (module docstring).
 
     Parameters
@@ -132,6 +137,8 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
         Result.contact_forces) or "stop" (status "zeno" there)
     link_contacts : True: the closest point of every flexible link to every wall is a contact
         candidate too; False: joints only, as in the published case studies
+    max_cpu_time [s], max_rhs_calls : None (no limit), or the CPU time (its thread's) and right-hand
+        sides after which the run stops with "budget_exceeded" (simulation.budget; cost estimates them)
     _in_step_check : private; False leaves solve_ivp's sign test at step ends only (benchmarks, tests)
 
     Returns
@@ -140,8 +147,8 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
     and everything computed until then. A KeyboardInterrupt (Ctrl-C, a notebook's interrupt)
     stops the run with status "interrupted"; a user callback (an input, progress) that raises or
     returns a non-finite value, with "callback_failed" and a message naming it, its coordinate
-    and the time. Bad arguments raise ValueError before the first step, as does an input that
-    fails at the initial state.
+    and the time; a run over a limit, with "budget_exceeded". Bad arguments raise ValueError
+    before the first step, as does an input that fails at the initial state.
     """
     started = time.perf_counter()
     q0, qdot0 = model.check_state(q0, qdot0, "q0", "qdot0")
@@ -149,7 +156,8 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
         t_span, walls, restitution, method, output_dt, progress, inputs, zeno_count, max_impacts, joint_limit,
         joint_restitution, accumulation, link_contacts, rtol=rtol, atol=atol, max_step=max_step,
         contact_tol=contact_tol, grazing_velocity=grazing_velocity, penetration_tol=penetration_tol,
-        zeno_interval=zeno_interval, in_step_check=_in_step_check)
+        zeno_interval=zeno_interval, in_step_check=_in_step_check, max_cpu_time=max_cpu_time,
+        max_rhs_calls=max_rhs_calls)
     with progress_reporter(settings.progress, settings.t0, settings.t_end) as report:
         run = start(model, q0, qdot0, settings, Clock(report))
         try:
@@ -167,7 +175,9 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
         except KeyboardInterrupt as exc:
             interrupted(run, str(exc) or "KeyboardInterrupt (Ctrl-C)")
         except CallbackError as exc:
-            callback_failed(run, exc)
+            stopped_inside(run, "callback", exc)
+        except BudgetExceeded as exc:
+            stopped_inside(run, "budget", exc)
         res = finish(run, started)
         _final_report(report, res)
     warn_result(res)

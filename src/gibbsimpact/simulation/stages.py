@@ -266,8 +266,8 @@ def flight(run):
     run.flown = None
     if out.interrupted is not None:
         raise KeyboardInterrupt(out.interrupted)  # its samples are recorded: the driver stops the run
-    if out.callback_error is not None:
-        raise out.callback_error  # likewise
+    if out.stopped_by is not None:
+        raise out.stopped_by  # likewise
     return out, kinds
 
 
@@ -371,9 +371,10 @@ def interrupted(run, what: str) -> None:
     run.end("interrupted", what=what, t=t_last, t_end=run.settings.t_end)
 
 
-def callback_failed(run, error) -> None:
-    """A user callback failed (gibbsimpact.dynamics.forces.CallbackError): stop, keeping what was recorded."""
-    run.end("callback", error=error, t=float(run.recorder.chunks[-1].t[-1]))
+def stopped_inside(run, reason: str, error) -> None:
+    """A right-hand side stopped the run (reason "callback": a user callback's CallbackError; "budget": the
+    BudgetExceeded of a used-up limit): stop, keeping what was recorded."""
+    run.end(reason, error=error, t=float(run.recorder.chunks[-1].t[-1]), t_end=run.settings.t_end)
 
 
 def finish(run, started: float) -> Result:

@@ -17,6 +17,7 @@ STATUS_FAILED = "failed"
 STATUS_JOINT_LIMIT = "joint_limit"
 STATUS_INTERRUPTED = "interrupted"
 STATUS_CALLBACK_FAILED = "callback_failed"
+STATUS_BUDGET_EXCEEDED = "budget_exceeded"
 
 #: Every status of a Result and what it means.
 STATUSES = {
@@ -30,6 +31,7 @@ STATUSES = {
     STATUS_INTERRUPTED: "a KeyboardInterrupt (Ctrl-C, or SIGTERM in the command line) stopped the run",
     STATUS_CALLBACK_FAILED: "a function the user gave (an input, the progress callback) raised or returned a "
                             "non-finite value",
+    STATUS_BUDGET_EXCEEDED: "the run used up a limit it was given (max_cpu_time, max_rhs_calls) before t_span[1]",
 }
 
 #: Why a run stopped: reason -> (status, message template). The templates' fields are the
@@ -54,6 +56,8 @@ STOPS = {
     "interrupted": (STATUS_INTERRUPTED, "stopped by {what} at t = {t:.9g} s of t_end = {t_end:g} s; the results "
                                         "up to there are kept"),
     "callback": (STATUS_CALLBACK_FAILED, "{error}; the results up to t = {t:.9g} s are kept"),
+    "budget": (STATUS_BUDGET_EXCEEDED, "{error}; stopped at t = {t:.9g} s of t_end = {t_end:g} s, the results up "
+                                       "to there are kept (a stiff chain: method='Radau', or a larger limit)"),
 }
 
 

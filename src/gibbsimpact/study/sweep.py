@@ -45,10 +45,12 @@ Decisions
   status ``"invalid"`` and the loader's message. A run whose simulation raises
   has status ``"error"`` and ``"<ExceptionType>: <message>"``; a run that stops
   early keeps the simulator's status (``zeno``, ``max_impacts``,
-  ``penetration``, ``failed``) and message. No failure loses the sweep.
+  ``penetration``, ``failed``, ``budget_exceeded``...) and message. No failure loses the sweep.
 * **Run id**: the first 16 hex digits of SHA-256 of the canonical JSON of the
   case actually run (the case table with the overrides applied, without
-  ``name``, ``description`` and ``[output]``, which do not change the result;
+  ``name``, ``description`` and ``[output]``, which do not change the result, and the
+  run's limits ``solver.max_cpu_time_s`` and ``solver.max_rhs_calls``, which only decide
+  where a run too costly for them stops;
   integers that fit a double hashed as floats, so ``20`` and ``20.0`` are one
   run). The same run in two sweeps (or spelt ``links.1`` and ``links[1]``) has
   one id; editing the case file changes the ids of the runs it affects.
@@ -70,15 +72,22 @@ Decisions
   file, so a fresh row and a resumed row are the same text. ``sw.plot(column)``
   (:func:`plot_sweep`) draws a column over one or two varied keys into
   ``sweep_<column>.png``.
-* **Options of every run**: ``t_end``, ``method`` and ``rtol`` set
-  ``time.t_end_s``, ``solver.method`` and ``solver.rtol`` of the case before
-  the overrides, checked as ``gibbsimpact run`` checks ``--t-end``,
-  ``--method``, ``--rtol`` (Case.override_problems); they are part of every
-  run's case and id, not columns. A key both varied and set by an option is
+* **Options of every run**: ``t_end``, ``method``, ``rtol``, ``max_cpu_time``
+  and ``max_rhs_calls`` set ``time.t_end_s``, ``solver.method``, ``solver.rtol``,
+  ``solver.max_cpu_time_s`` and ``solver.max_rhs_calls`` of the case before the
+  overrides, checked as ``gibbsimpact run`` checks its options of those names
+  (Case.override_problems); they are part of every run's case (the first three
+  of its id), not columns. A key both varied and set by an option is
   an error.
+* **Limits**: ``max_cpu_time`` [s] and ``max_rhs_calls`` bound each run (status
+  ``budget_exceeded``, its samples kept, a row like any other: the sweep goes on),
+  so that one stiff point cannot stall a sweep. A run stopped by a CPU limit
+  depends on the machine's speed: its row is not reproducible bit for bit.
 * **Resume**: a run whose result file exists, reads back (``gi.load_result``)
-  and carries its run id is not run again. ``invalid`` and ``error`` rows have
-  no result file and are retried. An interrupted sweep (Ctrl-C, an exception)
+  and carries its run id is not run again, unless it stopped with
+  ``budget_exceeded`` under other limits than this sweep's (raise the limit and
+  run the sweep again: only those runs run again). ``invalid`` and ``error`` rows
+  have no result file and are retried. An interrupted sweep (Ctrl-C, an exception)
   still writes the table, with status ``"pending"`` for the runs not done.
 * **Routes**: ``workers=1`` runs serially in this process; ``workers=K > 1`` on
   a ``concurrent.futures.ProcessPoolExecutor`` with the *spawn* start method
@@ -114,15 +123,15 @@ from pathlib import Path
 
 from ..case import OVERRIDE_KEYS, Case, CaseError, case_from_dict, load_case
 from ..case.keypaths import PathProblem, assign, resolve, within
-from .table import (RESULT_COLUMNS, RUNS_DIR, _row_from_file, _row_without_result, _write_atomic, _write_csv,
-                    _write_parquet, plot_sweep)
+from .table import (LIMIT_KEYS, RESULT_COLUMNS, RUNS_DIR, _row_from_file, _row_without_result, _write_atomic,
+                    _write_csv, _write_parquet, plot_sweep, run_limits)
 
 __all__ = ["SweepResult", "sweep", "expand_runs", "run_id", "plot_sweep", "TABLE_NAME", "PARQUET_NAME",
            "RUNS_DIR", "RESULT_COLUMNS"]
 
 TABLE_NAME = "sweep.csv"
 PARQUET_NAME = "sweep.parquet"
-#: Statuses of a row besides those of a Result (finished, zeno, max_impacts, penetration, failed).
+#: Statuses of a row besides those of a Result (gibbsimpact.simulation.status.STATUSES).
 STATUS_INVALID = "invalid"  # the loader rejected the run's case (e.g. a joint outside a wall)
 STATUS_ERROR = "error"  # the simulation raised, or the worker running it died
 STATUS_PENDING = "pending"  # not run: the sweep was interrupted
@@ -214,10 +223,12 @@ def run_id(case_table: dict) -> str:
     """Stable id of one run: 16 hex digits of SHA-256 of the case table it runs.
 
     case_table : the parsed case (``Case.source``) with the run's overrides applied.
-    ``name``, ``description`` and ``[output]`` are left out (they do not change the
-    result); integers that fit a double count as floats.
+    ``name``, ``description``, ``[output]`` and the limits of [solver] are left out (they do not
+    change the result, only where a run stops); integers that fit a double count as floats.
     """
     kept = {k: v for k, v in case_table.items() if k not in _NOT_IN_RUN_ID}
+    if isinstance(kept.get("solver"), Mapping):
+        kept["solver"] = {k: v for k, v in kept["solver"].items() if k not in LIMIT_KEYS}
     return hashlib.sha256(_canonical_json(kept).encode()).hexdigest()[:16]
 
 
@@ -432,7 +443,9 @@ def _base_table(base_case: Case, options: dict) -> dict:
         raise CaseError("options", problems)
     base = copy.deepcopy(base_case.source)
     for kw, v in given.items():
-        assign(base, tuple(OVERRIDE_KEYS[kw].split(".")), float(v) if isinstance(v, Real) else v)
+        # Whole numbers stay integers (max_rhs_calls is an integer key); the run id counts 20 and 20.0 as one.
+        v = int(v) if isinstance(v, Integral) else float(v) if isinstance(v, Real) else v
+        assign(base, tuple(OVERRIDE_KEYS[kw].split(".")), v)
     return base
 
 
@@ -478,7 +491,7 @@ def _rows_found(tasks: list, keys: list, runs_dir: Path) -> list:
     """The row of every run whose result file is there (resume), None for a run still to do."""
     rows = []
     for k, t in enumerate(tasks):
-        found = _row_from_file(runs_dir / f"{t['run_id']}.npz", t["run_id"])
+        found = _row_from_file(runs_dir / f"{t['run_id']}.npz", t["run_id"], run_limits(t["data"]))
         rows.append(None if found is None else {**_head(tasks, keys, k), **found})
     return rows
 
@@ -542,7 +555,8 @@ def _write_table(out: Path, columns: list, rows: list, tasks: list, keys: list) 
 
 
 def sweep(case, overrides, workers: int = 1, out=None, scheduler=None, t_end: float | None = None,
-          progress=None, method: str | None = None, rtol: float | None = None) -> SweepResult:
+          progress=None, method: str | None = None, rtol: float | None = None, max_cpu_time: float | None = None,
+          max_rhs_calls: int | None = None) -> SweepResult:
     """Run one case many times with keys overridden; write every result and one table.
 
     Parameters
@@ -563,6 +577,10 @@ def sweep(case, overrides, workers: int = 1, out=None, scheduler=None, t_end: fl
     method, rtol : None, or the scipy solver (a name of simulation.flight.SOLVERS) and the
         relative tolerance of every run (set ``solver.method``, ``solver.rtol``). Like ``t_end``
         they are part of every run's case (and id), not columns.
+    max_cpu_time, max_rhs_calls : None, or the limits of every run, CPU seconds and right-hand sides
+        (set ``solver.max_cpu_time_s``, ``solver.max_rhs_calls``): a run that uses one up stops with
+        status ``budget_exceeded`` and its samples, and the sweep goes on. Not part of the run ids:
+        a run stopped by other limits is run again.
 
     Returns
     -------
@@ -572,14 +590,15 @@ def sweep(case, overrides, workers: int = 1, out=None, scheduler=None, t_end: fl
     ------
     CaseError
         Before any run, for a bad key path or a value the case file would reject at that
-        key (source ``"overrides"``), duplicate runs, or a bad ``t_end``, ``method`` or
-        ``rtol``, or one that sets a varied key (source ``"options"``).
+        key (source ``"overrides"``), duplicate runs, or a bad ``t_end``, ``method``, ``rtol`` or
+        limit, or one that sets a varied key (source ``"options"``).
     ImportError
         With a scheduler but without dask.distributed.
     """
     base_case = _base_case(case)
     _check_route(workers, scheduler)
-    options = {"t_end": t_end, "method": method, "rtol": rtol}
+    options = {"t_end": t_end, "method": method, "rtol": rtol, "max_cpu_time": max_cpu_time,
+               "max_rhs_calls": max_rhs_calls}
     tasks, keys = _plan(base_case, _base_table(base_case, options), overrides, options)
     columns = ["run", "run_id", *keys, *RESULT_COLUMNS]
     out = Path(out) if out is not None else base_case.output_directory / "sweep"

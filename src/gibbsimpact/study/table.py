@@ -42,8 +42,11 @@ import numpy as np
 
 from ..io.result_files import atomic_path
 from ..model.model import link_deflection
+from ..simulation.status import STATUS_BUDGET_EXCEEDED
 
 RUNS_DIR = "runs"
+#: [solver] keys of a run's limits: they decide where a run too costly for them stops, not its result.
+LIMIT_KEYS = ("max_cpu_time_s", "max_rhs_calls")
 #: Columns after ``run``, ``run_id`` and the varied keys.
 RESULT_COLUMNS = ("status", "message", "n_impacts", "first_impact_s", "t_final_s", "energy_lost_J",
                   "max_impulse_N_s", "max_deflection_m", "energy_error", "nfev", "wall_time_s", "result")
@@ -113,8 +116,16 @@ def result_columns(result, path: Path) -> dict:
     }
 
 
-def _row_from_file(path: Path, rid: str):
-    """The result columns of a run from its NPZ file, or None when it is missing, unreadable or another run's."""
+def run_limits(case_table) -> dict:
+    """{key of LIMIT_KEYS: its value, None when not set} of a run's case table (its [solver])."""
+    solver = case_table.get("solver") if isinstance(case_table, dict) else None
+    solver = solver if isinstance(solver, dict) else {}
+    return {k: solver.get(k) for k in LIMIT_KEYS}
+
+
+def _row_from_file(path: Path, rid: str, limits: dict | None = None):
+    """The result columns of a run from its NPZ file, or None when it is missing, unreadable or another run's,
+    or when it stopped with status budget_exceeded under other limits than ``limits`` (run_limits)."""
     from ..io.result_files import load_result
 
     if not path.is_file():
@@ -124,6 +135,8 @@ def _row_from_file(path: Path, rid: str):
     except Exception:  # noqa: BLE001 - a damaged file is a run still to do
         return None
     if not isinstance(meta, dict) or meta.get("run_id") != rid:
+        return None
+    if limits is not None and res.status == STATUS_BUDGET_EXCEEDED and run_limits(meta.get("case_data")) != limits:
         return None
     return result_columns(res, path)
 
