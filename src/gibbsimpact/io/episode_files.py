@@ -14,12 +14,12 @@ from ..simulation.episodes import has_episodes
 
 __all__ = ["EPISODE_COLUMNS", "episode_cell", "episode_rows"]
 
-#: Columns of episodes.csv, one row per episode (units in the names; restitution NaN when the episode
-#: started resting, not with an impact).
+#: Columns of episodes.csv, one row per episode (units in the names; restitution and non_contact_share NaN
+#: when the episode started resting, not with an impact).
 EPISODE_COLUMNS = [
     "episode", "start_s", "end_s", "duration_s", "ended", "walls", "contact_points", "first_contact_point",
     "n_impacts", "first_impact", "last_impact", "impulse_N_s", "max_impulse_N_s", "max_force_N", "resting_time_s",
-    "energy_before_J", "energy_after_J", "energy_lost_J", "restitution", "max_penetration_m",
+    "energy_before_J", "energy_after_J", "energy_lost_J", "restitution", "non_contact_share", "max_penetration_m",
 ]
 
 
@@ -47,7 +47,7 @@ def episode_rows(result) -> list[dict] | None:
             "impulse_N_s": ep.impulse, "max_impulse_N_s": ep.max_impulse, "max_force_N": ep.max_force,
             "resting_time_s": ep.resting_time, "energy_before_J": ep.energy_before,
             "energy_after_J": ep.energy_after, "energy_lost_J": ep.energy_lost, "restitution": ep.restitution,
-            "max_penetration_m": ep.max_penetration,
+            "non_contact_share": ep.non_contact_share, "max_penetration_m": ep.max_penetration,
         })
     return rows
 

@@ -193,6 +193,8 @@ def _episode_physics(result) -> dict:
     for ep in result.episodes:
         if ep.impacts:
             e = "" if ep.restitution != ep.restitution else f", e_eff {ep.restitution:.3g}"
+            if ep.non_contact_share > 0.1:  # not an impulsive collision: say why e_eff is no restitution
+                e += f" with other forces {ep.non_contact_share:.2g} of the approach"
             out[ep.impacts[0]] = f" (impulse {ep.impulse:.3g} N s{e}, {ep.energy_lost:.3g} J lost)"
     return out
 

@@ -30,7 +30,10 @@ Rules, with the symbols of the docs (b the contact band, §14.2):
   inputs and the velocity terms did during the episode. For one impact of a rigid chain it is
   -v_n^+ / v_n^- = e exactly; for an arm on a fixed pivot (R = {theta_1}) it is the ratio of the
   angular momenta about the pivot, after (gravity removed) over before. NaN for an episode that
-  did not start with an impact (it started resting: nothing approached).
+  did not start with an impact (it started resting: nothing approached). It presumes an impulsive
+  collision: ``non_contact_share``, the change of w_R^T M_RR^-1 p_R that the other forces made during
+  the episode over its value before, says how far that holds (e_eff moves by up to that much if they
+  are counted).
 """
 
 from __future__ import annotations
@@ -66,6 +69,10 @@ class Episode(NamedTuple):
     energy_before, energy_after : [J] E = T + V_g + V_s at start and at end (with inputs or damping their
         work over the episode is in the difference)
     restitution : e_eff (module docstring), NaN when it did not start with an impact
+    non_contact_share : |w_R^T M_RR^-1 (p(end) - p^- - P)_R| / |w_R^T M_RR^-1 p^-_R|, what the other forces
+        (gravity, inputs, the velocity terms) changed of the approach during the episode: e_eff describes an
+        impulsive collision when it is small (0.005 for the arm of issue 26), and it moves e_eff by up to that
+        much; large when the wall also carried a load for long (a driven arm pressed onto a floor)
     max_penetration : [m] max(0, -g) over its pairs and samples, the deepest gap recorded
     """
 
@@ -84,6 +91,7 @@ class Episode(NamedTuple):
     energy_before: float
     energy_after: float
     restitution: float
+    non_contact_share: float
     max_penetration: float
 
     @property
@@ -223,15 +231,16 @@ def _resting_impulse(result, s: _Samples, k0: int, k1: int) -> np.ndarray:
     return _trapezoid(result.t[k0:k1 + 1], Q)
 
 
-def _restitution(result, s: _Samples, k0: int, k1: int, impacts: list) -> float:
-    """e_eff of the episode of samples k0 ... k1 and impacts (module docstring); NaN when its first sample is
-    not the state before an impact, or the first impact carried no impulse."""
+def _restitution(result, s: _Samples, k0: int, k1: int, impacts: list) -> tuple[float, float]:
+    """(e_eff, non-contact share) of the episode of samples k0 ... k1 and impacts (module docstring); NaN, NaN
+    when its first sample is not the state before an impact, or the first impact carried no impulse."""
+    nan = (float("nan"), float("nan"))
     if not impacts or int(s.after[impacts[0]]) != k0 + 1:
-        return float("nan")
+        return nan
     model, first = result.model, result.impacts[impacts[0]]
     total = float(np.sum(first.impulses))
     if not total > 0.0:
-        return float("nan")
+        return nan
     M0 = mass_matrix(model, result.q[k0])
     p_before = M0 @ first.qdot_before
     # P: the impacts' M (qdot+ - qdot-) (exact, no Jacobian needed), then the resting forces' integral.
@@ -241,9 +250,16 @@ def _restitution(result, s: _Samples, k0: int, k1: int, impacts: list) -> float:
     R = np.setdiff1d(np.arange(model.n_dof), elastic)
     w = (M0 @ (first.qdot_after - first.qdot_before))[R] / total  # W Lambda / sum Lambda, rows R
     M_RR = M0[np.ix_(R, R)]
-    v_before = float(w @ np.linalg.solve(M_RR, p_before[R]))
-    v_after = float(w @ np.linalg.solve(M_RR, (p_before + P)[R]))
-    return -v_after / v_before if v_before < 0.0 else float("nan")
+
+    def v(p):  # the rigid chain's normal velocity of the first contact with the momenta p_R [m/s]
+        return float(w @ np.linalg.solve(M_RR, p[R]))
+
+    v_before = v(p_before)
+    if not v_before < 0.0:
+        return nan
+    # What the other forces did to p over the episode: p(end) - p- - P.
+    other = mass_matrix(model, result.q[k1]) @ result.qdot[k1] - p_before - P
+    return -v(p_before + P) / v_before, abs(v(other) / v_before)
 
 
 def _episode(result, s: _Samples, group: list, energy: np.ndarray) -> Episode:
@@ -260,6 +276,7 @@ def _episode(result, s: _Samples, group: list, energy: np.ndarray) -> Episode:
     else:
         first = int(np.unravel_index(np.argmax(F[0]), F[0].shape)[1]) + 1 if F[0].any() else points[0]
     depth = max(-float(s.gap[k0:k1 + 1, w, c].min()) for _, _, _, w, c in group)
+    e_eff, share = _restitution(result, s, k0, k1, impacts)
     return Episode(
         start=float(result.t[k0]), end=float(result.t[k1]), ended=all(g[2] for g in group),
         walls=tuple(sorted({w for _, _, _, w, _ in group})), points=points, first_point=first,
@@ -267,7 +284,7 @@ def _episode(result, s: _Samples, group: list, energy: np.ndarray) -> Episode:
         max_impulse=max(lam, default=0.0), max_force=float(F.max(initial=0.0)),
         resting_time=float(np.sum(np.diff(t) * F[:-1].any(axis=(1, 2)))),
         energy_before=float(energy[k0]), energy_after=float(energy[k1]),
-        restitution=_restitution(result, s, k0, k1, impacts), max_penetration=max(depth, 0.0),
+        restitution=e_eff, non_contact_share=share, max_penetration=max(depth, 0.0),
     )
 
 

@@ -122,8 +122,9 @@ class Result:
         rigid part: there each Newton impact is an episode). Each gives its start and end, impulse,
         energy lost E(start) - E(end), effective restitution (the rigid chain's normal velocity of the
         first contact from the generalised momenta after, gravity and inputs removed, over before: e for
-        one impact of a rigid chain, the angular-momentum ratio for an arm on a pivot), largest impulse
-        and resting force, and deepest penetration (below contact_tol with Newton's law)
+        one impact of a rigid chain, the angular-momentum ratio for an arm on a pivot; non_contact_share says
+        how impulsive the episode was), largest impulse and resting force, and deepest penetration (below
+        contact_tol with Newton's law)
     """
 
     model: object
