@@ -104,3 +104,21 @@ def test_figures_label_the_collision_episodes_of_a_run():
     assert [t.get_text() for t in _number_row(fig.axes[0])] == ["1\u201323"]
     title = plot_configurations(res, n_points=5)._suptitle.get_text().replace("\n", " ")
     assert "23 impacts in 1 collision episode, one panel each" in title
+
+
+def test_a_few_impacts_are_numbered_one_by_one_and_their_episodes_named():
+    # Up to 12 impacts each has its number; the footnote adds the episodes that hold several of them.
+    import dataclasses
+
+    from conftest import issue26_arm
+
+    res = issue26_arm()
+    few = dataclasses.replace(res, impacts=res.impacts[:5])  # the first 5 of the one episode
+    (ep,) = few.episodes
+    assert ep.impacts == (0, 1, 2, 3, 4)
+    note = _impact_note(few)
+    assert note.startswith("impacts (dotted lines): 1: O2 at 0.268002 s; 2: O2 at")
+    assert f"; collision episodes: 1\u20135 (impulse {ep.impulse:.3g} N s, e_eff {ep.restitution:.3g}" in note
+    assert note.endswith(f"{ep.energy_lost:.3g} J lost)")
+    # Each impact its own episode (the rigid rod): nothing added.
+    assert "collision episodes" not in _impact_note(issue26_arm(elements=0, t_end=0.7))

@@ -170,7 +170,7 @@ def _impact_note(result, limit: int = 8) -> str:
     if len(imps) <= MAX_LABELLED:
         items = [f"{k}: {_contacts_text(result, r)} at {r.time:.6f} s" for k, r in enumerate(imps[:limit], start=1)]
         more = f"; ... ({len(imps)} in all, every one in impacts.csv)" if len(imps) > limit else ""
-        return "impacts (dotted lines): " + "; ".join(items) + more
+        return "impacts (dotted lines): " + "; ".join(items) + more + _grouped_note(result)
     groups, physical = impact_groups(result)
     physics = _episode_physics(result) if physical else {}
     items = [f"{_range_text(a + 1, b + 1)}: {_episode_contacts(result, a, b)} at "
@@ -185,6 +185,17 @@ def _impact_note(result, limit: int = 8) -> str:
     return (f"{len(imps)} impacts (ticks at the bottom), numbered per contact episode (impacts at most "
             f"{EPISODE_GAP * (float(result.t[-1]) - float(result.t[0])):.3g} s apart; every impact in impacts.csv): "
             + "; ".join(items) + more)
+
+
+def _grouped_note(result) -> str:
+    """'; collision episodes: 2-6 (impulse ..., e_eff ..., ... J lost)' for the episodes of several impacts of a
+    run numbered impact by impact, '' when each impact is its own episode (or the Result has no episodes)."""
+    groups, physical = impact_groups(result)
+    if not physical:
+        return ""
+    physics = _episode_physics(result)
+    items = [f"{_range_text(a + 1, b + 1)}{physics.get(a, '')}" for a, b in groups if b > a]
+    return "; collision episodes: " + "; ".join(items) if items else ""
 
 
 def _episode_physics(result) -> dict:
