@@ -19,7 +19,8 @@ STAGES = ["kernel", "model", "dynamics", "symbolic", "contact", "simulation", "p
 # (importing module, enclosing function): the alias methods that may import a later stage.
 ALIASES = {
     ("model.model", f) for f in ("_dynamics", "_kinematics")  # what Model.mass_matrix, ... call
-} | {("simulation.results", f) for f in ("save", "to_csv", "summary", "plot", "figure", "save_figures")}
+} | {("simulation.results", f) for f in ("save", "to_csv", "summary", "plot", "figure", "save_figures")
+     } | {("simulation.results", "episodes")}  # Result.episodes calls simulation.episodes (which reads contacts)
 
 
 def _modules():

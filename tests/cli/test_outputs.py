@@ -79,37 +79,38 @@ def test_full_disk_keeps_summary_and_result_exit_4(disk, capsys):
     out = disk(400_000)
     code, stdout, err = run_main(["run", CASE1, "--t-end", "1", "--out", out], capsys)
     assert code == 4 == cli.EXIT_OUTPUT
-    assert files(out) == ["impacts.csv", "result.npz", "summary.json"]  # and no temporary file
+    assert files(out) == ["episodes.csv", "impacts.csv", "result.npz", "summary.json"]  # and no temporary file
     res = gi.load_result(out / "result.npz")
     assert res.status == "finished" and res.t[-1] == 1.0 and len(res.impacts) == 4
     s = json.loads((out / "summary.json").read_text())
     assert s["status"] == "finished" and s["n_impacts"] == 4
     assert s["output_files"] == {
-        "complete": False, "folder": str(out), "written": ["result.npz", "impacts.csv"], "written_elsewhere": {},
+        "complete": False, "folder": str(out), "written": ["result.npz", "impacts.csv", "episodes.csv"],
+        "written_elsewhere": {},
         "not_written": {"timeseries.csv": f"No space left on device in {out}",
                         "figures": "a file could not be written (they would take the space summary.json needs)"},
         "pending": []}
     (line,) = error_lines(err)
     assert line.startswith(f"gibbsimpact: error: could not write every result into {out}; timeseries.csv not "
                            f"written (No space left on device in {out}); written there: summary.json, result.npz, "
-                           "impacts.csv; skipped: figures; the CSV files and figures can be made again from "
+                           "impacts.csv, episodes.csv; skipped: figures; the CSV files and figures can be made again from "
                            f"{out / 'result.npz'}")
     assert "status: finished" in stdout and "drawing figures" not in stdout
     assert list((out.parent / "tmp").iterdir()) == []  # no fallback needed
 
 
 def test_result_npz_that_does_not_fit_goes_to_a_temporary_folder(disk, capsys):
-    out = disk(40_000)  # summary.json and impacts.csv fit, result.npz does not
+    out = disk(40_000)  # summary.json, impacts.csv and episodes.csv fit, result.npz does not
     code, _, err = run_main(["run", CASE1, "--t-end", "1", "--out", out, "--no-plots"], capsys)
     assert code == 4
-    assert files(out) == ["impacts.csv", "summary.json"]
+    assert files(out) == ["episodes.csv", "impacts.csv", "summary.json"]
     (fallback,) = (out.parent / "tmp").iterdir()
     assert fallback.name.startswith("gibbsimpact-") and files(fallback) == ["result.npz"]
     res = gi.load_result(fallback / "result.npz")
     assert res.t[-1] == 1.0 and len(res.impacts) == 4
     s = json.loads((out / "summary.json").read_text())
     assert s["output_files"]["written_elsewhere"] == {"result.npz": str(fallback / "result.npz")}
-    assert s["output_files"]["written"] == ["impacts.csv"] and not s["output_files"]["complete"]
+    assert s["output_files"]["written"] == ["impacts.csv", "episodes.csv"] and not s["output_files"]["complete"]
     (line,) = error_lines(err)
     assert (f"result.npz written to {fallback / 'result.npz'} instead (No space left on device in {out})"
             in line)
@@ -123,7 +124,7 @@ def test_nothing_fits_both_essential_files_in_the_temporary_folder(disk, capsys)
     assert files(fallback) == ["result.npz", "summary.json"]
     s = json.loads((fallback / "summary.json").read_text())
     assert s["t_final_s"] == 0.1 and s["output_files"]["written"] == []
-    assert set(s["output_files"]["not_written"]) == {"impacts.csv", "timeseries.csv", "figures"}
+    assert set(s["output_files"]["not_written"]) == {"impacts.csv", "episodes.csv", "timeseries.csv", "figures"}
     assert f"summary.json written to {fallback / 'summary.json'} instead" in err
 
 
@@ -150,14 +151,15 @@ def test_essential_files_come_first(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(figures, "plot_one", spy_figure)
     code, _, _ = run_main(["run", CASE1, "--t-end", "0.05", "--out", tmp_path, "-q"], capsys)
     assert code == 0
-    assert seen[2]["written"] == ["result.npz", "impacts.csv", "timeseries.csv"] and seen[2]["pending"] == ["figures"]
-    assert seen[0] == ["impacts.csv", "result.npz", "summary.json"]
+    assert seen[2]["written"] == ["result.npz", "impacts.csv", "episodes.csv", "timeseries.csv"]
+    assert seen[2]["pending"] == ["figures"]
+    assert seen[0] == ["episodes.csv", "impacts.csv", "result.npz", "summary.json"]
     # The first summary.json: written before every other file (those there now are complete: atomic).
-    assert seen[1]["pending"] == ["result.npz", "impacts.csv", "timeseries.csv", "figures"]
+    assert seen[1]["pending"] == ["result.npz", "impacts.csv", "episodes.csv", "timeseries.csv", "figures"]
     assert seen[1]["written"] == [] and not seen[1]["complete"]
     s = json.loads((tmp_path / "summary.json").read_text())
     assert s["output_files"]["complete"] and s["output_files"]["pending"] == []
-    assert s["output_files"]["written"][:3] == ["result.npz", "impacts.csv", "timeseries.csv"]
+    assert s["output_files"]["written"][:4] == ["result.npz", "impacts.csv", "episodes.csv", "timeseries.csv"]
     assert "angles.png" in s["output_files"]["written"] and "matplotlib" in s["versions"]
 
 
@@ -181,7 +183,7 @@ def test_full_tmpfs_exit_4(tmp_path, capsys):
     try:
         code, _, err = run_main(["run", CASE1, "--t-end", "1", "--out", out / "out"], capsys)
         assert code == 4
-        assert files(out / "out") == ["impacts.csv", "result.npz", "summary.json"]
+        assert files(out / "out") == ["episodes.csv", "impacts.csv", "result.npz", "summary.json"]
         assert gi.load_result(out / "out" / "result.npz").t[-1] == 1.0
         assert "timeseries.csv not written (No space left on device" in err
     finally:
@@ -211,7 +213,8 @@ def test_signal_while_a_figure_is_drawn_drops_the_figures(tmp_path, capsys, monk
     signal_in(monkeypatch, figures, "plot_one", when=2)  # while "modes" is drawn
     code, _, err = run_main(["run", CASE1, "--t-end", "0.05", "--out", tmp_path, "-q"], capsys)
     assert code == 130
-    assert files(tmp_path) == ["angles.png", "impacts.csv", "result.npz", "summary.json", "timeseries.csv"]
+    assert files(tmp_path) == ["angles.png", "episodes.csv", "impacts.csv", "result.npz", "summary.json",
+                               "timeseries.csv"]
     s = json.loads((tmp_path / "summary.json").read_text())
     assert s["output_files"]["not_written"] == {"figures": "SIGTERM arrived while the results were written"}
     assert error_lines(err) == [f"gibbsimpact: error: interrupted (SIGTERM) while the results were written; they "
@@ -222,7 +225,7 @@ def test_signal_while_the_data_are_written_holds_then_skips_the_figures(tmp_path
     signal_in(monkeypatch, gio, "write_timeseries_csv", when=1)
     code, _, err = run_main(["run", CASE1, "--t-end", "0.05", "--out", tmp_path, "-q"], capsys)
     assert code == 130
-    assert files(tmp_path) == ["impacts.csv", "result.npz", "summary.json", "timeseries.csv"]
+    assert files(tmp_path) == ["episodes.csv", "impacts.csv", "result.npz", "summary.json", "timeseries.csv"]
     ts = gio.read_csv(tmp_path / "timeseries.csv")
     assert np.array_equal(ts["t_s"], gi.load_result(tmp_path / "result.npz").t)  # complete
     assert "gibbsimpact: SIGTERM: writing the data and summary.json" in err
@@ -233,7 +236,7 @@ def test_second_signal_aborts_the_writing_and_the_first_summary_says_what_is_mis
     signal_in(monkeypatch, gio, "write_timeseries_csv", when=1, times=2)
     code, _, err = run_main(["run", CASE1, "--t-end", "0.05", "--out", tmp_path, "-q"], capsys)
     assert code == 130 and "interrupted (SIGTERM) while writing the results" in err
-    assert files(tmp_path) == ["impacts.csv", "result.npz", "summary.json"]  # no temporary file either
+    assert files(tmp_path) == ["episodes.csv", "impacts.csv", "result.npz", "summary.json"]  # no temporary file
     s = json.loads((tmp_path / "summary.json").read_text())
-    assert s["output_files"]["pending"] == ["result.npz", "impacts.csv", "timeseries.csv", "figures"]
+    assert s["output_files"]["pending"] == ["result.npz", "impacts.csv", "episodes.csv", "timeseries.csv", "figures"]
     assert not s["output_files"]["complete"]

@@ -149,13 +149,14 @@ def test_csv_every_k_keeps_the_full_rows_at_those_samples(result, tmp_path):
     F[K // 3:K // 2, 0, 1] = np.linspace(1.0, 2.0, K // 2 - K // 3)  # some resting contact
     res = dataclasses.replace(result, contact_forces=F)
     full, part = io.to_csv(res, tmp_path / "full"), io.to_csv(res, tmp_path / "part", every=7)
-    assert set(full) == set(part) == {"timeseries", "impacts", "contact_forces"}
+    assert set(full) == set(part) == {"timeseries", "impacts", "episodes", "contact_forces"}
     rows = list(range(0, K, 7)) + ([] if (K - 1) % 7 == 0 else [K - 1])
     for name in ("timeseries", "contact_forces"):
         a, b = full[name].read_text().splitlines(), part[name].read_text().splitlines()
         assert len(b) == 1 + len(rows) == 1 + -(-K // 7) + ((K - 1) % 7 != 0)
         assert b == [a[0]] + [a[1 + r] for r in rows]
     assert full["impacts"].read_text() == part["impacts"].read_text()
+    assert full["episodes"].read_text() == part["episodes"].read_text()  # whole, as impacts.csv
     assert res.to_csv(tmp_path / "alias", every=7)["timeseries"].read_text() == part["timeseries"].read_text()
     for bad in (0, -2, 1.5, True, "3"):
         with pytest.raises(ValueError, match="every="):
@@ -213,6 +214,29 @@ def test_summary_json_is_strict_and_complete(result, case, tmp_path):
     # Each wall says which restitution it used (its own, or the global one).
     assert d["walls"] == [f"circle R=1.5 m centre (0, 0), restitution {result.settings['restitution']:g} (global)"]
     assert result.summary(case) == d
+
+
+def test_episodes_in_the_files(tmp_path):
+    # The flexible arm of issue 26 (one element): 23 impacts and resting phases in one episode.
+    from conftest import issue26_arm
+    from gibbsimpact.io.episode_files import EPISODE_COLUMNS
+
+    res = issue26_arm()
+    (ep,) = res.episodes
+    # result.npz keeps what the episodes are computed from, exactly: the same episodes come back.
+    assert gi.load_result(res.save(tmp_path / "r.npz")).episodes == res.episodes
+    cols = io.read_csv(res.to_csv(tmp_path)["episodes"])
+    assert list(cols) == EPISODE_COLUMNS
+    assert cols["episode"].tolist() == [1] and cols["contact_points"].tolist() == ["O2"]
+    assert (cols["first_impact"][0], cols["last_impact"][0], cols["n_impacts"][0]) == (1, 23, 23)
+    for name, value in (("start_s", ep.start), ("end_s", ep.end), ("impulse_N_s", ep.impulse),
+                        ("energy_lost_J", ep.energy_lost), ("restitution", ep.restitution),
+                        ("max_force_N", ep.max_force), ("max_penetration_m", ep.max_penetration)):
+        assert cols[name][0] == value, name  # the shortest text that reads back to the same double
+    assert cols["ended"].tolist() == ["true"] and cols["walls"].tolist() == [1]
+    s = json.loads(io.write_summary_json(res, tmp_path / "summary.json").read_text())
+    assert s["n_episodes"] == 1 and s["episodes"][0]["restitution"] == ep.restitution
+    assert s["episodes"][0]["contact_points"] == ["O2"] and s["episodes"][0]["walls"] == [1]
 
 
 def test_tagged_json_keeps_types():

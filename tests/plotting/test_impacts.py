@@ -83,3 +83,42 @@ def test_footnote_lists_episodes_past_twelve_impacts(bursts):
     assert note.startswith("101 impacts (ticks at the bottom), numbered per contact episode")
     assert "1\u201315: O3 at 0.525317\u2013" in note and "16\u201331: O3 at 0.537676\u2013" in note
     assert "(7 episodes in all)" in note
+
+
+def test_figures_label_the_collision_episodes_of_a_run():
+    # A Result of simulate groups its impacts by Result.episodes (not by time), and the footnote says what each
+    # collision did: the 23 impacts of the issue-26 arm (one element) are one episode.
+    from conftest import issue26_arm
+    from gibbsimpact.plotting import plot_configurations
+    from gibbsimpact.plotting.impacts import impact_groups
+
+    res = issue26_arm()
+    (ep,) = res.episodes
+    assert impact_groups(res) == ([(0, 22)], True)
+    note = _impact_note(res)
+    assert note.startswith("23 impacts (ticks at the bottom) in 1 collision episode, numbered per episode")
+    assert (f"1\u201323: O2 at {res.impacts[0].time:.6f}\u2013{res.impacts[-1].time:.6f} s (impulse "
+            f"{ep.impulse:.3g} N s, e_eff {ep.restitution:.3g}, {ep.energy_lost:.3g} J lost)") in note
+    fig = plot_angles(res)
+    fig.canvas.draw()
+    assert [t.get_text() for t in _number_row(fig.axes[0])] == ["1\u201323"]
+    title = plot_configurations(res, n_points=5)._suptitle.get_text().replace("\n", " ")
+    assert "23 impacts in 1 collision episode, one panel each" in title
+
+
+def test_a_few_impacts_are_numbered_one_by_one_and_their_episodes_named():
+    # Up to 12 impacts each has its number; the footnote adds the episodes that hold several of them.
+    import dataclasses
+
+    from conftest import issue26_arm
+
+    res = issue26_arm()
+    few = dataclasses.replace(res, impacts=res.impacts[:5])  # the first 5 of the one episode
+    (ep,) = few.episodes
+    assert ep.impacts == (0, 1, 2, 3, 4)
+    note = _impact_note(few)
+    assert note.startswith("impacts (dotted lines): 1: O2 at 0.268002 s; 2: O2 at")
+    assert f"; collision episodes: 1\u20135 (impulse {ep.impulse:.3g} N s, e_eff {ep.restitution:.3g}" in note
+    assert note.endswith(f"{ep.energy_lost:.3g} J lost)")
+    # Each impact its own episode (the rigid rod): nothing added.
+    assert "collision episodes" not in _impact_note(issue26_arm(elements=0, t_end=0.7))

@@ -78,7 +78,8 @@ def test_signal_during_a_cli_run_writes_the_partial_result(tmp_path, sig):
     assert np.all(np.diff(res.t) >= 0) and res.q.shape == (res.t.size, res.model.n_dof)
     ts = gio.read_csv(out / "timeseries.csv")
     assert np.array_equal(ts["t_s"], res.t)
-    assert sorted(p.name for p in out.iterdir()) == ["impacts.csv", "result.npz", "summary.json", "timeseries.csv"]
+    assert sorted(p.name for p in out.iterdir()) == ["episodes.csv", "impacts.csv", "result.npz", "summary.json",
+                                                     "timeseries.csv"]
 
 
 @pytest.mark.skipif(os.name != "posix", reason="POSIX signals")
@@ -105,10 +106,11 @@ def test_sigterm_writes_data_and_summary_without_figures_within_the_grace_period
         proc.kill()
     assert proc.returncode == 130, (stdout, stderr)
     assert took < 10.0, took  # docker stop's grace period
-    assert sorted(p.name for p in out.iterdir()) == ["impacts.csv", "result.npz", "summary.json", "timeseries.csv"]
+    assert sorted(p.name for p in out.iterdir()) == ["episodes.csv", "impacts.csv", "result.npz", "summary.json",
+                                                     "timeseries.csv"]
     s = json.loads((out / "summary.json").read_text())
     assert s["status"] == "interrupted" and s["output_files"]["not_written"] == {"figures": "the run was interrupted"}
-    assert s["output_files"]["written"] == ["result.npz", "impacts.csv", "timeseries.csv"]
+    assert s["output_files"]["written"] == ["result.npz", "impacts.csv", "episodes.csv", "timeseries.csv"]
     assert gi.load_result(out / "result.npz").t[-1] == s["t_final_s"] > 0.0
     assert "drawing figures" not in stdout and "figures not drawn (the run was interrupted)" in stdout
 
@@ -280,7 +282,7 @@ def test_no_stale_files_and_unknown_files_kept(tmp_path, capsys):
                            "-q"], capsys)
     assert code == 0
     assert sorted(p.name for p in out.iterdir()) == sorted(
-        ["timeseries.csv", "impacts.csv", "summary.json", "result.npz"] + mine)
+        ["timeseries.csv", "impacts.csv", "episodes.csv", "summary.json", "result.npz"] + mine)
     assert all((out / name).read_text() == "from before" for name in mine)
     assert json.loads((out / "summary.json").read_text())["status"] == "finished"
 
@@ -294,11 +296,12 @@ def test_stale_files_of_a_run_with_figures_are_removed(tmp_path, capsys):
     assert code == 0 and (out / "angles.png").exists() and (out / "animation.gif").exists()
     from gibbsimpact.plotting.figures import FIGURES
 
-    assert {p.name for p in out.iterdir()} == {"timeseries.csv", "impacts.csv", "summary.json", "result.npz",
-                                               "animation.gif"} | {f"{k}.png" for k in FIGURES}
+    assert {p.name for p in out.iterdir()} == {"timeseries.csv", "impacts.csv", "episodes.csv", "summary.json",
+                                               "result.npz", "animation.gif"} | {f"{k}.png" for k in FIGURES}
     code, _, _ = run_main(["run", case, "--out", out, "--t-end", "0.02", "--no-plots", "-q"], capsys)
     assert code == 0
-    assert sorted(p.name for p in out.iterdir()) == ["impacts.csv", "result.npz", "summary.json", "timeseries.csv"]
+    assert sorted(p.name for p in out.iterdir()) == ["episodes.csv", "impacts.csv", "result.npz", "summary.json",
+                                                     "timeseries.csv"]
     assert gi.load_result(out / "result.npz").t[-1] == 0.02
 
 

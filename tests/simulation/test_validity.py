@@ -145,6 +145,57 @@ def test_simulate_warns_once_wired(circle):
         gi.simulate(circle.model, q, circle.qdot0, (0.0, 1e-3), walls=circle.walls, rtol=1e-6, atol=1e-8)
 
 
+# -- Newton's law at a point whose effective mass depends on the discretisation (issue 26 item 3) --------
+
+def record(joints, walls, impulses, t=0.25):
+    """An ImpactRecord with only what check_impact reads (time, contacts, walls, impulses)."""
+    from gibbsimpact.simulation.results import ImpactRecord
+
+    k, E = len(joints), gi.Energy(0.0, 0.0, 0.0, 0.0)
+    return ImpactRecord(t, tuple(joints), tuple(walls), np.tile([0.0, 1.0, 0.0], (k, 1)), np.asarray(impulses),
+                        -np.ones(k), np.ones(k), np.ones(k), np.zeros(1), np.zeros(1), E, E)
+
+
+def test_newton_at_a_finite_element_tip_warns_once_at_its_first_impact():
+    from conftest import ISSUE26_FLOOR, issue26_model
+
+    model = issue26_model(elements=1)
+    q0 = np.zeros(model.n_dof)
+    with pytest.warns(ValidityWarning) as caught:
+        res = gi.simulate(model, q0, np.zeros_like(q0), (0.0, 0.2687), walls=[ISSUE26_FLOOR])
+    newton = [w for w in caught if "Newton's law" in str(w.message)]
+    assert len(newton) == 1 and len(res.impacts) >= 4  # once per run, whatever the impacts there
+    msg = str(newton[0].message)
+    assert msg.startswith(f"Newton's law applied at O2 (tip of link 1) on wall 1 (plane through (0, 0, 0) normal "
+                          f"(0, 1, 0)) at t = {res.impacts[0].time:.9g} s")
+    for text in ("(link 1: 1 finite element)", "halves with every doubling of elements", "docs/theory.md §11.4",
+                 "not yet available", "make link 1 rigid", "clamped-clamped modes", "Result.episodes"):
+        assert text in msg, text
+    assert "link_contacts=False" not in msg  # only where a span point struck
+    assert Path(newton[0].filename).name == "test_validity.py"  # the line that called simulate
+
+
+def test_check_impact_names_the_point_and_only_ill_posed_ones():
+    from conftest import issue26_model, two_link_circle_model
+
+    from gibbsimpact.simulation.validity import check_impact
+
+    fe = issue26_model(elements=2)
+    floor = (gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)),)
+    (span,) = check_impact(fe, record([3], [0], [0.1]), floor)  # column 3: the closest point of link 1
+    assert "at link 1 (span of link 1)" in span and "2 finite elements" in span and "link_contacts=False" in span
+    # No impulse there, an end stop, the joint O1: nothing to say.
+    assert check_impact(fe, record([2, 1], [0, 0], [0.0, 0.3]), floor) == []
+    assert check_impact(fe, record([1], [-1], [0.3]), floor) == []
+    cf = issue26_model(elements=0, modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "y", 2)])
+    (tip,) = check_impact(cf, record([2], [0], [0.2]), floor)
+    assert "(link 1: 2 assumed modes (clamped-free))" in tip
+    # The published chains' joints (clamped-clamped modes) never warn, nor does a rigid rod's tip.
+    circle = (gi.Circle(1.5, (0.0, 0.0)),)
+    assert check_impact(two_link_circle_model(), record([1, 2, 3], [0, 0, 0], [1.0, 1.0, 1.0]), circle) == []
+    assert check_impact(issue26_model(elements=0), record([2], [0], [1.0]), floor) == []
+
+
 # -- spinning flexible links (no geometric stiffening: issue 24 item 4) ----------------------------
 
 BETA1_L = 1.8751040687119611  # first root of cos(b) cosh(b) = -1: clamped-free beam

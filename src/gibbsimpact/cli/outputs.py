@@ -2,9 +2,9 @@
 what was written, what was not, and where the essential files went when the output folder refused them.
 
 Order (docs/case-format.md, "Output files"): summary.json (a first version listing the files still to
-come), result.npz (the whole Result, lossless), impacts.csv, contact_forces.csv, timeseries.csv (the
-largest data file), summary.json again, the figures, animation.gif, then summary.json a last time,
-listing what was written. A full disk (case 1 for 1 s: timeseries.csv 496 kB, result.npz 91 kB,
+come), result.npz (the whole Result, lossless), impacts.csv, episodes.csv, contact_forces.csv,
+timeseries.csv (the largest data file), summary.json again, the figures, animation.gif, then
+summary.json a last time, listing what was written. A full disk (case 1 for 1 s: timeseries.csv 496 kB, result.npz 91 kB,
 summary.json 3 kB) thus still keeps the run; the CSV files and the figures can be made again from
 result.npz. A run interrupted (Ctrl-C, SIGTERM) writes the data and summary.json, not the figures.
 """
@@ -19,8 +19,8 @@ from pathlib import Path
 #: Files ``gibbsimpact run`` may write into its output folder, besides <figure>.png for
 #: every name in plotting.FIGURES and OPTIONAL_FIGURES. Before writing, a run removes those of them that are
 #: there (an earlier run's), and nothing else.
-OUTPUT_FILES = ("timeseries.csv", "impacts.csv", "contact_forces.csv", "summary.json", "result.npz",
-                "animation.gif")
+OUTPUT_FILES = ("timeseries.csv", "impacts.csv", "episodes.csv", "contact_forces.csv", "summary.json",
+                "result.npz", "animation.gif")
 #: Written into a temporary folder (OutputReport.fallback) when the output folder refuses them.
 ESSENTIAL_FILES = ("summary.json", "result.npz")
 
@@ -66,7 +66,7 @@ class OutputReport:
 
     out : the output folder; written : names of the files written there, in order (summary.json included);
     paths : {key: Path} of every file written, in ``out`` or in ``fallback`` (keys: "summary", "result",
-    "timeseries", "impacts", "contact_forces", figure names, "animation");
+    "timeseries", "impacts", "episodes", "contact_forces", figure names, "animation");
     elsewhere : {name: why} of the essential files written into ``fallback`` instead of ``out``;
     failed : {name: reason} of files that could not be written anywhere;
     skipped : {name: reason} of files not attempted ("figures" for those not drawn);
@@ -140,14 +140,15 @@ def _data_files(result, case, report: OutputReport, pending: list, csv_every: in
     sample (and the last) in the per-sample CSV files (io.result_files.sample_rows)."""
     import numpy as np
 
-    from ..io.result_files import (save_result, write_contact_forces_csv, write_impacts_csv, write_summary_json,
-                                   write_timeseries_csv)
+    from ..io.result_files import (save_result, write_contact_forces_csv, write_episodes_csv, write_impacts_csv,
+                                   write_summary_json, write_timeseries_csv)
 
     source = case.path.read_text() if case.path is not None and case.path.exists() else None
     later = lambda: [n for n in pending if n != "summary.json"]  # noqa: E731
     files = [("summary.json", lambda p: write_summary_json(result, p, case, report.listing(later()))),
              ("result.npz", lambda p: save_result(result, p, metadata={"case": case.name, "case_toml": source})),
-             ("impacts.csv", lambda p: write_impacts_csv(result, p))]
+             ("impacts.csv", lambda p: write_impacts_csv(result, p)),
+             ("episodes.csv", lambda p: write_episodes_csv(result, p))]
     if result.contact_forces is not None and np.any(result.contact_forces):
         files.append(("contact_forces.csv", lambda p: write_contact_forces_csv(result, p, csv_every)))
     files.append(("timeseries.csv", lambda p: write_timeseries_csv(result, p, csv_every)))
@@ -224,8 +225,8 @@ def write_outputs(result, case, out: Path, plots: bool, animate: bool, log=None,
 
     First removes the files an earlier run left there (clear_outputs). Then, each file atomically
     (io.atomic_path): summary.json (its ``output_files`` lists the files still pending), result.npz,
-    impacts.csv, contact_forces.csv (when some pair rested), timeseries.csv, summary.json again (when
-    figures or the animation follow), the figures, animation.gif, and summary.json a last time. A file
+    impacts.csv, episodes.csv, contact_forces.csv (when some pair rested), timeseries.csv, summary.json
+    again (when figures or the animation follow), the figures, animation.gif, and summary.json a last time. A file
     that cannot be written (an OSError: disk full, quota, I/O error) is recorded, not raised: summary.json and result.npz then go to a temporary folder (report.fallback),
     the other data files are still tried, and the figures and the animation are skipped, as they are
     when the run was interrupted or a signal arrives while the results are written (``interrupts``).

@@ -6,6 +6,9 @@ Files (docs/case-format.md, "Output files"):
   velocity by name with its unit, the joint positions, the energies.
 * ``impacts.csv``: one row per contact (an impact with k simultaneous
   contacts gives k rows sharing its ``impact`` number).
+* ``episodes.csv``: one row per collision episode (Result.episodes): its times, walls,
+  contact points, impacts, impulse, energy lost, effective restitution, maximum force and
+  penetration (io.episode_files).
 * ``contact_forces.csv`` (when some pair rested): one row per sample: t, phase, and the
   normal force [N] of every (wall, contact point) pair in resting contact (0 elsewhere),
   then (with friction on a wall) the friction force of each pair, world components.
@@ -41,16 +44,16 @@ from pathlib import Path
 import numpy as np
 
 from ..dynamics.gibbs_appell import Energy
-from ..model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
-from ..model.modes import Mode
 from ..simulation.results import ImpactRecord, Result
-from ..contact.walls import WALL_KINDS, describe
+from ..contact.walls import describe
+from .episode_files import EPISODE_COLUMNS, episode_rows, episode_cell
+from .plain_data import model_from_dict, model_to_dict, wall_from_dict, wall_to_dict
 
 __all__ = [
     "FORMAT_VERSION", "atomic_path", "check_directory", "load_result", "model_from_dict", "model_to_dict",
     "read_csv", "sample_rows", "save_figure", "save_result", "summary", "to_csv", "versions", "wall_from_dict",
     "wall_to_dict",
-    "write_impacts_csv", "write_summary_json", "write_timeseries_csv",
+    "write_episodes_csv", "write_impacts_csv", "write_summary_json", "write_timeseries_csv",
 ]
 
 #: Version of the NPZ layout written by save_result.
@@ -246,15 +249,25 @@ def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
     return path
 
 
+def write_episodes_csv(result: Result, path) -> Path:
+    """Write one row per collision episode (io.episode_files.EPISODE_COLUMNS; a header only without any)."""
+    path = Path(path)
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(EPISODE_COLUMNS)
+        w.writerows([episode_cell(row[c]) for c in EPISODE_COLUMNS] for row in episode_rows(result) or [])
+    return path
+
+
 def to_csv(result: Result, directory, every: int = 1) -> dict:
-    """Write ``timeseries.csv``, ``impacts.csv`` and (when some pair rested) ``contact_forces.csv`` into
-    ``directory`` (created if needed).
+    """Write ``timeseries.csv``, ``impacts.csv``, ``episodes.csv`` and (when some pair rested)
+    ``contact_forces.csv`` into ``directory`` (created if needed).
 
     every : K >= 1, the per-sample files (timeseries, contact forces) get the samples 0, K, 2K, ...
     and the last (sample_rows), each row equal to that sample's row of the full file; impacts.csv
     is always whole, and result.npz (save_result) keeps every sample.
 
-    Returns {"timeseries": Path, "impacts": Path[, "contact_forces": Path]}.
+    Returns {"timeseries": Path, "impacts": Path, "episodes": Path[, "contact_forces": Path]}.
     """
     sample_rows(0, every)  # checks every before any file is written
     d = Path(directory)
@@ -262,6 +275,7 @@ def to_csv(result: Result, directory, every: int = 1) -> dict:
     out = {
         "timeseries": write_timeseries_csv(result, d / "timeseries.csv", every),
         "impacts": write_impacts_csv(result, d / "impacts.csv"),
+        "episodes": write_episodes_csv(result, d / "episodes.csv"),
     }
     if result.contact_forces is not None and np.any(result.contact_forces):
         out["contact_forces"] = write_contact_forces_csv(result, d / "contact_forces.csv", every)
@@ -339,7 +353,8 @@ def summary(result: Result, case=None) -> dict:
     with e = 1 included; the drift of the run), ``energy_error_whole_run_J`` (signed) and
     ``energy_scale_J`` (what it is relative to), then ``relative_energy_error_max_per_phase`` (max
     over the flight phases, each from its own start); ``max_relative_energy_error`` is the per-phase
-    value under its old name, kept for existing readers.
+    value under its old name, kept for existing readers. ``episodes``: the rows of episodes.csv
+    (io.episode_files.episode_rows; null, and ``n_episodes`` null, for a Result built by hand).
     """
     model = result.model
     E = result.energy()
@@ -372,6 +387,9 @@ def summary(result: Result, case=None) -> dict:
          "energy_before_J": float(r.energy_before.total), "energy_after_J": float(r.energy_after.total)}
         for r in result.impacts
     ]
+    rows = episode_rows(result)  # None for a Result built by hand
+    d["n_episodes"] = None if rows is None else len(rows)
+    d["episodes"] = rows
     d["energy_initial_J"] = {k: float(getattr(E, k)[0]) for k in Energy._fields}
     d["energy_final_J"] = {k: float(getattr(E, k)[-1]) for k in Energy._fields}
     d["relative_energy_error_whole_run"] = _json_safe(result.energy_error_whole_run)
@@ -413,96 +431,6 @@ def write_summary_json(result: Result, path, case=None, output_files: dict | Non
     with atomic_path(path) as tmp:
         tmp.write_text(text)
     return path
-
-
-# --------------------------------------------------------------------------
-# Model and walls as plain data
-
-def model_to_dict(model: Model) -> dict:
-    """Plain-data description of a model from which :func:`model_from_dict` rebuilds it.
-
-    Raises ValueError for links with callable mass_per_length or EI (not storable).
-    """
-    links = []
-    for i, lk in enumerate(model.chain.links, start=1):
-        if callable(lk.mass_per_length) or any(callable(e) for e in lk.EI):
-            raise ValueError(
-                f"link {i} has a callable mass_per_length or EI, which cannot be stored; "
-                "save the trajectory with to_csv instead"
-            )
-        links.append({
-            "length": lk.length, "mass_per_length": lk.mass_per_length, "EI": list(lk.EI),
-            "modes": [[m.kind, m.direction, int(m.number)] for m in lk.modes],
-            "rotary_inertia": list(lk.rotary_inertia),
-            "elements": int(lk.elements), "element_directions": list(lk.element_directions),
-            "damping": float(lk.damping),
-        })
-    d = {"links": links, "gravity": [float(g) for g in model.gravity]}
-    base = model.chain.base
-    if not model.free_base:
-        d["base"] = {"type": "fixed", "position": list(base.position), "angle": float(base.angle)}
-    elif base == "planar":
-        d["base"] = {"type": "planar"}
-    joints = []
-    for jt in model.chain.joints:
-        j = {"kind": jt.kind}
-        if jt.kind != "R":
-            j.update(angle=float(jt.angle), range=[float(v) for v in jt.range])
-        if jt.kind == "Pa":
-            j["half_length"] = float(jt.half_length)
-        joints.append(j)
-    d["joints"] = joints
-    quad = getattr(model, "quadrature", None)
-    if quad is not None:
-        d["quadrature"] = [int(v) for v in quad]
-    return d
-
-
-def model_from_dict(d: dict) -> Model:
-    """Inverse of :func:`model_to_dict`."""
-    links = [
-        Link(length=lk["length"], mass_per_length=lk["mass_per_length"], EI=tuple(lk["EI"]),
-             modes=tuple(Mode(k, dr, n) for k, dr, n in lk["modes"]), rotary_inertia=tuple(lk["rotary_inertia"]),
-             elements=int(lk.get("elements", 0)), element_directions=tuple(lk.get("element_directions", ("y",))),
-             damping=float(lk.get("damping", 0.0)))
-        for lk in d["links"]
-    ]
-    kw = {"quadrature": tuple(d["quadrature"])} if "quadrature" in d else {}
-    b = d.get("base")
-    if b is None:
-        base = "free"
-    elif b.get("type") == "planar":
-        base = "planar"
-    else:
-        base = FixedBase(tuple(b["position"]), b["angle"])
-    joints = []
-    for j in d.get("joints", ["R"] * len(links)):
-        j = {"kind": j} if isinstance(j, str) else j  # files written before prismatic joints: kinds only
-        if j["kind"] == "R":
-            joints.append(Revolute())
-        elif j["kind"] == "Pa":
-            joints.append(SlidingPrismatic(angle=j["angle"], half_length=j["half_length"], range=tuple(j["range"])))
-        else:
-            joints.append(FixedPrismatic(angle=j["angle"], range=tuple(j["range"])))
-    return Model(Chain(tuple(links), joints=tuple(joints), base=base), gravity=tuple(d["gravity"]), **kw)
-
-
-def wall_to_dict(w) -> dict:
-    if WALL_KINDS.get(getattr(w, "kind", None)) is not type(w):
-        raise ValueError(f"cannot store wall {w!r}")
-    d = {"type": w.kind, **w.parameters(), "restitution": w.restitution}
-    if w.friction:
-        d["friction"] = w.friction
-    return d
-
-
-def wall_from_dict(d: dict):
-    kind = WALL_KINDS[d["type"]]
-    given = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items() if k not in ("type", "friction")}
-    w = kind(**given, friction=d.get("friction", 0.0))
-    if "normal" in d:  # the stored normal is already unit length: keep its exact digits
-        object.__setattr__(w, "normal_vector", tuple(float(v) for v in d["normal"]))
-    return w
 
 
 # --------------------------------------------------------------------------

@@ -12,8 +12,9 @@ WAYLAND_DISPLAY on Linux, no MPLBACKEND set) the non-interactive Agg backend
 is selected before pyplot is first imported.
 
 Every time plot marks the impact instants (impacts: up to 12 numbered dotted
-lines, past that a rug of ticks and one label per contact episode; the
-footnote lists the first impacts or episodes) and draws its curves decimated
+lines, past that a rug of ticks and one label per collision episode; the
+footnote lists the first impacts, or the episodes with their impulse,
+effective restitution and energy lost) and draws its curves decimated
 to the pixel columns of its axes, a curve too dense to read as its envelope
 (decimate). A run that stopped early says so, with
 its status and message, under every figure's title (in a red box inside the

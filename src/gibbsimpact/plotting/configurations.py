@@ -1,4 +1,4 @@
-"""Configuration figures: the chain at t0 and at each contact episode, and the joints' paths over the run."""
+"""Configuration figures: the chain at t0 and at each collision episode, and the joints' paths over the run."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from ..contact.walls import describe
 from ..dynamics.kinematics import transforms
 from .geometry import (_run_camera, _scene_extent_2d, _scene_extent_3d, _scene_points, _stop_point, _to3,
                        is_planar)
-from .impacts import _episode_contacts, _range_text, contact_episodes
+from .impacts import _episode_contacts, _range_text, impact_groups
 from .labels import _point_label, _sample_at, _split_contacts, _status_box, _title
 from .scene import _draw_chain_2d, _draw_chain_3d, _draw_links, _draw_walls_2d, _draw_walls_3d, _setup_3d
 from .style import _STOP_MARKER, _T0_STYLE, _figure, _given_axes, _joint_colour, _legend
@@ -48,15 +48,15 @@ def _episode_panel(result, first: int, last: int) -> _Panel:
 
 
 def _panels(result) -> list:
-    """The panels of plot_configurations: the initial state, the contact episodes (impacts.contact_episodes;
-    the first ones and the last, _MAX_PANELS in all) and, without impacts or when the run stopped after
-    its last impact, the final state."""
+    """The panels of plot_configurations: the initial state, the impact groups (impacts.impact_groups: the
+    collision episodes of a run; the first ones and the last, _MAX_PANELS in all) and, without impacts or
+    when the run stopped after its last impact, the final state."""
     panels = [_Panel(float(result.t[0]), result.q[0], f"t = {result.t[0]:.6g} s (initial)", (), None, ())]
     t_end = float(result.t[-1])
     last = result.impacts[-1].time if result.impacts else -np.inf
     final = not result.impacts or (result.status != "finished" and t_end > last + 1e-9 * max(1.0, abs(t_end)))
     room = _MAX_PANELS - 1 - int(final)
-    episodes = contact_episodes(result.impact_times, float(result.t[0]), t_end)
+    episodes = impact_groups(result)[0]
     if len(episodes) > room:
         episodes = episodes[:room - 1] + episodes[-1:]
     panels += [_episode_panel(result, a, b) for a, b in episodes]
@@ -71,10 +71,12 @@ def _configurations_title(result, panels, case_name, width_in: float) -> str:
     walls = "; ".join(describe(w) for w in result.walls) or "no walls"
     drawn = [p.episode for p in panels if p.episode is not None]
     n_imp = len(result.impacts)
-    n_ep = len(contact_episodes(result.impact_times, float(result.t[0]), float(result.t[-1])))
+    groups, physical = impact_groups(result)
+    n_ep = len(groups)
     shown = ""
     if n_ep < n_imp:
-        shown = f"; {n_imp} impacts in {n_ep} contact episodes, one panel each"
+        kind = "collision" if physical else "contact"
+        shown = f"; {n_imp} impacts in {n_ep} {kind} episode{'s' if n_ep > 1 else ''}, one panel each"
         if len(drawn) < n_ep:
             shown += f" (the first {len(drawn) - 1} and the last)"
     elif len(drawn) < n_imp:
@@ -131,9 +133,10 @@ def _configurations_figure(planar: bool, n: int, title: str):
 
 
 def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
-    """The chain at t0 and at each contact episode (impacts.contact_episodes: impacts closer than 1/300 of
-    the run form one; at most 11 episode panels, the first 10 and the last; a run that stopped early
-    also at its last state), walls drawn, equal axes; returns the Figure.
+    """The chain at t0 and at each collision episode with impacts (impacts.impact_groups: Result.episodes;
+    for a Result built by hand, impacts closer than 1/300 of the run; at most 11 episode panels, the first
+    10 and the last; a run that stopped early also at its last state), walls drawn, equal axes; returns
+    the Figure.
 
     Deformed links are drawn with their mode shapes, at the state before the episode's first impact;
     the episode's impacting points are red stars with their wall normal as a red arrow. ax : None (a

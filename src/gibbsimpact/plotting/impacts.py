@@ -7,16 +7,21 @@ along the bottom of the axes, each contact episode gets one dotted line at its s
 there are at most MAX_LABELLED episodes) and one label "a-b", and the footnote lists the
 episodes instead of the first impacts.
 
-A contact episode is a run of impacts each following the previous one by at most
-``EPISODE_GAP`` of the run's duration: 1/300, three pixel columns of a time axis about 900
-pixels wide, so impacts that the time plots cannot tell apart form one episode (an accumulation
-of rebounds, a burst of chatter). The configuration figure draws one panel per episode.
+The impacts are grouped by :func:`impact_groups`: for a Result of a run (its settings hold the
+contact band) the groups are its collision episodes (Result.episodes, docs/theory.md §14.7: the
+impacts and resting phases of one meeting with the walls), and the footnote gives each episode's
+impulse, effective restitution and energy lost, not a count of micro-impacts. A Result built by hand
+(no settings) falls back to contact episodes by time: a run of impacts each following the previous one
+by at most ``EPISODE_GAP`` of the run's duration, 1/300, three pixel columns of a time axis about 900
+pixels wide, so impacts that the time plots cannot tell apart form one group. The configuration figure
+draws one panel per group.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..simulation.episodes import has_episodes
 from .labels import _contacts_text
 
 #: Impacts drawn as numbered lines; past this count, a rug and one label per contact episode.
@@ -41,6 +46,18 @@ def contact_episodes(times, t0: float, t1: float, gap: float = EPISODE_GAP) -> l
     starts = np.flatnonzero(np.r_[True, np.diff(times) > gap * max(t1 - t0, 0.0)])
     ends = np.r_[starts[1:], times.size] - 1
     return [(int(a), int(b)) for a, b in zip(starts, ends)]
+
+
+def impact_groups(result) -> tuple[list, bool]:
+    """([(first, last)] 0-based inclusive impact ranges in time order, physical): the collision episodes'
+    impacts (physical True; an impact outside every episode, an end stop of a run without walls, alone),
+    or for a Result without the run's settings (built by hand) contact_episodes by time (physical False)."""
+    n = len(result.impacts)
+    if not has_episodes(result):
+        return contact_episodes(result.impact_times, float(result.t[0]), float(result.t[-1])), False
+    groups = [(ep.impacts[0], ep.impacts[-1]) for ep in result.episodes if ep.impacts]
+    covered = {i for a, b in groups for i in range(a, b + 1)}
+    return sorted(groups + [(i, i) for i in range(n) if i not in covered]), True
 
 
 def _range_text(first: int, last: int) -> str:
@@ -110,7 +127,7 @@ def _impact_lines(axes, result):
             for t in times:
                 ax.axvline(t, color="0.35", ls=":", lw=0.9, zorder=0)
         return
-    episodes = contact_episodes(times, float(result.t[0]), float(result.t[-1]))
+    episodes = impact_groups(result)[0]
     starts = [times[a] for a, _ in episodes] if len(episodes) <= MAX_LABELLED else []
     for ax in axes:
         tr = ax.get_xaxis_transform()
@@ -138,30 +155,59 @@ def _number_impacts(ax, result, placeholder: bool = False):
     if times.size <= MAX_LABELLED:
         labels = _impact_labels(times, x0, x1, width_pt)
     else:
-        labels = _episode_labels(times, contact_episodes(times, float(result.t[0]), float(result.t[-1])), x0, x1,
-                                 width_pt)
+        labels = _episode_labels(times, impact_groups(result)[0], x0, x1, width_pt)
     for t, text in labels:
         ax.text(t, _LABEL_Y, text, **style)
 
 
 def _impact_note(result, limit: int = 8) -> str:
     """The footnote of the time plots: the first ``limit`` impacts (time, contacts), or past
-    MAX_LABELLED impacts the first contact episodes (impact numbers, times, contacts)."""
+    MAX_LABELLED impacts the first impact groups (impact numbers, times, contacts; for collision
+    episodes their impulse, effective restitution and energy lost)."""
     imps = result.impacts
     if not imps:
         return "no impacts"
     if len(imps) <= MAX_LABELLED:
         items = [f"{k}: {_contacts_text(result, r)} at {r.time:.6f} s" for k, r in enumerate(imps[:limit], start=1)]
         more = f"; ... ({len(imps)} in all, every one in impacts.csv)" if len(imps) > limit else ""
-        return "impacts (dotted lines): " + "; ".join(items) + more
-    episodes = contact_episodes(result.impact_times, float(result.t[0]), float(result.t[-1]))
+        return "impacts (dotted lines): " + "; ".join(items) + more + _grouped_note(result)
+    groups, physical = impact_groups(result)
+    physics = _episode_physics(result) if physical else {}
     items = [f"{_range_text(a + 1, b + 1)}: {_episode_contacts(result, a, b)} at "
              + (f"{imps[a].time:.6f} s" if a == b else f"{imps[a].time:.6f}\u2013{imps[b].time:.6f} s")
-             for a, b in episodes[:limit // 2]]
-    more = f"; ... ({len(episodes)} episodes in all)" if len(episodes) > limit // 2 else ""
+             + physics.get(a, "") for a, b in groups[:limit // 2]]
+    if physical:
+        more = f"; ... ({len(groups)} in all)" if len(groups) > limit // 2 else ""
+        return (f"{len(imps)} impacts (ticks at the bottom) in {len(groups)} collision episode"
+                f"{'s' if len(groups) > 1 else ''}, numbered per episode (every episode in episodes.csv, every "
+                "impact in impacts.csv): " + "; ".join(items) + more)
+    more = f"; ... ({len(groups)} episodes in all)" if len(groups) > limit // 2 else ""
     return (f"{len(imps)} impacts (ticks at the bottom), numbered per contact episode (impacts at most "
             f"{EPISODE_GAP * (float(result.t[-1]) - float(result.t[0])):.3g} s apart; every impact in impacts.csv): "
             + "; ".join(items) + more)
+
+
+def _grouped_note(result) -> str:
+    """'; collision episodes: 2-6 (impulse ..., e_eff ..., ... J lost)' for the episodes of several impacts of a
+    run numbered impact by impact, '' when each impact is its own episode (or the Result has no episodes)."""
+    groups, physical = impact_groups(result)
+    if not physical:
+        return ""
+    physics = _episode_physics(result)
+    items = [f"{_range_text(a + 1, b + 1)}{physics.get(a, '')}" for a, b in groups if b > a]
+    return "; collision episodes: " + "; ".join(items) if items else ""
+
+
+def _episode_physics(result) -> dict:
+    """{first impact (0-based): ', impulse 2.6 N s, e_eff 0.76, 0.54 J lost'} of the collision episodes."""
+    out = {}
+    for ep in result.episodes:
+        if ep.impacts:
+            e = "" if ep.restitution != ep.restitution else f", e_eff {ep.restitution:.3g}"
+            if ep.non_contact_share > 0.1:  # not an impulsive collision: say why e_eff is no restitution
+                e += f" with other forces {ep.non_contact_share:.2g} of the approach"
+            out[ep.impacts[0]] = f" (impulse {ep.impulse:.3g} N s{e}, {ep.energy_lost:.3g} J lost)"
+    return out
 
 
 def _episode_contacts(result, first: int, last: int) -> str:

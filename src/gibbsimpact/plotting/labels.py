@@ -8,6 +8,8 @@ import textwrap
 
 import numpy as np
 
+from ..simulation.contact_points import describe_point as _point_description
+
 
 # --------------------------------------------------------------------------
 # Labels
@@ -68,23 +70,6 @@ def _point_name(model, j: int) -> str:
         return f"O{j}"
     flex = flexible_links(model)
     return f"link {flex[j - P - 1] + 1}" if j - P - 1 < len(flex) else f"point {j}"
-
-
-def _point_description(model, j: int) -> str:
-    """What contact point O_j (1-based, Model.n_joints) is on the chain: 'joint 2' (a revolute joint),
-    'carriage of joint 2' (SlidingPrismatic), 'rear end of link 2, behind its
-    guide' (FixedPrismatic), 'tip of link 3' (the last link), and for the points after O_(n+1) 'tip
-    of link 1, guide of joint 2' or 'tip of link 1, host of carriage 2'."""
-    n = model.n_links
-    if j <= n:
-        return {"R": f"joint {j}", "Pa": f"carriage of joint {j}",
-                "Pb": f"rear end of link {j}, behind its guide"}[model.joint_kinds[j - 1]]
-    if j == n + 1:
-        return f"tip of link {n}"
-    # The points after O_(n+1): the tips of the hosts of prismatic joints i >= 2, in joint order.
-    joint = [i for i, kd in enumerate(model.joint_kinds, start=1) if i > 1 and kd != "R"][j - n - 2]
-    what = "guide" if model.joint_kinds[joint - 1] == "Pb" else "host of carriage"
-    return f"tip of link {joint - 1}, {what} {'of joint ' if what == 'guide' else ''}{joint}"
 
 
 def _point_label(model, j: int) -> str:

@@ -295,6 +295,12 @@ class Contacts:
         return g, nrm, J, pts, valid
 
 
+def gap_lipschitz(model) -> float:
+    """L_q = 1 + 2 sum l_i [m per unit of q], a bound on |dg/dq|: a translation moves a joint 1:1, a rotation
+    by at most its lever arm."""
+    return 1.0 + 2.0 * sum(ld.length for ld in model.link_data)
+
+
 def contact_band(contact_tol: float, lipschitz: float, rtol: float, atol: float, q: np.ndarray) -> float:
     """The contact band b [m] at q (N,): gaps within it belong to one impact (module docstring).
 

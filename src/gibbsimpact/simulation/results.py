@@ -113,6 +113,18 @@ class Result:
         O_(j+1) while the pair rests on a wall with friction (sticking or slipping); None when
         no wall has friction
     resting_time : float [s], the simulated time spent with at least one pair in resting contact
+    episodes : list of Episode (property, computed from the above at its first use;
+        gibbsimpact.simulation.episodes, docs/theory.md §14.7): the collision episodes, each the
+        impacts and resting phases of one meeting of the chain with the walls. The chain is the body
+        (contacts of several links or walls that overlap in time are one episode); a pair is engaged
+        from its impact or resting force until its gap leaves the contact band, and the episode takes
+        in what starts within one period of the struck link's slowest vibration (0 for a point of a
+        rigid part: there each Newton impact is an episode). Each gives its start and end, impulse,
+        energy lost E(start) - E(end), effective restitution (the rigid chain's normal velocity of the
+        first contact from the generalised momenta after, gravity and inputs removed, over before: e for
+        one impact of a rigid chain, the angular-momentum ratio for an arm on a pivot; non_contact_share says
+        how impulsive the episode was), largest impulse and resting force, and deepest penetration (below
+        contact_tol with Newton's law)
     """
 
     model: object
@@ -136,6 +148,8 @@ class Result:
     friction_forces: np.ndarray | None = None
     resting_time: float = 0.0
     _energy_cache: Energy | None = field(default=None, repr=False)
+    # Not an __init__ argument: dataclasses.replace (new samples or forces) must not carry it over.
+    _episodes_cache: list | None = field(default=None, init=False, repr=False)
 
     def __repr__(self) -> str:
         """One line: status, time span, samples, N, impacts (the first few times), energy error, cost."""
@@ -193,6 +207,15 @@ class Result:
         from ..dynamics.kinematics import joint_velocities_batch
 
         return joint_velocities_batch(self.model, self.q, self.qdot)
+
+    @property
+    def episodes(self) -> list:
+        """The collision episodes, a list of gibbsimpact.simulation.episodes.Episode (computed at the first use)."""
+        from .episodes import episodes
+
+        if self._episodes_cache is None:
+            self._episodes_cache = episodes(self)
+        return self._episodes_cache
 
     @property
     def impact_times(self) -> np.ndarray:

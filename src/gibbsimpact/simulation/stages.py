@@ -16,7 +16,7 @@ from ..contact.resting import RestingContacts
 from ..contact.walls import describe
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .accumulation import Accumulation
-from .contacts import Contacts, contact_band, event_spec, impact_stage as solve_impact, phase_events
+from .contacts import Contacts, contact_band, event_spec, gap_lipschitz, impact_stage as solve_impact, phase_events
 from .equations import Equations
 from .flight import integrate_phase
 from .joint_limits import EndStops, check_initial, joint_limits
@@ -24,7 +24,7 @@ from .outside import outside_walls, point_name
 from .recorder import Recorder
 from .results import Result
 from .status import STATUS_FINISHED, stop
-from .validity import warn_state
+from .validity import warn_impact, warn_state
 
 #: Budget of contact-mode events (release, slip, stick, drift) of one run: a contact mode that keeps
 #: switching without settling ends the run (status "failed") instead of crawling on.
@@ -64,6 +64,7 @@ class Run:
     slipping: dict | None = None  # {(wall, point): direction} of a pair whose "slip" event ended the phase
     settled_at: float | None = None  # time of the last accumulation resolved into resting contact
     stalled: int = 0  # consecutive phases that made no progress in time
+    newton_warned: bool = False  # the warning of validity.check_impact was issued (once per run)
     flown: object = None  # the last flight phase's outcome until its samples are recorded
     counters: dict = field(default_factory=lambda: {"n_steps": 0, "n_examined": 0, "resting_time": 0.0,
                                                     "mode_events": 0})
@@ -115,8 +116,7 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     _check_start(model, q0, qdot0, s, limits)
     contacts = Contacts(model, walls, s.link_contacts)
     stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
-    # |dg/dq| <= 1 + 2 sum l: a translation moves a joint 1:1, a rotation by at most its lever arm.
-    lipschitz = 1.0 + 2.0 * sum(ld.length for ld in model.link_data)
+    lipschitz = gap_lipschitz(model)
     band = contact_band(s.contact_tol, lipschitz, s.rtol, s.atol, q0)
     resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols)
     equations = Equations(model, s, q0, qdot0, resting, clock)
@@ -165,6 +165,9 @@ def impact(run) -> None:
                                      s.grazing_velocity, run.sink_pair, run.resting.active)
         if rec is not None:
             _record_impact(run, rec, q)
+            if not run.newton_warned:
+                # user -> simulate -> impact: stacklevel 3 names the user's line.
+                run.newton_warned = bool(warn_impact(run.model, rec, s.walls, s.link_contacts, stacklevel=3))
             accumulation = run.monitor.add(rec, in_band_before)
             if accumulation is not None:
                 _accumulation(run, accumulation)

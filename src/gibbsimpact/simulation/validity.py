@@ -20,6 +20,10 @@ limits and their reasons are in docs/theory.md, "Validity limits":
   are singular at theta_0 = +-pi/2 (theta_-1 and theta_1 then turn about the same
   axis and the mass matrix loses rank). A run that fails within 0.05 rad (2.9 deg)
   of it stopped because of the coordinates, not the mechanics.
+* Newton's law at a point whose effective mass depends on the discretisation
+  (contact_points.ContactPoint.newton_ill_posed: a span point, the free tip of a
+  finite-element or clamped-free link): ``check_impact`` names the first impact with an
+  impulse there; the loop warns once per run (docs/theory.md §11.4).
 * ``SPIN_LIMIT``: the rate at which a flexible link turns about an axis across it, as a fraction
   of its first bending frequency omega_1 (clamped at its frame). The links have no geometric
   (centrifugal) stiffening (docs/theory.md): a link spinning at Omega misses the stiffness
@@ -41,10 +45,12 @@ from ..dynamics.kinematics import run_kernel, section, states
 from ..dynamics.link_points import link_points
 from ..model.shapes import link_deflection
 from ..contact.walls import describe
+from .contact_points import contact_points
 
 __all__ = [
-    "DEFLECTION_LIMIT", "GIMBAL_MARGIN", "SPIN_LIMIT", "STRAIN_ENERGY_FACTOR", "ValidityWarning", "check_result",
-    "check_spin", "check_state", "check_stop", "spin_rates", "warn_result", "warn_state",
+    "DEFLECTION_LIMIT", "GIMBAL_MARGIN", "SPIN_LIMIT", "STRAIN_ENERGY_FACTOR", "ValidityWarning", "check_impact",
+    "check_result", "check_spin", "check_state", "check_stop", "spin_rates", "warn_impact", "warn_result",
+    "warn_state",
 ]
 
 #: Largest peak deflection of a link, as a fraction of its length (small-deflection theory).
@@ -158,6 +164,52 @@ def check_stop(model, result) -> list[str]:
         "Rz(theta_1) are singular there (theta_-1 and theta_1 turn about one axis), so the coordinates, not the "
         "motion, stopped it; start from angles that keep theta_0 away from +-pi/2")
     return [message]
+
+
+def _discretisation(link) -> str:
+    """How a link is discretised, in words: '1 finite element', '2 assumed modes (clamped-free)'."""
+    if link.elements:
+        return f"{link.elements} finite element{'s' if link.elements > 1 else ''}"
+    kinds = ", ".join(dict.fromkeys(m.kind for m in link.modes))
+    return f"{len(link.modes)} assumed mode{'s' if len(link.modes) > 1 else ''} ({kinds})"
+
+
+def _newton_message(model, rec, walls, w: int, point) -> str:
+    """The text of check_impact for the impact rec on wall w at ``point`` (a ContactPoint)."""
+    i = point.link
+    span = point.description.startswith("span")
+    return (
+        f"Newton's law applied at {point.name} ({point.description}) on wall {w + 1} ({describe(walls[w])}) at "
+        f"t = {rec.time:.9g} s: the effective mass of a point of a flexible link that nothing else holds depends "
+        f"on the discretisation (link {i + 1}: {_discretisation(model.chain.links[i])}); it tends to zero as the "
+        "link is refined, and so do this impulse and the micro-impacts that follow (with finite elements the "
+        "impulse halves with every doubling of elements; docs/theory.md §11.4). A compliant contact law for such "
+        f"points is planned but not yet available. Today: make link {i + 1} rigid (no modes or elements), or "
+        "give it clamped-clamped modes (its ends then move with its frame; the number of modes still sets their "
+        "effective mass)" + ("; keep the contacts at the joints (link_contacts=False)" if span else "")
+        + "; and read the collision as a whole in Result.episodes (its impulse and effective restitution), "
+        "not impact by impact")
+
+
+def check_impact(model, rec, walls, link_contacts: bool = True) -> list[str]:
+    """A message when the impact ``rec`` (ImpactRecord) applies Newton's law, with an impulse, at a point
+    whose effective mass depends on the discretisation (contact_points.ContactPoint.newton_ill_posed), else [].
+
+    There 1 / (n^T J M^-1 J^T n) tends to 0 as the link is refined: the impulse has no limit (with finite
+    elements it halves with every doubling of elements), and the micro-impacts that follow have none either.
+    """
+    points = contact_points(model, link_contacts and bool(walls))
+    for c, w, lam in zip(rec.joints, rec.wall, rec.impulses):
+        point = points[int(c) - 1] if 0 < int(c) <= len(points) else None
+        if w < 0 or not lam > 0.0 or point is None or not point.newton_ill_posed:
+            continue
+        return [_newton_message(model, rec, walls, int(w), point)]
+    return []
+
+
+def warn_impact(model, rec, walls, link_contacts: bool = True, stacklevel: int = 2) -> list[str]:
+    """check_impact, its message issued as a ValidityWarning; returns it (stacklevel as for warn_state)."""
+    return _warn(check_impact(model, rec, walls, link_contacts), stacklevel)
 
 
 def spin_rates(model, qs, qdots, chunk: int = 1024) -> np.ndarray:

@@ -1,0 +1,115 @@
+"""What each contact point of the event loop is on the chain (docs/theory.md §11.4, §14.7).
+
+The columns of the gap matrix (simulation.contacts.Contacts) are the points O_1 ... O_P
+(Model.contact_point_names) and, with link contacts, the closest point of every flexible link.
+For each, :func:`contact_points` says which link's shape functions move it relative to that link's
+frame and whether another body is attached there. Two rules of the package follow from it:
+
+* **Newton's law is ill-posed** at a point that a link's shape functions move and to which no
+  other body is attached (a span point, the free tip of a finite-element or clamped-free link):
+  its instantaneous effective mass ``1 / (n^T J M^-1 J^T n)`` tends to 0 as the link is refined
+  (the impulse halves with every doubling of elements), so the impulse has no limit.
+  (simulation.validity warns at the first impact there.)
+* **The dwell of a collision episode** (simulation.episodes): a point that a link's shape functions
+  move can be brought back to the wall by that link's vibration, within one period of its slowest
+  mode ``T_1 = 2 pi / omega_1`` (:func:`rebound_period`); a point they do not move (a joint of
+  clamped-clamped links, a rigid link's point) comes back only with the motion of its link frame.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .contacts import flexible_links
+
+__all__ = ["ContactPoint", "contact_points", "describe_point", "rebound_period"]
+
+
+class ContactPoint(NamedTuple):
+    """One column of the gap matrix.
+
+    name : "O2" (contact point O_j) or "link 1" (the closest point of flexible link 1), as Contacts.names
+    description : what it is on the chain, e.g. "tip of link 1", "joint 2", "span of link 1"
+    link : 0-based index of the link whose shape functions move the point relative to that link's
+        frame (a span point, an end of a link whose end moves: finite elements, clamped-free modes,
+        a carriage on a flexible host), or None (nothing but the frames moves it)
+    free : True when no other body is attached at the point (a chain's tip, a host's tip beside a
+        carriage, a span point); False at a joint, a carriage or a guide
+    """
+
+    name: str
+    description: str
+    link: int | None
+    free: bool
+
+    @property
+    def newton_ill_posed(self) -> bool:
+        """Newton's law here has no limit under refinement: a shape function moves the point and nothing
+        is attached to it (module docstring)."""
+        return self.link is not None and self.free
+
+
+def describe_point(model, j: int) -> str:
+    """What contact point O_j (1-based, Model.n_joints) is on the chain: 'joint 2' (a revolute joint),
+    'carriage of joint 2' (SlidingPrismatic), 'rear end of link 2, behind its guide' (FixedPrismatic),
+    'tip of link 3' (the last link), and for the points after O_(n+1) 'tip of link 1, guide of joint 2'
+    or 'tip of link 1, host of carriage 2'."""
+    n = model.n_links
+    if j <= n:
+        return {"R": f"joint {j}", "Pa": f"carriage of joint {j}",
+                "Pb": f"rear end of link {j}, behind its guide"}[model.joint_kinds[j - 1]]
+    if j == n + 1:
+        return f"tip of link {n}"
+    joint = _tip_joint(model, j)
+    what = "guide" if model.joint_kinds[joint - 1] == "Pb" else "host of carriage"
+    return f"tip of link {joint - 1}, {what} {'of joint ' if what == 'guide' else ''}{joint}"
+
+
+def _tip_joint(model, j: int) -> int:
+    """The prismatic joint i >= 2 (1-based) whose host's tip is contact point O_j, j > n + 1."""
+    return [i for i, kd in enumerate(model.joint_kinds, start=1) if i > 1 and kd != "R"][j - model.n_links - 2]
+
+
+def _end_moves(model, i: int) -> bool:
+    """Whether link i's (0-based) shape functions move its end x = l_i (LinkData.end_t, exact zeros kept)."""
+    return bool(np.any(model.link_data[i].end_t))
+
+
+def _joint_point(model, j: int) -> ContactPoint:
+    """ContactPoint of O_j (1-based)."""
+    n, kinds = model.n_links, model.joint_kinds
+    name, text = f"O{j}", describe_point(model, j)
+    if j == n + 1:  # the chain's tip
+        return ContactPoint(name, text, n - 1 if _end_moves(model, n - 1) else None, True)
+    if j > n + 1:  # a host's tip: a guide holds the next link there (Pb), a carriage rides elsewhere (Pa)
+        host = _tip_joint(model, j) - 2
+        return ContactPoint(name, text, host if _end_moves(model, host) else None, kinds[host + 1] == "Pa")
+    if j == 1 or kinds[j - 1] == "Pb":  # the base, or a Pb link's rear end: its own frame's origin
+        return ContactPoint(name, text, None, False)
+    host = j - 2
+    if kinds[j - 1] == "Pa":  # the carriage centre, on the host's centreline at x = d
+        return ContactPoint(name, text, host if model.delta_index[host].size else None, False)
+    return ContactPoint(name, text, host if _end_moves(model, host) else None, False)
+
+
+def contact_points(model, link_contacts: bool = True) -> list[ContactPoint]:
+    """The ContactPoint of every gap-matrix column: O_1 ... O_P, then (link_contacts) one per flexible
+    link (Contacts.flex), as in simulation.contacts.Contacts with walls."""
+    points = [_joint_point(model, j) for j in range(1, model.n_joints + 1)]
+    if link_contacts:
+        points += [ContactPoint(f"link {i + 1}", f"span of link {i + 1}", i, True) for i in flexible_links(model)]
+    return points
+
+
+def rebound_period(model, i: int) -> float:
+    """T_1 = 2 pi / omega_1 [s] of link i (0-based) clamped at its frame, 0 for a rigid link.
+
+    omega_1 = LinkData.first_frequency, the smallest eigenvalue of K phi = omega^2 M_dd phi (the link's
+    elastic stiffness and mass blocks): the slowest vibration of the link relative to its frame (a
+    cantilever for finite elements and clamped-free modes: 2 pi l^2 / (1.8751^2 sqrt(EI / mu)), 0.0565 s
+    for l = 1 m, mu = 1 kg/m, EI = 1e3 N m^2).
+    """
+    ld = model.link_data[i]
+    return 0.0 if ld.K.size == 0 else 2.0 * np.pi / ld.first_frequency
