@@ -15,17 +15,27 @@ _pb_step, _pb_moments, _extra_points, the second twists) and the moving-end
 path (Rodrigues: rodrigues_directional, _conjugate, _apply_local) before they
 are typed: the published chains compile neither. Each variant compiles on its
 first use.
+
+numba's on-disk cache (NUMBA_CACHE_DIR, else the package's __pycache__, else the user-wide
+cache; none on a read-only install without either: then it compiles without caching) keeps
+one index per compiled function, stamped with the hash of that function's file. The kernel's
+helpers live in other files and are compiled into their callers, so every kernel function's
+index is stamped with ``source_key()``, the hash of every kernel/*.py source, instead
+(``_kernel_cache``); the probe for a warm cache (``_cache_is_warm``) reads the index
+through the same function, hence with the same key.
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
 import importlib
 import os
 import sys
 import threading
 import time
 import types
+from pathlib import Path
 
 import numpy as np
 
@@ -35,6 +45,8 @@ from .frames import chain_frames
 from .layout import layout
 from .linalg import sym_solve
 
+#: The kernel's folder: every .py file in it goes into the cache key (source_key).
+KERNEL_DIR = Path(__file__).resolve().parent
 #: The kernel's stage modules, whose functions numba compiles.
 _STAGES = ("layout", "mat4", "frames", "moments", "assemble", "linalg", "observables", "entry", "contact")
 #: Helpers called from more than one function, compiled as their own dispatchers.
@@ -106,6 +118,45 @@ def _rebind(f, d):
             setattr(mod, f.__name__, d)
 
 
+def source_key(folder: Path = KERNEL_DIR) -> str:
+    """The kernel's source key: sha256 (hex) of the names and bytes of every ``*.py`` file in
+    ``folder`` (the kernel package), in name order; numba's on-disk cache is stamped with it."""
+    h = hashlib.sha256()
+    for path in sorted(Path(folder).glob("*.py")):
+        data = path.read_bytes()
+        h.update(f"{path.name}\0{len(data)}\0".encode())
+        h.update(data)
+    return h.hexdigest()
+
+
+def _kernel_cache(py_func):
+    """numba's on-disk cache of ``py_func`` (numba.core.caching.FunctionCache), stamped with
+    the kernel's source key instead of the hash of ``py_func``'s own file.
+
+    numba keeps one index per function, stamped with its source file's hash, and loads nothing
+    from an index whose stamp differs. It compiles the kernel's helpers into their callers from
+    other files, so that stamp would miss an edit to a helper and load stale machine code: every
+    compiled kernel function is stamped with source_key() (computed once per process) instead.
+    Raises RuntimeError("cannot cache ...") where numba finds no cache location, or where its
+    cache index no longer has the stamp this relies on (then nothing is cached).
+    """
+    from numba.core.caching import FunctionCache
+
+    cache = FunctionCache(py_func)
+    index = getattr(cache, "_cache_file", None)
+    if not hasattr(index, "_source_stamp"):  # pragma: no cover - numba's caching changed
+        raise RuntimeError(f"cannot cache {py_func.__name__}: numba's cache index has no source stamp to key")
+    index._source_stamp = _source_key_now()
+    return cache
+
+
+@functools.lru_cache(maxsize=1)
+def _source_key_now() -> str:
+    """source_key() of the kernel package, read once per process (the code it compiles is the
+    code imported at start)."""
+    return source_key()
+
+
 def _jit_helpers():
     """Replace the kernel's entry points and shared helpers by numba dispatchers, and register
     every other helper to be compiled inside its callers (nothing compiled yet)."""
@@ -123,14 +174,15 @@ def _jit_helpers():
 
     def jit(f):
         nonlocal cached
-        kw = dict(cache=cached, nogil=True)
-        try:
-            return numba.njit(**kw)(f)
-        except RuntimeError as exc:  # read-only install and no user cache directory
-            if "cannot cache" not in str(exc):
-                raise
-            cached = False
-            return numba.njit(nogil=True)(f)
+        d = numba.njit(nogil=True)(f)
+        if cached and hasattr(d, "enable_caching"):  # (not with NUMBA_DISABLE_JIT: d is f)
+            try:
+                d._cache = _kernel_cache(f)  # what d.enable_caching() does, with the kernel's key
+            except RuntimeError as exc:  # read-only install and no user cache directory
+                if "cannot cache" not in str(exc):
+                    raise
+                cached = False
+        return d
 
     dispatchers = _state["dispatchers"]
     # Called from several functions: one dispatcher compiles it once per variant (an overload
@@ -250,11 +302,8 @@ def _cache_is_warm(v):
     """True if numba's on-disk cache holds a valid entry of variant ``v`` (False: a
     compile is coming; None: cannot tell)."""
     try:
-        import numba
-
-        probe = numba.njit(cache=True)(_PY_KERNEL)
-        # The index is keyed by the source file's stamp: a stale one loads as empty.
-        index = probe._cache._cache_file._load_index()
+        # The index is stamped with the kernel's source key: a stale one loads as empty.
+        index = _kernel_cache(_PY_KERNEL)._cache_file._load_index()
         # Keys: (signature text as compiled, codegen's magic tuple, ...).
         want = _ENTRY_SIG.format(*_signature_args(v)).replace(" ", "")
         return any(str(key[0]).replace(" ", "") == want for key in index)
