@@ -84,6 +84,11 @@ def _rot_step(B, w, si, axis, th, thd, vel):
         B[w, r, j] = tgj
 
 
+# Scratch of _end_step, relative to w: _E_V rows t, tdot, phi, phidot; R, dR, d2R; G, Gd, Gdd0;
+# L; dR_k; _apply_local's T, Td, Tdd0 (3); u; Rodrigues scratch (3) and _conjugate's (w+19).
+_E_V, _E_R, _E_DR, _E_D2R, _E_G, _E_L, _E_DRK, _E_TN, _E_U, _E_S = 3, 4, 5, 6, 7, 10, 11, 12, 15, 16
+
+
 def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
     """T <- T E(delta) for the end of ``link`` (T, Td, Tdd0 = B[w], B[w+1], B[w+2]);
     B[ss + c] = the world twist of each end coordinate c of the link.
@@ -110,20 +115,22 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
         return
     o_t = off + 21 + 2 * m + 2 * m * m
     o_phi = o_t + 3 * m
-    kv = w + 3     # rows: t, tdot, phi, phidot
-    kR = w + 4
-    kdR = w + 5
-    kd2R = w + 6
-    kG = w + 7
-    kGd = w + 8
-    kGdd = w + 9
-    kL = w + 10
-    kdRk = w + 11
-    kTn = w + 12   # w+12 .. w+14: T, Td, Tdd0 scratch of _apply_local
-    kTddn = w + 14
-    ku = w + 15    # row 0: u
-    ks = w + 16    # w+16 .. w+18: Rodrigues scratch; w+19: _conjugate scratch
-    for k in range(kv, kTddn + 2):
+    _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi)
+    _end_twists(fdat, B, w, ss + d0, m, o_t, o_phi)
+    _apply_local(B, w, w + _E_G, vel, w + _E_TN)
+
+
+def _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi):
+    """E, Ed, Edd0 of a link end into B[w + _E_G .. w + _E_G + 2] (_end_step), from its m
+    coordinates delta = q[d0:d0 + m] and their rates (end_t, end_phi at fdat[o_t], fdat[o_phi]):
+
+        t = l e_x + end_t^T delta,  tdot = end_t^T deltadot,  phi = end_phi^T delta,
+        phidot = end_phi^T deltadot;  E = [[R(phi), t]],  Ed = [[dR[phidot], tdot]],
+        Edd0 = [[d2R[phidot, phidot], 0]]   (rodrigues_directional)
+    """
+    kv = w + _E_V
+    kG = w + _E_G
+    for k in range(kv, w + _E_U + 1):
         _zero4(B, k)
     B[kv, 0, 0] = l
     for k in range(m):
@@ -135,15 +142,29 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
             B[kv, 2, a] += fdat[o_phi + 3 * k + a] * dk
             B[kv, 3, a] += fdat[o_phi + 3 * k + a] * vk
     B[kG, 3, 3] = 1.0
-    rodrigues_directional(B, kv, 2, 3, 3, kR, kdR, kd2R, ks)
+    rodrigues_directional(B, kv, 2, 3, 3, w + _E_R, w + _E_DR, w + _E_D2R, w + _E_S)
     for a in range(3):
         B[kG, a, 3] = B[kv, 0, a]
-        B[kGd, a, 3] = B[kv, 1, a]
+        B[kG + 1, a, 3] = B[kv, 1, a]
         for b in range(3):
-            B[kG, a, b] = B[kR, a, b]
-            B[kGd, a, b] = B[kdR, a, b]
-            B[kGdd, a, b] = B[kd2R, a, b]
-    # Twists of the link's own end coordinates, from the frame before E.
+            B[kG, a, b] = B[w + _E_R, a, b]
+            B[kG + 1, a, b] = B[w + _E_DR, a, b]
+            B[kG + 2, a, b] = B[w + _E_D2R, a, b]
+
+
+def _end_twists(fdat, B, w, s0, m, o_t, o_phi):
+    """World twists B[s0 + k] of the m end coordinates delta_k of a link (_end_step), from the
+    frame before E (B[w]) and E's t, phi (rows 0, 2 of B[w + _E_V]):
+
+        L_k = dE_k E^-1 = [[dR_k R^T, t_k - dR_k R^T t], [0, 0]],  S_k = T L_k T^-1
+        (dR_k = dR[end_phi_k] at phi, t_k = end_t_k; S_k = 0 where both are zero)
+    """
+    kv = w + _E_V
+    kR = w + _E_R
+    kL = w + _E_L
+    kdRk = w + _E_DRK
+    ku = w + _E_U
+    ks = w + _E_S
     for k in range(m):
         zero = True
         for a in range(3):
@@ -151,13 +172,13 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
             if fdat[o_phi + 3 * k + a] != 0.0 or fdat[o_t + 3 * k + a] != 0.0:
                 zero = False
         if zero:
-            _zero4(B, ss + d0 + k)  # an interior FE node: E does not depend on it
+            _zero4(B, s0 + k)  # an interior FE node: E does not depend on it
             continue
         # phi and u side by side in the scratch slot ks + 3 (rows 0, 1)
         for a in range(3):
             B[ks + 3, 0, a] = B[kv, 2, a]
             B[ks + 3, 1, a] = B[ku, 0, a]
-        rodrigues_directional(B, ks + 3, 0, 1, 1, kR, kdRk, kd2R, ks)
+        rodrigues_directional(B, ks + 3, 0, 1, 1, kR, kdRk, w + _E_D2R, ks)
         # L = [[dR_k R^T, t_k - dR_k R^T t], [0, 0]]
         for a in range(3):
             for b in range(3):
@@ -170,8 +191,7 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
             for b in range(3):
                 s -= B[kL, a, b] * B[kv, 0, b]
             B[kL, a, 3] = s
-        _conjugate(B, w, kL, ss + d0 + k, ks + 3)
-    _apply_local(B, w, kG, vel, kTn)
+        _conjugate(B, w, kL, s0 + k, ks + 3)
 
 
 def _apply_local(B, w, kG, vel, kTn):
@@ -267,6 +287,11 @@ def _host_shapes(fdat, idat, link, q, x, out):
         out[r, 6] = pa / (D * D) * F1
 
 
+# Scratch of _pa_step, relative to w: G, Gd, Gdd0 (3); L; _apply_local's T, Td, Tdd0 (3);
+# _conjugate's.
+_PA_G, _PA_L, _PA_TN, _PA_S = 3, 6, 7, 10
+
+
 def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
     """T <- T G for the carriage of joint ``link`` (docs/theory.md §7.3, §7.6);
     the world twists of d_i and of every host coordinate into B[ss + c] (and, on a
@@ -291,18 +316,44 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
     c = _joint_field(fdat, idat, link, 1)
     d = q[jd]
     dd = qd[jd]
-    kG = w + 3
-    kL = w + 6
-    kTn = w + 7
-    ks = w + 10
     # sums over the host coordinates: S[0] = vbar-type (b), S[1] = phibar-type (a); columns:
     # 0 value, 1 _d, 2 _dd, 3 _D, 4 _DD, 5 _dD, then with deltadot: 6 value, 7 _d, 8 _D
     S = np.zeros((2, 9))
+    ab = np.zeros((2, 4, 7))
+    mh, h0, jD, Ddot = _host_sums(fdat, idat, link, q, qd, d, c, B, ss, S, ab)
+    vb = S[0, 0]
+    # first and qddot-free second time derivatives of theta and vbar
+    thd = S[1, 1] * dd + S[1, 3] * Ddot + S[1, 6]
+    vbd = S[0, 1] * dd + S[0, 3] * Ddot + S[0, 6]
+    th0dd = (S[1, 2] * dd * dd + 2.0 * S[1, 5] * dd * Ddot + S[1, 4] * Ddot * Ddot
+             + 2.0 * dd * S[1, 7] + 2.0 * Ddot * S[1, 8])
+    vb0dd = (S[0, 2] * dd * dd + 2.0 * S[0, 5] * dd * Ddot + S[0, 4] * Ddot * Ddot
+             + 2.0 * dd * S[0, 7] + 2.0 * Ddot * S[0, 8])
+    _pa_transform(B, w + _PA_G, S[1, 0] + gamma, d, dd, vb, thd, vbd, th0dd, vb0dd, vel)
+    # Twists, from the frame before G: L = [[Z theta_q, t_q - theta_q Z t], [0, 0]], Z t = (-vbar, d, 0)
+    _carriage_twist(B, w, ss + jd, S[1, 1], 1.0 + S[1, 1] * vb, S[0, 1] - S[1, 1] * d)
+    if jD >= 0:
+        _carriage_twist(B, w, ss + N + jD, S[1, 3], S[1, 3] * vb, S[0, 3] - S[1, 3] * d)
+    _host_twists(B, w, ss + h0, mh, ab, c, vb, d)
+    _apply_local(B, w, w + _PA_G, vel, w + _PA_TN)
+
+
+def _host_sums(fdat, idat, link, q, qd, d, c, B, ss, S, ab):
+    """The host sums of the carriage of joint ``link`` at d [m] with half-length c [m] (_pa_step):
+
+        S[0, :] = sums of b_k-type terms,  S[1, :] = sums of a_k-type terms (_pa_step's columns),
+        b_k = [psi_k(d + c) + psi_k(d - c)] / 2,  a_k = [psi_k(d + c) - psi_k(d - c)] / (2 c)
+
+    ab[side] (4, 7): _host_shapes at d + c (side 0) and d - c (side 1). Zeroes the twists of the
+    host's mh coordinates (B[ss + h0 + k]). Returns (mh, h0, jD, Ddot): the host's number of
+    coordinates and the first one's index, its protruding length's index (-1 unless a flexible
+    Pb host) and rate Ddot [m/s].
+    """
+    N = idat[1]
     mh = 0
     h0 = 0
     jD = -1
     Ddot = 0.0
-    ab = np.zeros((2, 4, 7))
     if link > 0:
         hb = _H + _CI * N + _LI * (link - 1)
         mh = idat[hb]
@@ -333,20 +384,20 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
                 S[1, 7] += sg * ab[side, r, 2] * y / (2.0 * c)
                 S[0, 8] += 0.5 * ab[side, r, 4] * y
                 S[1, 8] += sg * ab[side, r, 4] * y / (2.0 * c)
-    vb = S[0, 0]
-    th = S[1, 0] + gamma
+    return mh, h0, jD, Ddot
+
+
+def _pa_transform(B, kG, th, d, dd, vb, thd, vbd, th0dd, vb0dd, vel):
+    """The carriage's G, Gd, Gdd0 into B[kG], B[kG+1], B[kG+2] (_pa_step), theta = th [rad]:
+
+        G = [[Rz(theta), (d, vbar, 0)]],  Gd = [[R' thetadot, (ddot, vbardot, 0)]],
+        Gdd0 = [[R'' thetadot^2 + R' theta0dd, (0, vbar0dd, 0)]]
+        (R' = [[-s, -c], [c, -s]], R'' = -R in the x-y block)
+    """
     ct = math.cos(th)
     st = math.sin(th)
-    # first and qddot-free second time derivatives of theta and vbar
-    thd = S[1, 1] * dd + S[1, 3] * Ddot + S[1, 6]
-    vbd = S[0, 1] * dd + S[0, 3] * Ddot + S[0, 6]
-    th0dd = (S[1, 2] * dd * dd + 2.0 * S[1, 5] * dd * Ddot + S[1, 4] * Ddot * Ddot
-             + 2.0 * dd * S[1, 7] + 2.0 * Ddot * S[1, 8])
-    vb0dd = (S[0, 2] * dd * dd + 2.0 * S[0, 5] * dd * Ddot + S[0, 4] * Ddot * Ddot
-             + 2.0 * dd * S[0, 7] + 2.0 * Ddot * S[0, 8])
     for k in range(kG, kG + 3):
         _zero4(B, k)
-    # G, Gd, Gdd0 (R' = [[-s, -c], [c, -s]], R'' = -R in the x-y block)
     B[kG, 0, 0] = ct
     B[kG, 0, 1] = -st
     B[kG, 1, 0] = st
@@ -367,41 +418,39 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
         B[kG + 2, 1, 0] = -st * thd * thd + ct * th0dd
         B[kG + 2, 1, 1] = -ct * thd * thd - st * th0dd
         B[kG + 2, 1, 3] = vb0dd
-    # Twists, from the frame before G: L = [[Z theta_q, t_q - theta_q Z t], [0, 0]], Z t = (-vbar, d, 0)
+
+
+def _carriage_twist(B, w, o, th_q, lx, ly):
+    """B[o] = T L T^-1 (T = B[w], the frame before the carriage) for the local twist
+
+        L = [[Z theta_q, (lx, ly, 0)], [0, 0]],  (lx, ly) = (t_q - theta_q Z t)[:2]  (_pa_step)
+    """
+    kL = w + _PA_L
     _zero4(B, kL)
-    B[kL, 0, 1] = -S[1, 1]
-    B[kL, 1, 0] = S[1, 1]
-    B[kL, 0, 3] = 1.0 + S[1, 1] * vb
-    B[kL, 1, 3] = S[0, 1] - S[1, 1] * d
-    _conjugate(B, w, kL, ss + jd, ks)
-    if jD >= 0:
-        _zero4(B, kL)
-        B[kL, 0, 1] = -S[1, 3]
-        B[kL, 1, 0] = S[1, 3]
-        B[kL, 0, 3] = S[1, 3] * vb
-        B[kL, 1, 3] = S[0, 3] - S[1, 3] * d
-        _conjugate(B, w, kL, ss + N + jD, ks)
-    if mh > 0:
-        for k in range(mh):
-            ak = 0.0
-            bk = 0.0
-            hit = False
-            for side in range(2):
-                sg = 1.0 if side == 0 else -1.0
-                for r in range(4):
-                    if int(ab[side, r, 0]) == k:
-                        ak += sg * ab[side, r, 1] / (2.0 * c)
-                        bk += 0.5 * ab[side, r, 1]
-                        hit = True
-            if not hit:
-                continue
-            _zero4(B, kL)
-            B[kL, 0, 1] = -ak
-            B[kL, 1, 0] = ak
-            B[kL, 0, 3] = ak * vb
-            B[kL, 1, 3] = bk - ak * d
-            _conjugate(B, w, kL, ss + h0 + k, ks)
-    _apply_local(B, w, kG, vel, kTn)
+    B[kL, 0, 1] = -th_q
+    B[kL, 1, 0] = th_q
+    B[kL, 0, 3] = lx
+    B[kL, 1, 3] = ly
+    _conjugate(B, w, kL, o, w + _PA_S)
+
+
+def _host_twists(B, w, s0, mh, ab, c, vb, d):
+    """World twists B[s0 + k] of the host coordinates delta_k that move the carriage (_pa_step):
+    theta_k = a_k, t_k = (0, b_k, 0), so L_k = [[Z a_k, (a_k vbar, b_k - a_k d, 0)], [0, 0]]."""
+    for k in range(mh):
+        ak = 0.0
+        bk = 0.0
+        hit = False
+        for side in range(2):
+            sg = 1.0 if side == 0 else -1.0
+            for r in range(4):
+                if int(ab[side, r, 0]) == k:
+                    ak += sg * ab[side, r, 1] / (2.0 * c)
+                    bk += 0.5 * ab[side, r, 1]
+                    hit = True
+        if not hit:
+            continue
+        _carriage_twist(B, w, s0 + k, ak, ak * vb, bk - ak * d)
 
 
 def _pb_step(fdat, idat, link, q, qd, vel, B, w, ss):
