@@ -42,11 +42,12 @@ BUILD = r"""
 import sys, time
 from numba.pycc import CC
 from gibbsimpact import kernel as k
-k._jit_helpers()
+from gibbsimpact.kernel import compile as kc
+kc._jit_helpers()
 cc = CC("gi_aot_probe")
 cc.output_dir = sys.argv[1]
-cc.export("kernel_rigid", k._ENTRY_SIG.format("none", "none"))(k._PY_KERNEL)
-cc.export("event_gaps", k._LAZY["event_gaps"])(k.event_gaps.py_func)
+cc.export("kernel_rigid", kc._ENTRY_SIG.format("none", "none"))(kc._PY_KERNEL)
+cc.export("event_gaps", kc._LAZY["event_gaps"])(k.event_gaps.py_func)
 t = time.process_time()
 cc.compile()
 print(time.process_time() - t)
@@ -84,7 +85,8 @@ if sys.argv[1] != "jit":
     sys.path.insert(0, sys.argv[1])
     import gi_aot_probe
     from gibbsimpact import kernel as k
-    k.compiled = lambda v=None: gi_aot_probe.kernel_rigid
+    from gibbsimpact.kernel import compile as kc
+    k.compiled = kc.compiled = lambda v=None: gi_aot_probe.kernel_rigid  # kc: for kernel.run
     k.lazy = lambda name: getattr(gi_aot_probe, name)
 from gibbsimpact.cli import commands as cli
 sys.argv = ["gibbsimpact", "run", sys.argv[2], "--no-plots", "--quiet", "--out", sys.argv[3]]

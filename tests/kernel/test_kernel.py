@@ -20,7 +20,7 @@ checks that what numba compiles is that same source:
 2. no recompiles: after varied use the entry point has exactly one
    signature, and other argument types raise TypeError instead of compiling.
 3. a read-only install with no usable cache directory still works (numba
-   compiles without caching; ``kernel._compile_all`` catches "cannot cache").
+   compiles without caching; ``kernel.compile._jit_helpers`` catches "cannot cache").
 4. two kernel paths against each other / finite differences: the joint
    Jacobians (twist form) against central differences of the joint points,
    and 1/2 qdot^T M qdot (JOB_M) against the kinetic energy (JOB_ENERGY).
@@ -45,6 +45,8 @@ import pytest
 import gibbsimpact as gi
 from gibbsimpact.dynamics import gibbs_appell as dy
 from gibbsimpact import kernel as _k
+from gibbsimpact.kernel import compile as _kc
+from gibbsimpact.kernel.layout import _CI, _H, _LI
 from gibbsimpact.model.packing import pack
 from gibbsimpact.dynamics import kinematics as kin
 
@@ -272,13 +274,13 @@ def test_chains_cover_the_kernel_paths():
         model = build()
         idat = pack(model)[1]
         n, N = int(idat[0]), int(idat[1])
-        li = idat[_k._H + _k._CI * N:].reshape(n, _k._LI)
+        li = idat[_H + _CI * N:].reshape(n, _LI)
         kinds |= set(li[:, 4].tolist())
     # Rigid ends and moving (Rodrigues) ends.
     assert {_k.END_RIGID, _k.END_GENERAL} <= kinds
     spatial = pack(_spatial_two_link())[1]
     N = int(spatial[1])
-    assert np.all(spatial[_k._H + _k._CI * N:].reshape(2, _k._LI)[:, 4] == _k.END_GENERAL)
+    assert np.all(spatial[_H + _CI * N:].reshape(2, _LI)[:, 4] == _k.END_GENERAL)
 
 
 @needs_jit
@@ -385,7 +387,7 @@ def test_one_signature_and_no_recompiles(compiled):
             pytest.fail(f"the kernel accepted {what} (compiled a new signature or converted)")
     assert len(kernel.signatures) == 3, kernel.signatures
     # The resting-contact entry points (compiled on first use, by ``compiled``): one signature each.
-    for name in _k._LAZY:
+    for name in _kc._LAZY:
         assert len(getattr(_k, name).signatures) == 1, (name, getattr(_k, name).signatures)
 
 
@@ -434,9 +436,9 @@ def test_read_only_applied_forces_and_wrong_sizes():
 def test_no_compile_notice_when_the_cache_is_warm(compiled):
     # ``compiled`` compiled (or loaded) every variant; with a cache location they are on disk,
     # so a new process loads them silently (the notice is for a real compile only).
-    if not _k._state["cached"]:
+    if not _kc._state["cached"]:
         pytest.skip("numba has no cache location here")
-    assert all(_k._cache_is_warm(v) is True for v in (_k.RIGID_ENDS, _k.REVOLUTE, _k.PRISMATIC))
+    assert all(_kc._cache_is_warm(v) is True for v in (_k.RIGID_ENDS, _k.REVOLUTE, _k.PRISMATIC))
     code = ("import sys; sys.path[:0] = [%r, %r]; import numpy as np, test_kernel as tk; "
             "from gibbsimpact.dynamics import gibbs_appell as dy; "
             "[dy.forward_dynamics(m, *tk.random_state(m, np.random.default_rng(0))) "
@@ -456,12 +458,13 @@ import json, sys
 import numpy as np
 import gibbsimpact as gi
 from gibbsimpact import kernel as k
+from gibbsimpact.kernel.compile import _state
 from gibbsimpact.dynamics.gibbs_appell import forward_dynamics
 link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")])
 model = gi.Model(gi.Chain([link, link]), gravity=(0.0, -9.81, 0.0))
 q, qd = (np.array([float.fromhex(x) for x in v]) for v in json.loads(sys.argv[1]))
 a = forward_dynamics(model, q, qd)
-print(json.dumps({"file": gi.__file__, "cached": k._state["cached"], "signatures": len(k.kernel.signatures),
+print(json.dumps({"file": gi.__file__, "cached": _state["cached"], "signatures": len(k.kernel.signatures),
                   "qddot": [float(x).hex() for x in a]}))
 """
 

@@ -1,14 +1,15 @@
-"""The model packed for the compiled kernel: one float64 and one int64 array (layout: gibbsimpact.kernel).
+"""The model packed for the compiled kernel: one float64 and one int64 array (gibbsimpact.kernel.layout).
 
 ``pack(model)`` is the one place where a Model becomes the kernel's data (fdat, idat); the
-layout constants and kind codes it writes are the kernel's own (``gibbsimpact.kernel``).
+layout constants and kind codes it writes are the kernel's own (``gibbsimpact.kernel.layout``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .. import kernel as _k
+from ..kernel.layout import (_CI, _F_LINKS, _GAUSS, _H, _LI, BASE_FIXED, BASE_FREE, BASE_PLANAR, END_GENERAL, END_RIGID,
+                             JOINT_PA, JOINT_PB, JOINT_R, KIND_MODE, KIND_PA, KIND_PB, KIND_ROTATION, KIND_TRANSLATION)
 from .elements import assemble as assemble_elements, element_stiffness, hermite_shape
 
 
@@ -17,7 +18,7 @@ def _pb_tables(link):
     ne = link.elements
     if ne == 0:
         return []
-    t, wt = np.polynomial.legendre.leggauss(_k._GAUSS)
+    t, wt = np.polynomial.legendre.leggauss(_GAUSS)
     xi = ((np.arange(ne)[:, None] + 0.5 * (t[None, :] + 1.0)) / ne).ravel()
     w = np.tile(0.5 * wt / ne, ne)
     N = [hermite_shape(ne, 1.0, xi, k).T.ravel() for k in range(3)]  # (G, m) row-major
@@ -30,44 +31,44 @@ def pack(model):
     """The model as (fdat float64 (F,), idat int64 (I,)) for the kernel."""
     n, N = model.n_links, model.n_dof
     free = model.free_base
-    base_kind = _k.BASE_FIXED if not free else (_k.BASE_PLANAR if model.chain.base == "planar" else _k.BASE_FREE)
-    idat = np.zeros(_k._H + _k._CI * N + _k._LI * n, dtype=np.int64)
+    base_kind = BASE_FIXED if not free else (BASE_PLANAR if model.chain.base == "planar" else BASE_FREE)
+    idat = np.zeros(_H + _CI * N + _LI * n, dtype=np.int64)
     idat[0], idat[1], idat[2] = n, N, base_kind
     idat[3] = sum(1 for i, jt in enumerate(model.chain.joints) if i > 0 and jt.kind != "R")
     idat[4] = int(any(jt.kind != "R" for jt in model.chain.joints))  # the kernel variant (variant())
     idat[5] = int(any(not ld.end_is_rigid for ld in model.link_data))  # a link end moved by its modes
-    ci = idat[_k._H:_k._H + _k._CI * N].reshape(N, _k._CI)
-    li = idat[_k._H + _k._CI * N:].reshape(n, _k._LI) if n else np.zeros((0, _k._LI), dtype=np.int64)
+    ci = idat[_H:_H + _CI * N].reshape(N, _CI)
+    li = idat[_H + _CI * N:].reshape(n, _LI) if n else np.zeros((0, _LI), dtype=np.int64)
     ci[:, 3] = -1
-    if base_kind == _k.BASE_FREE:
+    if base_kind == BASE_FREE:
         for a in range(3):
-            ci[a, :3] = (_k.KIND_TRANSLATION, a, 0)
-        ci[3, :3] = (_k.KIND_ROTATION, 0, 0)
-        ci[4, :3] = (_k.KIND_ROTATION, 1, 0)
-    elif base_kind == _k.BASE_PLANAR:
+            ci[a, :3] = (KIND_TRANSLATION, a, 0)
+        ci[3, :3] = (KIND_ROTATION, 0, 0)
+        ci[4, :3] = (KIND_ROTATION, 1, 0)
+    elif base_kind == BASE_PLANAR:
         for a in range(2):
-            ci[a, :3] = (_k.KIND_TRANSLATION, a, 0)
+            ci[a, :3] = (KIND_TRANSLATION, a, 0)
     f = [np.eye(4).ravel() if free else np.asarray(model.base_transform, dtype=float).ravel(),
          np.append(model.gravity, 0.0)]
-    off = _k._F_LINKS
+    off = _F_LINKS
     axis_of = {"y": 1, "z": 2}
-    joint_of = {"R": _k.JOINT_R, "Pa": _k.JOINT_PA, "Pb": _k.JOINT_PB}
+    joint_of = {"R": JOINT_R, "Pa": JOINT_PA, "Pb": JOINT_PB}
     for i, (ld, lk, jt) in enumerate(zip(model.link_data, model.chain.links, model.chain.joints)):
         th = model.theta_index[i]
         idx = model.delta_index[i]
         m = idx.size
         jk = joint_of[jt.kind]
-        if jk == _k.JOINT_R:
-            ci[th, :3] = (_k.KIND_ROTATION, 2, i)
-        elif jk == _k.JOINT_PA:
-            ci[th, :3] = (_k.KIND_PA, 0, i)
+        if jk == JOINT_R:
+            ci[th, :3] = (KIND_ROTATION, 2, i)
+        elif jk == JOINT_PA:
+            ci[th, :3] = (KIND_PA, 0, i)
         else:
             # d_i moves frames i.. by a translation and deforms link i (its own shape chi, slot m).
-            ci[th] = (_k.KIND_PB, 1, i, i, m, 0)
+            ci[th] = (KIND_PB, 1, i, i, m, 0)
         for l, c in enumerate(idx):
-            ci[c] = (_k.KIND_MODE, axis_of[ld.directions[l]], i + 1, i, l, 0)
+            ci[c] = (KIND_MODE, axis_of[ld.directions[l]], i + 1, i, l, 0)
         # A moving end always takes the Rodrigues path (exact at phi = 0: R = I, dR[u] = a skew(u)).
-        end = _k.END_RIGID if ld.end_is_rigid else _k.END_GENERAL
+        end = END_RIGID if ld.end_is_rigid else END_GENERAL
         li[i] = (m, idx[0] if m else 0, th, off, end, jk)
         P0 = np.array(ld.P0, dtype=float)
         J = ld.J_body
@@ -82,7 +83,7 @@ def pack(model):
         joint = [getattr(jt, "angle", 0.0), getattr(jt, "half_length", 0.0), lk.elements, mu, ei]
         block = [P0.ravel(), ld.m_r0, [ld.length], cx, c1, Mpsi.ravel(), np.asarray(ld.K).ravel(),
                  np.asarray(ld.end_t).ravel(), np.asarray(ld.end_phi).ravel(), joint]
-        if jk == _k.JOINT_PB:
+        if jk == JOINT_PB:
             block += _pb_tables(lk)
         f += block
         off += sum(np.size(b) for b in block)

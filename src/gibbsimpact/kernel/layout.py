@@ -1,0 +1,95 @@
+"""The kernel's data layout: fdat/idat of a packed model, kind codes, JOB bits, output sections.
+
+One float64 array (fdat) and one int64 array (idat) per model, so that a call passes few
+arguments (numba's dispatch cost grows with their number); ``gibbsimpact.model.packing.pack``
+writes them with the constants below. ``layout`` and ``contact_layout`` give the offsets of the
+sections of the entry points' outputs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# -- data layout --------------------------------------------------------------
+# idat: [n, N, base kind, X, prismatic (0/1), general ends (0/1), 0, 0] + per coordinate (N rows of _CI ints)
+#       (X: extra contact points, the tips of host links whose child joint is prismatic)
+#       + per link (n rows of _LI ints)
+_H = 8
+_CI = 6  # kind, axis, first frame, own link (-1), local index, first frame of a second twist (-1)
+_LI = 6  # m, first delta index in q, joint variable index in q, offset in fdat, end kind, joint kind
+KIND_TRANSLATION, KIND_ROTATION, KIND_MODE, KIND_PA, KIND_PB = 0, 1, 2, 3, 4
+END_RIGID, END_GENERAL = 0, 2  # a link end fixed to its frame, or moved by its modes
+JOINT_R, JOINT_PA, JOINT_PB = 0, 1, 2
+BASE_FIXED, BASE_FREE, BASE_PLANAR = 0, 1, 2
+# fdat: base T0 (16), g~ (4), then per link: P0+Sigma (16), m_r0 (4), length,
+#       cx (m), c1 (m), Mpsi (m*m), K (m*m), end_t (3m), end_phi (3m),
+#       gamma, c, n_e, mu, EI (_F_JOINT values: the joint and the constants of a Pb link),
+#       and for a Pb link its unit-interval tables (_pb_moments): xi (G), w (G),
+#       N (G m), N' (G m), N'' (G m), Kunit (m m), a (m), G = 4 n_e Gauss points.
+_F_BASE, _F_G, _F_LINKS = 0, 16, 20
+_F_JOINT = 5
+_GAUSS = 4  # Gauss-Legendre points per (stretching) element: exact for degree <= 7
+
+
+def _joint_field(fdat, idat, link, k):
+    """Entry k of link ``link``'s _F_JOINT values: 0 gamma [rad], 1 c [m], 2 n_e, 3 mu [kg/m], 4 EI [N m^2]."""
+    base = _H + _CI * idat[1] + _LI * link
+    m = idat[base]
+    return fdat[idat[base + 3] + 21 + 8 * m + 2 * m * m + k]
+
+
+def _mmax(idat):
+    n = idat[0]
+    N = idat[1]
+    mmax = 0
+    for i in range(n):
+        mmax = max(mmax, idat[_H + _CI * N + _LI * i])
+    return mmax
+
+
+# Bits of ``job`` in ``kernel``.
+JOB_M, JOB_H, JOB_SOLVE, JOB_ENERGY, JOB_MOMENTUM, JOB_POINTS, JOB_JACOBIANS, JOB_FRAMES = 1, 2, 4, 8, 16, 32, 64, 128
+#: q̈ only: alone, the whole output is q̈ (N,) (forward_dynamics returns it as it is; a slice of
+#: a larger output costs ~0.3 us a call). Its status is the return value.
+JOB_QDDOT = 256
+
+
+# Sections of ``kernel``'s output, in order (``layout`` gives their offsets).
+SECTIONS = ("status", "ydot", "M", "h", "dV", "energy", "momentum", "points", "jacobians", "frames")
+_S_STATUS, _S_YDOT, _S_M, _S_H, _S_DV, _S_EN, _S_MO, _S_PTS, _S_JAC, _S_FR = range(10)
+
+
+def layout(n, N, K, job, npts):
+    """Start offsets (11,) of the sections of ``kernel``'s output (SECTIONS), then its length;
+    npts contact points (n + 1 frame origins and the extra tips)."""
+    hv = (job & JOB_H) != 0
+    off = np.zeros(11, dtype=np.int64)
+    # status: always but for JOB_QDDOT alone; ydot: (qdot, qddot) with JOB_SOLVE, else qddot with JOB_QDDOT
+    off[_S_STATUS + 1] = 0 if job == JOB_QDDOT else 3
+    off[_S_YDOT + 1] = 2 * N if job & JOB_SOLVE else (N if job & JOB_QDDOT else 0)
+    off[_S_M + 1] = N * N if job & JOB_M else 0
+    off[_S_H + 1] = N if hv else 0
+    off[_S_DV + 1] = N if hv else 0
+    off[_S_EN + 1] = 3 * K if job & JOB_ENERGY else 0
+    off[_S_MO + 1] = 9 * K if job & JOB_MOMENTUM else 0
+    off[_S_PTS + 1] = 3 * npts * K if job & JOB_POINTS else 0
+    off[_S_JAC + 1] = 3 * npts * N * K if job & JOB_JACOBIANS else 0
+    off[_S_FR + 1] = 48 * (n + 1) * K if job & JOB_FRAMES else 0
+    for i in range(10):  # sizes -> offsets
+        off[i + 1] += off[i]
+    return off
+
+
+#: Wall kinds of contact_terms (walls.py: Plane, Circle, Sphere; Wall.packed()).
+WALL_PLANE, WALL_CIRCLE, WALL_SPHERE = 0, 1, 2
+
+
+def contact_layout(N, k):
+    """Offsets (12,) of contact_terms' output sections W, M^-1 W, G, c, g, v, n, pd, a0, lambda,
+    qddot for N coordinates and k pairs, and its size (after the status entry at 0)."""
+    o = np.zeros(12, dtype=np.int64)
+    sizes = (N * k, N * k, k * k, k, k, k, 3 * k, 3 * k, 3 * k, k, N)
+    o[0] = 1
+    for i in range(11):
+        o[i + 1] = o[i] + sizes[i]
+    return o

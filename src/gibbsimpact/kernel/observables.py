@@ -1,0 +1,135 @@
+"""Observables stage: energies, momenta and first moment per link, and the extra contact points.
+
+Kinetic energy per link: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 int mu vdot^2
+(P, Pv from moments.py; the frames from frames.py).
+"""
+
+from __future__ import annotations
+
+from .layout import _CI, _F_G, _H, _LI, JOB_JACOBIANS, JOB_POINTS, JOINT_PB, JOINT_R, _mmax
+from .mat4 import _mm, _mmt
+from .moments import _link_body, _own, _sd_stride
+
+
+def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out, SD, pris):
+    """out (12,): kinetic, gravity, strain energy [J]; linear momentum L [kg m/s];
+    angular momentum about the origin H0 [kg m^2/s]; first moment sum T m_r [kg m].
+
+    Frames in B[ts + i], B[tds + i]; B[w + 20 .. w + 23], V (2 mmax + 4, 4) and SD are scratch.
+    E_k = sum 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 deltadot^T M_dd deltadot,
+    V_g = -g~ . sum T m_r,  V_s = 1/2 delta^T K delta,
+    L = sum (Td m_r + T m_rdot),  H0 = sum vee(X),  X = T P Td^T + T Pv T^T = int mu p pdot^T.
+    """
+    n = idat[0]
+    N = idat[1]
+    mmax = _mmax(idat)
+    kP = w + 20
+    kPv = w + 21
+    kX = w + 22
+    kA = w + 23
+    MR = 0
+    MRD = 1
+    QV = 2
+    QDV = 3 + mmax
+    SDS = _sd_stride(mmax)
+    for a in range(12):
+        out[a] = 0.0
+    for i in range(n):
+        base = _H + _CI * N + _LI * i
+        m = idat[base]
+        d0 = idat[base + 1]
+        off = idat[base + 3]
+        ms, src, o_cx = _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV, SD, i * SDS, pris)
+        T = ts + i
+        Td = tds + i
+        # Kinetic energy: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) here, the modal part below.
+        for a in range(4):
+            for b in range(4):
+                x = 0.0
+                z = 0.0
+                for c in range(4):
+                    x += B[Td, a, c] * B[kP, c, b]
+                    z += B[Td, a, c] * B[kPv, c, b]
+                out[0] += 0.5 * x * B[Td, a, b] + z * B[T, a, b]
+        o_K = off + 21 + 2 * m + m * m
+        for a in range(4):
+            V[MRD, a] = 0.0
+        for l in range(ms):
+            al, dl, vl = _own(idat, i, q, qd, l)
+            out[0] += 0.5 * vl * V[QDV + l, al]
+            V[MRD, al] += vl * src[o_cx + ms + l]
+        if pris is not None and idat[base + 5] == JOINT_PB:
+            out[2] += SD[i * SDS + 3 * ms + ms * ms + 4 + m + 1]
+        else:
+            for l in range(m):
+                for k in range(m):
+                    out[2] += 0.5 * q[d0 + l] * fdat[o_K + m * l + k] * q[d0 + k]
+        for a in range(3):
+            s = 0.0
+            p = 0.0
+            for b in range(4):
+                s += B[Td, a, b] * V[MR, b] + B[T, a, b] * V[MRD, b]
+                p += B[T, a, b] * V[MR, b]
+            out[3 + a] += s
+            out[9 + a] += p
+            out[1] -= fdat[_F_G + a] * p
+        # X = T P Td^T + (T Pv) T^T
+        _mm(B, T, kP, kA)
+        _mmt(B, kA, Td, kX)
+        _mm(B, T, kPv, kA)
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                for c in range(4):
+                    s += B[kA, a, c] * B[T, b, c]
+                B[kX, a, b] += s
+        out[6] += B[kX, 1, 2] - B[kX, 2, 1]
+        out[7] += B[kX, 2, 0] - B[kX, 0, 2]
+        out[8] += B[kX, 0, 1] - B[kX, 1, 0]
+
+
+def _extra_points(fdat, idat, q, B, ts, ss, out, o_pts, o_jac, job, npts, k):
+    """The tips of host links h whose child joint is prismatic (contact points n + 1 ..):
+    p = T_h (l_h e_x + sum end_t_k delta_k, 1),  dp/dq_c = (S_c p)[:3] for f_c <= h,
+    R_h end_t_k for h's own delta_k (docs/theory.md §7.1: E_h is not on the chain's path)."""
+    n = idat[0]
+    N = idat[1]
+    x = n + 1
+    for i in range(1, n):
+        if idat[_H + _CI * N + _LI * i + 5] == JOINT_R:
+            continue
+        h = i - 1
+        hb = _H + _CI * N + _LI * h
+        m = idat[hb]
+        d0 = idat[hb + 1]
+        off = idat[hb + 3]
+        o_t = off + 21 + 2 * m + 2 * m * m
+        t0 = fdat[off + 20]
+        t1 = 0.0
+        t2 = 0.0
+        for c in range(m):
+            t0 += fdat[o_t + 3 * c] * q[d0 + c]
+            t1 += fdat[o_t + 3 * c + 1] * q[d0 + c]
+            t2 += fdat[o_t + 3 * c + 2] * q[d0 + c]
+        p0 = B[ts + h, 0, 0] * t0 + B[ts + h, 0, 1] * t1 + B[ts + h, 0, 2] * t2 + B[ts + h, 0, 3]
+        p1 = B[ts + h, 1, 0] * t0 + B[ts + h, 1, 1] * t1 + B[ts + h, 1, 2] * t2 + B[ts + h, 1, 3]
+        p2 = B[ts + h, 2, 0] * t0 + B[ts + h, 2, 1] * t1 + B[ts + h, 2, 2] * t2 + B[ts + h, 2, 3]
+        if job & JOB_POINTS:
+            o = o_pts + 3 * (npts * k + x)
+            out[o] = p0
+            out[o + 1] = p1
+            out[o + 2] = p2
+        if job & JOB_JACOBIANS:
+            o = o_jac + 3 * N * (npts * k + x)
+            for c in range(N):
+                if idat[_H + _CI * c + 2] <= h:
+                    for a in range(3):
+                        out[o + N * a + c] = (B[ss + c, a, 3] + B[ss + c, a, 0] * p0 + B[ss + c, a, 1] * p1
+                                              + B[ss + c, a, 2] * p2)
+            for c in range(m):
+                for a in range(3):
+                    s = 0.0
+                    for b in range(3):
+                        s += B[ts + h, a, b] * fdat[o_t + 3 * c + b]
+                    out[o + N * a + d0 + c] = s
+        x += 1
