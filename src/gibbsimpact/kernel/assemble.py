@@ -47,7 +47,7 @@ come from frames.py, the body moments P_i, Pv_i, m_r,i, q_l (item 5) from moment
 from __future__ import annotations
 
 from .layout import _CI, _F_G, _H, _LI, JOINT_PB, _mmax, inline
-from .mat4 import _mm, _mmt, _mmt_add
+from .mat4 import _mm, _mmt
 from .moments import _own_source, _sd_offsets, _sd_stride
 
 
@@ -82,7 +82,8 @@ def assemble(fdat, idat, q, vel, B, V, SD, ws, M, h, dV, pris):
 def _link_shares(idat, B, V, SD, SDS, ws, vel, pris):
     """Each link's shares of the composites (items 2-4, 6): Pi_i = T P T^T, mu_i = T m_r and,
     when vel, F_i = T P Tdd0^T + 2 T Pv Td^T (+ (T qa)(T e_y)^T for a Pb link: r0dd = e_y a0),
-    into B[PIC + i], V[MUC + i], B[FC + i] (work_slots ws; a Pb link's qa in SD, _pb_moments)."""
+    into B[PIC + i], V[MUC + i], B[FC + i] (work_slots ws; a Pb link's qa in SD, _pb_moments;
+    B[WK + 22], B[WK + 23] scratch)."""
     TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
     kX = WK + 22
     for i in range(idat[0]):
@@ -96,7 +97,10 @@ def _link_shares(idat, B, V, SD, SDS, ws, vel, pris):
         if vel:
             _mmt(B, kX, TDDS + i, FC + i)
             _mm(B, TS + i, PVS + i, kX)
-            _mmt_add(B, kX, TDS + i, 2.0, FC + i)
+            _mmt(B, kX, TDS + i, kX + 1)
+            for a in range(4):
+                for b in range(4):
+                    B[FC + i, a, b] += 2.0 * B[kX + 1, a, b]
             base = _H + _CI * idat[1] + _LI * i
             if pris is not None and idat[base + 5] == JOINT_PB:
                 o_qa = _sd_offsets(i * SDS, idat[base])[2]

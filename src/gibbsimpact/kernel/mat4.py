@@ -42,16 +42,6 @@ def _mmt(B, a, b, o):
             B[o, i, j] = s
 
 
-def _mmt_add(B, a, b, alpha, o):
-    """B[o] += alpha B[a] @ B[b]^T."""
-    for i in range(4):
-        for j in range(4):
-            s = 0.0
-            for k in range(4):
-                s += B[a, i, k] * B[b, j, k]
-            B[o, i, j] += alpha * s
-
-
 def _copy4(B, src, dst):
     """B[dst] = B[src]."""
     for i in range(4):
