@@ -47,7 +47,8 @@ __all__ = [
     "JOB_JACOBIANS", "JOB_M", "JOB_MOMENTUM", "JOB_POINTS", "JOB_QDDOT", "JOB_SOLVE", "JOINT_PA", "JOINT_PB",
     "JOINT_R", "KIND_MODE", "KIND_PA", "KIND_PB", "KIND_ROTATION", "KIND_TRANSLATION", "NOTICE_AFTER_S",
     "PRISMATIC", "REVOLUTE", "RIGID_ENDS", "SECTIONS", "WALL_CIRCLE", "WALL_PLANE", "WALL_SPHERE", "chain_frames",
-    "compiled", "contact_layout", "contact_terms", "ensure_compiled", "event_gaps", "friction_solve", "jit_disabled", "kernel", "layout", "lazy", "output", "rodrigues_coefficients",
-    "rodrigues_directional", "run", "sym_solve", "variant",
+    "compiled", "contact_layout", "contact_terms", "ensure_compiled", "event_gaps", "friction_solve",
+    "jit_disabled", "kernel", "layout", "lazy", "output", "rodrigues_coefficients", "rodrigues_directional", "run",
+    "sym_solve", "variant",
     "_svd_solve",  # tests/contact checks it against numpy's lstsq
 ]

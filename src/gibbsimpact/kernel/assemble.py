@@ -46,115 +46,25 @@ come from frames.py, the body moments P_i, Pv_i, m_r,i, q_l (item 5) from moment
 
 from __future__ import annotations
 
-import numpy as np
-
-from .frames import _W_SIZE, chain_frames
-from .layout import _CI, _F_G, _H, _LI, JOINT_PB, _mmax
+from .layout import _CI, _F_G, _H, _LI, JOINT_PB, _mmax, inline
 from .mat4 import _mm, _mmt
-from .moments import _link_body, _sd_stride
+from .moments import _own_source, _sd_offsets, _sd_stride
 
 
-def assemble(fdat, idat, q, qd, vel, M, h, dV, pris, ends):
-    """M (N, N), and h (N,) when vel, and dV/dq (N,) (module docstring, items 2-4).
+def assemble(fdat, idat, q, vel, B, V, SD, ws, M, h, dV, pris):
+    """Assemble stage: M (N, N), and h (N,) when vel, and dV/dq (N,) (items 2-4, 6, 7 above).
 
-    h and dV must be zero on entry.
+    From the position stage's frames and twists and the moments stage's body moments in the
+    work arrays B, V, SD (work_slots ws, moments); h and dV must be zero on entry.
     """
     n = idat[0]
     N = idat[1]
+    TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
     mmax = _mmax(idat)
-    n1 = n + 1
-    # B: 4x4 matrices by index (frames, composites, twists, X_d, work); V: 4-vectors.
-    TS = 0
-    TDS = n1
-    TDDS = 2 * n1
-    PIC = 3 * n1
-    FC = 4 * n1
-    SS = 5 * n1
-    XS = SS + 2 * N  # twists, then second twists (B[SS + N + c], used where idat's f2_c >= 0)
-    WK = XS + N
-    B = np.zeros((WK + _W_SIZE, 4, 4))
-    kP = WK + 20
-    kPv = WK + 21
-    kX = WK + 22
-    chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK, pris, ends)
-    MUC = 0
-    YY = n1
-    EE = n1 + N
-    QV = n1 + 2 * N
-    QDV = QV + mmax + 1
-    MR = QDV + mmax + 1
-    V = np.zeros((MR + 1, 4))
     SDS = _sd_stride(mmax)
-    SD = np.zeros(n * SDS)
-    for i in range(n):
-        base = _H + _CI * N + _LI * i
-        m = idat[base]
-        d0 = idat[base + 1]
-        off = idat[base + 3]
-        pb = pris is not None and idat[base + 5] == JOINT_PB
-        so = i * SDS
-        ms, src, o_cx = _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV, SD, so, pris)
-        # Pi_i = T P T^T;  mu_i = T m_r
-        _mm(B, TS + i, kP, kX)
-        _mmt(B, kX, TS + i, PIC + i)
-        for a in range(4):
-            s = 0.0
-            for b in range(4):
-                s += B[TS + i, a, b] * V[MR, b]
-            V[MUC + i, a] = s
-        if vel:
-            # F_i = T P Tdd0^T + 2 T Pv Td^T (+ (T qa)(T e_y)^T for a Pb link: r0dd = e_y a0)
-            _mmt(B, kX, TDDS + i, FC + i)
-            _mm(B, TS + i, kPv, kX)
-            for a in range(4):
-                for b in range(4):
-                    s = 0.0
-                    for c in range(4):
-                        s += B[kX, a, c] * B[TDS + i, b, c]
-                    B[FC + i, a, b] += 2.0 * s
-            if pb:
-                o_qa = so + 2 * ms + ms * ms
-                for a in range(4):
-                    s = 0.0
-                    for b in range(4):
-                        s += B[TS + i, a, b] * SD[o_qa + b]
-                    for b in range(4):
-                        B[FC + i, a, b] += s * B[TS + i, b, 1]
-        o_c1 = o_cx + ms
-        o_K = off + 21 + 2 * m + m * m
-        for l in range(ms):
-            c = d0 + l if l < m else idat[base + 2]
-            al = 1 if l == m else idat[_H + _CI * c + 1]
-            # y_c = T q_c;  e_c = T e_{a_c}
-            for a in range(4):
-                s = 0.0
-                for b in range(4):
-                    s += B[TS + i, a, b] * V[QV + l, b]
-                V[YY + c, a] = s
-                V[EE + c, a] = B[TS + i, a, al]
-            # own part of dV: -c1_l g~.e_l + (K delta)_l  (Pb: K(d) delta, and dV_s/dd for chi)
-            s = 0.0
-            for a in range(3):
-                s += fdat[_F_G + a] * V[EE + c, a]
-            if pb:
-                kd = SD[so + 3 * ms + ms * ms + 4 + l]
-            else:
-                kd = 0.0
-                for k in range(m):
-                    kd += fdat[o_K + m * l + k] * q[d0 + k]
-            dV[c] = -src[o_c1 + l] * s + kd
-            if vel:
-                # own part of h: e_l . (Tdd0 q_l + 2 Td qd_l)  (+ int mu phi_l a0 for a Pb link)
-                s = 0.0
-                for a in range(3):
-                    x = 0.0
-                    for b in range(4):
-                        x += B[TDDS + i, a, b] * V[QV + l, b] + 2.0 * B[TDS + i, a, b] * V[QDV + l, b]
-                    s += V[EE + c, a] * x
-                if pb:
-                    s += SD[so + 2 * ms + ms * ms + 4 + l]
-                h[c] = s
-    # Composites: sums over the links from frame j outwards.
+    _link_shares(idat, B, V, SD, SDS, ws, vel, pris)
+    _own_terms(fdat, idat, q, vel, B, V, SD, SDS, mmax + 1, ws, dV, h, pris)
+    # Composites: sums over the links from frame j outwards (one backward pass).
     for i in range(n - 1, -1, -1):
         for a in range(4):
             V[MUC + i, a] += V[MUC + i + 1, a]
@@ -164,9 +74,111 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV, pris, ends):
     # X_d = Pi^c_{f_d} S_d^T
     for d in range(N):
         _mmt(B, PIC + idat[_H + _CI * d + 2], SS + d, XS + d)
-    # M_ab = tr(S_a Pi^c_max(f_a, f_b) S_b^T) + [o_b >= 0, f_a <= o_b] e_b.(S_a y_b)
-    #        + [o_a >= 0, f_b <= o_a] e_a.(S_b y_a) + [o_a = o_b] Mpsi_(l_a l_b)
-    # (o: the link whose material the coordinate deforms, -1 if none; f: first frame it moves)
+    _mass_matrix(fdat, idat, B, V, SD, SDS, ws, M, pris)
+    _twist_forces(fdat, idat, B, V, ws, vel, dV, h, pris)
+
+
+@inline
+def _link_shares(idat, B, V, SD, SDS, ws, vel, pris):
+    """Each link's shares of the composites (items 2-4, 6): Pi_i = T P T^T, mu_i = T m_r and,
+    when vel, F_i = T P Tdd0^T + 2 T Pv Td^T (+ (T qa)(T e_y)^T for a Pb link: r0dd = e_y a0),
+    into B[PIC + i], V[MUC + i], B[FC + i] (work_slots ws; a Pb link's qa in SD, _pb_moments;
+    B[WK + 22], B[WK + 23] scratch)."""
+    TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
+    kX = WK + 22
+    for i in range(idat[0]):
+        _mm(B, TS + i, PS + i, kX)
+        _mmt(B, kX, TS + i, PIC + i)
+        for a in range(4):
+            s = 0.0
+            for b in range(4):
+                s += B[TS + i, a, b] * V[MR + i, b]
+            V[MUC + i, a] = s
+        if vel:
+            _mmt(B, kX, TDDS + i, FC + i)
+            _mm(B, TS + i, PVS + i, kX)
+            _mmt(B, kX, TDS + i, kX + 1)
+            for a in range(4):
+                for b in range(4):
+                    B[FC + i, a, b] += 2.0 * B[kX + 1, a, b]
+            base = _H + _CI * idat[1] + _LI * i
+            if pris is not None and idat[base + 5] == JOINT_PB:
+                o_qa = _sd_offsets(i * SDS, idat[base])[2]
+                for a in range(4):
+                    s = 0.0
+                    for b in range(4):
+                        s += B[TS + i, a, b] * SD[o_qa + b]
+                    for b in range(4):
+                        B[FC + i, a, b] += s * B[TS + i, b, 1]
+
+
+@inline
+def _own_terms(fdat, idat, q, vel, B, V, SD, SDS, R, ws, dV, h, pris):
+    """The parts of dV and h of each link's own coordinates c (its deltas, and a Pb link's d):
+
+        y_c = T q_c,  e_c = T e_{a_c}  (into V[YY + c], V[EE + c], for _mass_matrix)
+        dV_c = -c1_c g~ . e_c + (K delta)_c      (a Pb link: K(d) delta, and dV_s/dd for chi)
+        h_c = e_c . (Tdd0 q_c + 2 Td qd_c)       (a Pb link: + int mu phi_c a0)
+
+    SD: the Pb links' shape data (_pb_moments, stride SDS); R = mmax + 1; work_slots ws.
+    """
+    TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
+    N = idat[1]
+    for i in range(idat[0]):
+        base = _H + _CI * N + _LI * i
+        m = idat[base]
+        d0 = idat[base + 1]
+        off = idat[base + 3]
+        pb = pris is not None and idat[base + 5] == JOINT_PB
+        ms, src, o_cx = _own_source(fdat, idat, i, SD, i * SDS, pris)
+        o_K = off + 21 + 2 * m + m * m
+        o_c1, o_M, o_qa, o_ha, o_Kd, o_dK = _sd_offsets(i * SDS, m)
+        for l in range(ms):
+            c = d0 + l if l < m else idat[base + 2]
+            al = 1 if l == m else idat[_H + _CI * c + 1]
+            kq = QV + R * i + l
+            for a in range(4):
+                s = 0.0
+                for b in range(4):
+                    s += B[TS + i, a, b] * V[kq, b]
+                V[YY + c, a] = s
+                V[EE + c, a] = B[TS + i, a, al]
+            s = 0.0
+            for a in range(3):
+                s += fdat[_F_G + a] * V[EE + c, a]
+            if pb:
+                kd = SD[o_Kd + l]
+            else:
+                kd = 0.0
+                for k in range(m):
+                    kd += fdat[o_K + m * l + k] * q[d0 + k]
+            dV[c] = -src[o_cx + ms + l] * s + kd
+            if vel:
+                s = 0.0
+                for a in range(3):
+                    x = 0.0
+                    for b in range(4):
+                        x += B[TDDS + i, a, b] * V[kq, b] + 2.0 * B[TDS + i, a, b] * V[QDV + R * i + l, b]
+                    s += V[EE + c, a] * x
+                if pb:
+                    s += SD[o_ha + l]
+                h[c] = s
+
+
+@inline
+def _mass_matrix(fdat, idat, B, V, SD, SDS, ws, M, pris):
+    """M (N, N) (items 2, 6, 7): for each pair c, d, with a, b = c, d ordered so that f_a <= f_b,
+
+        M_ab = tr(S_a Pi^c_{f_b} S_b^T) + [o_b >= 0, f_a <= o_b] e_b.(S_a y_b)
+               + [o_a >= 0, f_b <= o_a] e_a.(S_b y_a) + [o_a = o_b] Mpsi_(l_a l_b)
+               + the second twists' terms (_second_twist_mass)
+
+    (o: the link whose material the coordinate deforms, -1 if none; f: first frame it moves;
+    X_b = Pi^c_{f_b} S_b^T in B[XS + b]). One loop with no call per entry but _e_sy's: a call
+    passing arrays costs a reference count each.
+    """
+    TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
+    N = idat[1]
     for c in range(N):
         fc = idat[_H + _CI * c + 2]
         for d in range(c, N):
@@ -202,58 +214,75 @@ def assemble(fdat, idat, q, qd, vel, M, h, dV, pris, ends):
                 elif idat[_H + _CI * a + 1] == idat[_H + _CI * b + 1]:
                     # Mpsi of two modes of one link along one axis
                     val += fdat[idat[bl + 3] + 21 + 2 * m + m * la + lb]
-            f2a = idat[_H + _CI * a + 5]
-            f2b = idat[_H + _CI * b + 5]
-            if pris is not None and (f2a >= 0 or f2b >= 0):
-                # second twists: S_a(j) = S_a + [j >= f2_a] S2_a on frame j
-                for pa in range(2):
-                    if pa == 1 and f2a < 0:
-                        continue
-                    sa = SS + a + pa * N
-                    st_a = fa if pa == 0 else f2a
-                    for pb_ in range(2):
-                        if (pb_ == 1 and f2b < 0) or (pa == 0 and pb_ == 0):
-                            continue
-                        st = max(st_a, fb if pb_ == 0 else f2b)
-                        val += _tr_sps(B, sa, PIC + st, SS + b + pb_ * N)
-                if f2a >= 0 and ob >= 0 and f2a <= ob:
-                    val += _e_sy(B, V, SS + N + a, YY + b, EE + b)
-                if f2b >= 0 and oa >= 0 and f2b <= oa:
-                    val += _e_sy(B, V, SS + N + b, YY + a, EE + a)
+            if pris is not None and (idat[_H + _CI * a + 5] >= 0 or idat[_H + _CI * b + 5] >= 0):
+                val = _second_twist_mass(idat, B, V, ws, a, b, val)
             M[c, d] = val
             M[d, c] = val
+
+
+def _second_twist_mass(idat, B, V, ws, a, b, val):
+    """val plus the terms of M_ab from second twists (item 7; _mass_matrix's a, b): with
+    S_a(j) = S_a + [j >= f2_a] S2_a, every pair of pieces but (S_a, S_b) adds
+    tr(S_a' Pi^c_max(start a', start b') S_b'^T), and e_b.(S2_a y_b), e_a.(S2_b y_a) where the
+    second twist's frame f2 <= the deformed link o."""
+    TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
+    N = idat[1]
+    fa = idat[_H + _CI * a + 2]
+    fb = idat[_H + _CI * b + 2]
+    oa = idat[_H + _CI * a + 3]
+    ob = idat[_H + _CI * b + 3]
+    f2a = idat[_H + _CI * a + 5]
+    f2b = idat[_H + _CI * b + 5]
+    for pa in range(2):
+        if pa == 1 and f2a < 0:
+            continue
+        sa = SS + a + pa * N
+        st_a = fa if pa == 0 else f2a
+        for pb_ in range(2):
+            if (pb_ == 1 and f2b < 0) or (pa == 0 and pb_ == 0):
+                continue
+            st = max(st_a, fb if pb_ == 0 else f2b)
+            val += _tr_sps(B, sa, PIC + st, SS + b + pb_ * N)
+    if f2a >= 0 and ob >= 0 and f2a <= ob:
+        val += _e_sy(B, V, SS + N + a, YY + b, EE + b)
+    if f2b >= 0 and oa >= 0 and f2b <= oa:
+        val += _e_sy(B, V, SS + N + b, YY + a, EE + a)
+    return val
+
+
+@inline
+def _twist_forces(fdat, idat, B, V, ws, vel, dV, h, pris):
+    """The twist parts of dV and h (items 3, 4, 7): for every coordinate c,
+
+        dV_c -= g~ . (S_c mu^c_{f_c}),  h_c += tr(S_c F^c_{f_c})
+
+    then the same with the second twist S2_c and the composites of f2_c where c has one.
+    """
+    TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
+    N = idat[1]
     for c in range(N):
-        fc = idat[_H + _CI * c + 2]
-        # dV_c += -g~ . (S_c mu^c_{f_c})
-        s = 0.0
-        for r in range(3):
-            x = 0.0
-            for k in range(4):
-                x += B[SS + c, r, k] * V[MUC + fc, k]
-            s += fdat[_F_G + r] * x
-        dV[c] -= s
-        if vel:
-            # h_c += tr(S_c F^c_{f_c})
-            x = 0.0
-            for r in range(3):
-                for k in range(4):
-                    x += B[SS + c, r, k] * B[FC + fc, k, r]
-            h[c] += x
-        f2 = idat[_H + _CI * c + 5]
-        if pris is not None and f2 >= 0:
-            # the second twist's share: -g~ . (S2_c mu^c_f2) and tr(S2_c F^c_f2)
-            s = 0.0
+        s = SS + c
+        f = idat[_H + _CI * c + 2]
+        for piece in range(2):
+            if piece == 1:
+                if pris is None:
+                    break
+                f = idat[_H + _CI * c + 5]
+                if f < 0:
+                    break
+                s = SS + N + c
+            g = 0.0
             for r in range(3):
                 x = 0.0
                 for k in range(4):
-                    x += B[SS + N + c, r, k] * V[MUC + f2, k]
-                s += fdat[_F_G + r] * x
-            dV[c] -= s
+                    x += B[s, r, k] * V[MUC + f, k]
+                g += fdat[_F_G + r] * x
+            dV[c] -= g
             if vel:
                 x = 0.0
                 for r in range(3):
                     for k in range(4):
-                        x += B[SS + N + c, r, k] * B[FC + f2, k, r]
+                        x += B[s, r, k] * B[FC + f, k, r]
                 h[c] += x
 
 

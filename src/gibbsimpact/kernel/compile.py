@@ -4,7 +4,8 @@ The entry point called from Python gets explicit signatures (C-contiguous
 float64 / int64 arrays): each compiled once, then frozen (no silent recompiles
 for other types). Every entry point is linked and optimised with all the code it
 calls, so fewer entry points compile faster. Helpers are compiled for the types
-their callers use; called from Python they run uncompiled.
+their callers use, those marked ``layout.inline`` as part of their callers; called from
+Python they run uncompiled.
 
 Three variants of the one source, told apart by the types of the last two
 arguments (pris, ends), each None or an int64 (1): ``pris`` None for chains
@@ -189,9 +190,13 @@ def _jit_helpers():
     # would be typed and lowered again for every caller).
     for name in _SHARED:
         dispatchers[name] = jit(_PY_FUNCTIONS[name])
-    # Compiled inside the entry points that call them (no wrapper, no separate finalisation).
+    # Compiled inside the entry points that call them (no wrapper, no separate finalisation);
+    # the parts of a split function (layout.inline) inlined into their callers before typing.
     for f in _helpers():
-        numba.extending.register_jitable(f)
+        if getattr(f, "kernel_inline", False):
+            _rebind(f, numba.njit(inline="always", nogil=True)(f))
+        else:
+            numba.extending.register_jitable(f)
     dispatchers["kernel"] = jit(kernel)
     for name in _LAZY:  # their own dispatchers: compiled on first use (lazy)
         dispatchers[name] = jit(_PY_FUNCTIONS[name])

@@ -6,7 +6,8 @@ import math
 
 import numpy as np
 
-from .layout import _S_FR, _S_JAC, _S_M, _S_PTS, _S_YDOT, WALL_CIRCLE, WALL_PLANE, WALL_SPHERE, contact_layout
+from .layout import (_S_FR, _S_JAC, _S_M, _S_PTS, _S_YDOT, WALL_CIRCLE, WALL_PLANE, WALL_SPHERE, contact_layout,
+                     inline)
 from .linalg import _cholesky_apply, _cholesky_factor, _svd_solve, _sym_solve
 
 
@@ -126,77 +127,21 @@ def contact_terms(out, off, qd, pairs, wk, wp, vel):
     """
     N = qd.shape[0]
     k = pairs.shape[0]
-    oM = off[_S_M]
-    oP = off[_S_PTS]
-    oJ = off[_S_JAC]
-    oF = off[_S_FR]
     o = contact_layout(N, k)
-    oW = o[0]
-    oMW = o[1]
-    oG = o[2]
-    oc = o[3]
-    og = o[4]
-    ov = o[5]
-    on = o[6]
-    opd = o[7]
-    oa0 = o[8]
-    olam = o[9]
-    oqdd = o[10]
     res = np.zeros(o[11])
     for a in range(k):
-        w = pairs[a, 0]
-        j = pairs[a, 1]
-        kind = wk[w]
-        p0 = out[oP + 3 * j]
-        p1 = out[oP + 3 * j + 1]
-        p2 = out[oP + 3 * j + 2]
-        gap, d0, d1, d2, dist = _wall_gap(wk, wp, w, p0, p1, p2)
-        res[og + a] = gap
-        if vel:
-            for r in range(3):
-                s = 0.0
-                for c in range(N):
-                    s += out[oJ + (3 * j + r) * N + c] * qd[c]
-                res[opd + 3 * a + r] = s
-                # Tddot0 of frame j, row r, column 3 (frames section: T, Td, Tdd0 per frame).
-                res[oa0 + 3 * a + r] = out[oF + 48 * j + 32 + 4 * r + 3]
-        v0 = res[opd + 3 * a]
-        v1 = res[opd + 3 * a + 1]
-        v2 = res[opd + 3 * a + 2]
-        n0 = 0.0
-        n1 = 0.0
-        n2 = 0.0
-        curv = 0.0
-        if kind == WALL_PLANE:
-            n0 = wp[w, 3]
-            n1 = wp[w, 4]
-            n2 = wp[w, 5]
-        else:
-            vz = v2 if kind == WALL_SPHERE else 0.0
-            if dist > 0.0:
-                n0 = -(d0 / dist)
-                n1 = -(d1 / dist)
-                n2 = -(d2 / dist)
-                dv = d0 * v0 + d1 * v1 + d2 * vz
-                curv = -((v0 * v0 + v1 * v1 + vz * vz) - dv * dv / (dist * dist)) / dist
-        res[on + 3 * a] = n0
-        res[on + 3 * a + 1] = n1
-        res[on + 3 * a + 2] = n2
-        if vel:
-            res[oc + a] = (n0 * res[oa0 + 3 * a] + n1 * res[oa0 + 3 * a + 1] + n2 * res[oa0 + 3 * a + 2]) + curv
-            res[ov + a] = n0 * v0 + n1 * v1 + n2 * v2
-        for c in range(N):
-            res[oW + c * k + a] = (out[oJ + 3 * j * N + c] * n0 + out[oJ + (3 * j + 1) * N + c] * n1
-                                   + out[oJ + (3 * j + 2) * N + c] * n2)
-    # M^-1 W: one Cholesky factor, k solves.
+        _pair_terms(out, off, qd, pairs[a, 0], pairs[a, 1], wk, wp, vel, a, k, res, o)
     M = np.zeros((N, N))
     for i in range(N):
         for c in range(N):
-            M[i, c] = out[oM + N * i + c]
+            M[i, c] = out[off[_S_M] + N * i + c]
     L, status, dmin, dmax = _cholesky_factor(M)
     if status == 1:
         res[0] = 1.0
         return res
+    # M^-1 W: one Cholesky factor, k solves; G = W^T M^-1 W, symmetrised.
+    oW = o[0]
+    oMW = o[1]
     col = np.zeros(N)
     for a in range(k):
         for c in range(N):
@@ -211,29 +156,85 @@ def contact_terms(out, off, qd, pairs, wk, wp, vel):
             for c in range(N):
                 s1 += res[oW + c * k + a] * res[oMW + c * k + b]
                 s2 += res[oW + c * k + b] * res[oMW + c * k + a]
-            res[oG + a * k + b] = 0.5 * (s1 + s2)
-            res[oG + b * k + a] = 0.5 * (s1 + s2)
+            res[o[2] + a * k + b] = 0.5 * (s1 + s2)
+            res[o[2] + b * k + a] = 0.5 * (s1 + s2)
     if vel == 2:
-        # Equation (3): G lambda = -(W^T qdd_free + c), qddot = qdd_free + M^-1 W lambda.
-        oy = off[_S_YDOT] + N
-        G = np.empty((k, k))
-        rhs = np.empty(k)
-        for a in range(k):
-            s1 = res[oc + a]
-            for c in range(N):
-                s1 += res[oW + c * k + a] * out[oy + c]
-            rhs[a] = -s1
-            for b in range(k):
-                G[a, b] = res[oG + a * k + b]
-        lam = _sym_solve(G, rhs)
-        for a in range(k):
-            res[olam + a] = lam[a]
-        for c in range(N):
-            s1 = out[oy + c]
-            for a in range(k):
-                s1 += res[oMW + c * k + a] * lam[a]
-            res[oqdd + c] = s1
+        _frictionless_solve(out, off[_S_YDOT] + N, N, k, res, o)
     return res
+
+
+@inline
+def _pair_terms(out, off, qd, w, j, wk, wp, vel, a, k, res, o):
+    """Pair a of contact_terms (wall w, contact point j) into res (contact_layout o): its gap g,
+    normal n, and with vel its point velocity pd = J qd, a0 = Jdot qd (Tddot0's translation
+    column), c = n . a0 + pd^T H pd and v = n . pd; and the column W[:, a] = J^T n."""
+    N = qd.shape[0]
+    oJ = off[_S_JAC]
+    gap, d0, d1, d2, dist = _wall_gap(wk, wp, w, out[off[_S_PTS] + 3 * j], out[off[_S_PTS] + 3 * j + 1],
+                                      out[off[_S_PTS] + 3 * j + 2])
+    res[o[4] + a] = gap
+    opd = o[7] + 3 * a
+    oa0 = o[8] + 3 * a
+    if vel:
+        for r in range(3):
+            s = 0.0
+            for c in range(N):
+                s += out[oJ + (3 * j + r) * N + c] * qd[c]
+            res[opd + r] = s
+            # Tddot0 of frame j, row r, column 3 (frames section: T, Td, Tdd0 per frame).
+            res[oa0 + r] = out[off[_S_FR] + 48 * j + 32 + 4 * r + 3]
+    n0, n1, n2, curv = _wall_normal(wk[w], wp, w, d0, d1, d2, dist, res[opd], res[opd + 1], res[opd + 2])
+    res[o[6] + 3 * a] = n0
+    res[o[6] + 3 * a + 1] = n1
+    res[o[6] + 3 * a + 2] = n2
+    if vel:
+        res[o[3] + a] = (n0 * res[oa0] + n1 * res[oa0 + 1] + n2 * res[oa0 + 2]) + curv
+        res[o[5] + a] = n0 * res[opd] + n1 * res[opd + 1] + n2 * res[opd + 2]
+    for c in range(N):
+        res[o[0] + c * k + a] = (out[oJ + 3 * j * N + c] * n0 + out[oJ + (3 * j + 1) * N + c] * n1
+                                 + out[oJ + (3 * j + 2) * N + c] * n2)
+
+
+@inline
+def _wall_normal(kind, wp, w, d0, d1, d2, dist, v0, v1, v2):
+    """(n, pd^T H pd) at a point of wall w with d = p - c, dist = |d| [m] (_wall_gap) and point
+    velocity v [m/s]: n = n_w, 0 (plane); n = -d / |d| (0 at d = 0),
+    pd^T H pd = -(|v|^2 - (d . v)^2 / |d|^2) / |d| (circle: the X1-X2 parts of d and v; sphere)."""
+    if kind == WALL_PLANE:
+        return wp[w, 3], wp[w, 4], wp[w, 5], 0.0
+    if not dist > 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    vz = v2 if kind == WALL_SPHERE else 0.0
+    dv = d0 * v0 + d1 * v1 + d2 * vz
+    curv = -((v0 * v0 + v1 * v1 + vz * vz) - dv * dv / (dist * dist)) / dist
+    return -(d0 / dist), -(d1 / dist), -(d2 / dist), curv
+
+
+@inline
+def _frictionless_solve(out, oy, N, k, res, o):
+    """Equation (3) of resting.py without friction, into res's lambda and qddot sections (contact_layout o):
+
+        G lambda = -(W^T qdd_free + c)   (_sym_solve),   qddot = qdd_free + M^-1 W lambda
+
+    qdd_free: the kernel's qddot, at out[oy:oy + N].
+    """
+    G = np.empty((k, k))
+    rhs = np.empty(k)
+    for a in range(k):
+        s1 = res[o[3] + a]
+        for c in range(N):
+            s1 += res[o[0] + c * k + a] * out[oy + c]
+        rhs[a] = -s1
+        for b in range(k):
+            G[a, b] = res[o[2] + a * k + b]
+    lam = _sym_solve(G, rhs)
+    for a in range(k):
+        res[o[9] + a] = lam[a]
+    for c in range(N):
+        s1 = out[oy + c]
+        for a in range(k):
+            s1 += res[o[1] + c * k + a] * lam[a]
+        res[o[10] + c] = s1
 
 
 def friction_solve(M, W, J, nrm, pd, a0, c, qf, mu, stick, sdir, v_tol):
@@ -268,54 +269,7 @@ def friction_solve(M, W, J, nrm, pd, a0, c, qf, mu, stick, sdir, v_tol):
     cc = np.zeros(m)
     s_hat = np.zeros((k, 3))
     T = np.zeros((k, 2, 3))
-    for a in range(k):
-        for i in range(N):
-            C[i, a] = W[i, a]
-            B[i, a] = W[i, a]
-        cc[a] = c[a]
-    col = k
-    for a in range(k):
-        if not mu[a] > 0.0:
-            continue
-        n0 = nrm[a, 0]
-        n1 = nrm[a, 1]
-        n2 = nrm[a, 2]
-        if stick[a] == 0:
-            # (7): the slip direction, smooth through v_t = 0.
-            vn = pd[a, 0] * n0 + pd[a, 1] * n1 + pd[a, 2] * n2
-            s0 = pd[a, 0] - vn * n0 + v_tol * sdir[a, 0]
-            s1 = pd[a, 1] - vn * n1 + v_tol * sdir[a, 1]
-            s2 = pd[a, 2] - vn * n2 + v_tol * sdir[a, 2]
-            sn = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
-            s_hat[a, 0] = s0 / sn
-            s_hat[a, 1] = s1 / sn
-            s_hat[a, 2] = s2 / sn
-            for i in range(N):
-                B[i, a] -= (J[a, 0, i] * s_hat[a, 0] + J[a, 1, i] * s_hat[a, 1] + J[a, 2, i] * s_hat[a, 2]) * mu[a]
-            continue
-        # A sticking pair: t1 = e x n / |e x n|, t2 = n x t1.
-        e0 = 0.0
-        e2 = 1.0
-        if not abs(n2) < 0.9:
-            e0 = 1.0
-            e2 = 0.0
-        t0 = -e2 * n1
-        t1 = e2 * n0 - e0 * n2
-        t2 = e0 * n1
-        tn = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-        T[a, 0, 0] = t0 / tn
-        T[a, 0, 1] = t1 / tn
-        T[a, 0, 2] = t2 / tn
-        T[a, 1, 0] = n1 * T[a, 0, 2] - n2 * T[a, 0, 1]
-        T[a, 1, 1] = n2 * T[a, 0, 0] - n0 * T[a, 0, 2]
-        T[a, 1, 2] = n0 * T[a, 0, 1] - n1 * T[a, 0, 0]
-        for r in range(2):
-            for i in range(N):
-                w = J[a, 0, i] * T[a, r, 0] + J[a, 1, i] * T[a, r, 1] + J[a, 2, i] * T[a, r, 2]
-                C[i, col] = w
-                B[i, col] = w
-            cc[col] = T[a, r, 0] * a0[a, 0] + T[a, r, 1] * a0[a, 1] + T[a, r, 2] * a0[a, 2]
-            col += 1
+    _friction_columns(W, J, nrm, pd, a0, c, mu, stick, sdir, v_tol, C, B, cc, s_hat, T)
     res = np.zeros(N + 7 * k)
     L, status, dmin, dmax = _cholesky_factor(M)
     if status == 1:
@@ -330,6 +284,7 @@ def friction_solve(M, W, J, nrm, pd, a0, c, qf, mu, stick, sdir, v_tol):
         x = _cholesky_apply(L, colv)
         for i in range(N):
             MinvB[i, j] = x[i]
+    # (C^T M^-1 B) lambda = -(C^T qf + c)
     A = np.zeros((m, m))
     rhs = np.zeros(m)
     for r in range(m):
@@ -348,6 +303,85 @@ def friction_solve(M, W, J, nrm, pd, a0, c, qf, mu, stick, sdir, v_tol):
         for j in range(m):
             s1 += MinvB[i, j] * lam[j]
         res[i] = s1
+    _friction_forces(lam, mu, stick, s_hat, T, pd, N, k, res)
+    return res
+
+
+@inline
+def _friction_columns(W, J, nrm, pd, a0, c, mu, stick, sdir, v_tol, C, B, cc, s_hat, T):
+    """Constraint rows C (N, m), force columns B (N, m) and their c (m,) of friction_solve:
+    the normal columns W_a first, then for each sticking pair its two tangent rows and columns
+    J_a^T t_r (c: t_r . a0); a slipping pair's column becomes B_a = W_a - mu_a J_a^T s_a, its slip
+    direction (7) into s_hat[a]; a sticking pair's tangent basis into T[a] (2, 3)."""
+    N = W.shape[0]
+    k = W.shape[1]
+    for a in range(k):
+        for i in range(N):
+            C[i, a] = W[i, a]
+            B[i, a] = W[i, a]
+        cc[a] = c[a]
+    col = k
+    for a in range(k):
+        if not mu[a] > 0.0:
+            continue
+        if stick[a] == 0:
+            _slip_direction(pd, nrm, sdir, v_tol, a, s_hat)
+            for i in range(N):
+                B[i, a] -= (J[a, 0, i] * s_hat[a, 0] + J[a, 1, i] * s_hat[a, 1] + J[a, 2, i] * s_hat[a, 2]) * mu[a]
+            continue
+        _tangent_basis(nrm[a, 0], nrm[a, 1], nrm[a, 2], T, a)
+        for r in range(2):
+            for i in range(N):
+                w = J[a, 0, i] * T[a, r, 0] + J[a, 1, i] * T[a, r, 1] + J[a, 2, i] * T[a, r, 2]
+                C[i, col] = w
+                B[i, col] = w
+            cc[col] = T[a, r, 0] * a0[a, 0] + T[a, r, 1] * a0[a, 1] + T[a, r, 2] * a0[a, 2]
+            col += 1
+
+
+@inline
+def _slip_direction(pd, nrm, sdir, v_tol, a, s_hat):
+    """(7): s_hat[a] = (v_t + v_tol s0) / |v_t + v_tol s0|, v_t = pd - (pd . n) n: the slip
+    direction of pair a, smooth through v_t = 0 (s0 = sdir[a])."""
+    n0 = nrm[a, 0]
+    n1 = nrm[a, 1]
+    n2 = nrm[a, 2]
+    vn = pd[a, 0] * n0 + pd[a, 1] * n1 + pd[a, 2] * n2
+    s0 = pd[a, 0] - vn * n0 + v_tol * sdir[a, 0]
+    s1 = pd[a, 1] - vn * n1 + v_tol * sdir[a, 1]
+    s2 = pd[a, 2] - vn * n2 + v_tol * sdir[a, 2]
+    sn = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    s_hat[a, 0] = s0 / sn
+    s_hat[a, 1] = s1 / sn
+    s_hat[a, 2] = s2 / sn
+
+
+@inline
+def _tangent_basis(n0, n1, n2, T, a):
+    """T[a] = (t1, t2) for the normal n (walls.tangent_basis): t1 = e x n / |e x n|, e = e3, or
+    e1 when |n_3| >= 0.9; t2 = n x t1."""
+    e0 = 0.0
+    e2 = 1.0
+    if not abs(n2) < 0.9:
+        e0 = 1.0
+        e2 = 0.0
+    t0 = -e2 * n1
+    t1 = e2 * n0 - e0 * n2
+    t2 = e0 * n1
+    tn = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+    T[a, 0, 0] = t0 / tn
+    T[a, 0, 1] = t1 / tn
+    T[a, 0, 2] = t2 / tn
+    T[a, 1, 0] = n1 * T[a, 0, 2] - n2 * T[a, 0, 1]
+    T[a, 1, 1] = n2 * T[a, 0, 0] - n0 * T[a, 0, 2]
+    T[a, 1, 2] = n0 * T[a, 0, 1] - n1 * T[a, 0, 0]
+
+
+@inline
+def _friction_forces(lam, mu, stick, s_hat, T, pd, N, k, res):
+    """friction_solve's forces after qddot (N,) in res: lambda_n (k) [N], F_t (k 3) [N] (slip:
+    -mu lambda_n s_a; stick: lambda_t . T), lambda_t (k 2) [N] of sticking pairs, friction power
+    F_t . pd (k) [W]."""
     oF = N + k
     oT = N + 4 * k
     oP = N + 6 * k
@@ -364,4 +398,3 @@ def friction_solve(M, W, J, nrm, pd, a0, c, qf, mu, stick, sdir, v_tol):
             for d in range(3):
                 res[oF + 3 * a + d] = -mu[a] * lam[a] * s_hat[a, d]
         res[oP + a] = res[oF + 3 * a] * pd[a, 0] + res[oF + 3 * a + 1] * pd[a, 1] + res[oF + 3 * a + 2] * pd[a, 2]
-    return res

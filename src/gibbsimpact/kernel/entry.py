@@ -1,4 +1,24 @@
-"""The one compiled entry point ``kernel``: everything the package computes from states."""
+"""The one compiled entry point ``kernel``: a dispatcher over the kernel's named stages.
+
+    position     frames.chain_frames       frames T, Td, Tdd0 and world twists S_c
+    moments      moments.moments           body moments P, Pv, m_r, q_l of every link
+    assemble     assemble.assemble         M, h, dV/dq
+    solve        _solve                    M qddot = Q - h - dV/dq (linalg: Cholesky)
+    observables  observables.*             energies, momenta, contact points, Jacobians, frames
+
+``kernel`` runs position -> moments -> assemble -> solve for the first state when the job
+asks for M, h, dV/dq or qddot, then position (-> moments) -> observables for each state when
+it asks for observables. The stages share the work arrays B, V and SD of one call
+(layout.work_slots), and write into one output array (layout.layout).
+
+One entry point, because numba links and optimises every entry point with all the code it
+calls: one entry compiles in about half the time of two. For the same reason the stages are
+few separately compiled functions (chain_frames, moments, assemble, link_observables, the
+Cholesky solve), each calling the parts it is split into for reading as inline helpers
+(layout.inline): every separately compiled layer re-optimises the code it links. The output
+is an argument, not a return value: numba boxes a returned array at ~1.3 us a call (a quarter
+of forward_dynamics on case 1), a returned float costs nothing.
+"""
 
 from __future__ import annotations
 
@@ -7,13 +27,17 @@ import math
 import numpy as np
 
 from .assemble import assemble
-from .frames import _W_SIZE, chain_frames
-from .layout import (_CI, _H, _S_DV, _S_EN, _S_FR, _S_H, _S_JAC, _S_M, _S_MO, _S_PTS, _S_STATUS, _S_YDOT, JOB_ENERGY,
-                     JOB_FRAMES, JOB_H, JOB_JACOBIANS, JOB_M, JOB_MOMENTUM, JOB_POINTS, JOB_QDDOT, JOB_SOLVE, _mmax,
-                     layout)
+from .frames import chain_frames
+from .layout import (_S_DV, _S_EN, _S_H, _S_M, _S_MO, _S_STATUS, _S_YDOT, JOB_ENERGY, JOB_FRAMES, JOB_H,
+                     JOB_JACOBIANS, JOB_M, JOB_MOMENTUM, JOB_POINTS, JOB_QDDOT, JOB_SOLVE, _mmax, inline, layout,
+                     work_sizes, work_slots)
 from .linalg import _cholesky_solve
-from .moments import _sd_stride
-from .observables import _extra_points, _link_observables
+from .moments import _sd_stride, moments
+from .observables import _extra_points, frame_outputs, link_observables
+
+#: The JOB bits that need the first state's M, h or dV, and those of the observables.
+_DYNAMICS = JOB_M | JOB_H | JOB_SOLVE | JOB_QDDOT
+_OBSERVABLES = JOB_ENERGY | JOB_MOMENTUM | JOB_POINTS | JOB_JACOBIANS | JOB_FRAMES
 
 
 def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
@@ -33,7 +57,7 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
       is the only bit (the output is qddot alone; the pivots need JOB_SOLVE);
     * JOB_M: M (N N,) row-major; JOB_H: h (N,), dV/dq (N,)  (the first state);
     * JOB_ENERGY: (K 3,) kinetic, gravity, strain [J]; JOB_MOMENTUM: (K 9,) as in
-      _link_observables (L, H0, first moment); JOB_POINTS: contact points (K P 3,) [m], P = n + 1 + X:
+      link_observables (L, H0, first moment); JOB_POINTS: contact points (K P 3,) [m], P = n + 1 + X:
       the frame origins O_1 .. O_(n+1), then the tip of every host link whose child joint is
       prismatic (not a frame origin); JOB_JACOBIANS: dO_j/dq (K P 3 N,), dO_j/dq_c = (S_c O_j)[:3]
       when f_c <= j, else 0 (a tip of link h: f_c <= h, and R_h end_t_k for h's own delta_k);
@@ -41,114 +65,111 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
 
     Returns the status of M's Cholesky factor (0.0 without JOB_SOLVE, JOB_QDDOT), or -1.0 when
     out has the wrong size (then nothing is written: the kernel does not check bounds otherwise).
-
-    One entry point, because numba links and optimises every entry point with
-    all the code it calls: one entry compiles in about half the time of two. The output is
-    an argument, not a return value: numba boxes a returned array at ~1.3 us a call (a quarter
-    of forward_dynamics on case 1), a returned float costs nothing.
     """
     n = idat[0]
     N = idat[1]
     K = qs.shape[0] // N
-    npts = n + 1 + idat[3]
-    L = layout(n, N, K, job, npts)
+    L = layout(n, N, K, job, n + 1 + idat[3])
     if out.shape[0] != L[10]:
         return -1.0
     for i in range(L[10]):
         out[i] = 0.0
+    dynamics = (job & _DYNAMICS) != 0
+    energies = (job & (JOB_ENERGY | JOB_MOMENTUM)) != 0
+    mmax = _mmax(idat)
+    ws = work_slots(n, N, mmax)
+    nB, nV = work_sizes(ws, N, energies, dynamics)
+    B = np.zeros((nB, 4, 4))
+    V = np.zeros((nV, 4))
+    SD = np.zeros(n * _sd_stride(mmax) if energies or dynamics else 0)
     q = np.zeros(N)
     qd = np.zeros(N)
     st = 0.0
-    if job & (JOB_M | JOB_H | JOB_SOLVE | JOB_QDDOT):
+    if dynamics:  # of the first state
         for i in range(N):
             q[i] = qs[i]
             qd[i] = qds[i]
+        vel = (job & (JOB_H | JOB_SOLVE | JOB_QDDOT)) != 0
+        chain_frames(fdat, idat, q, qd, vel, B, ws, pris, ends)
+        moments(fdat, idat, q, qd, B, V, SD, ws, pris)
         M = np.zeros((N, N))
         h = np.zeros(N)
         dV = np.zeros(N)
-        assemble(fdat, idat, q, qd, (job & (JOB_H | JOB_SOLVE | JOB_QDDOT)) != 0, M, h, dV, pris, ends)
-        o = L[_S_M]
-        if L[_S_M + 1] > o:
-            for i in range(N):
-                for j in range(N):
-                    out[o + N * i + j] = M[i, j]
-        o = L[_S_H]
-        o2 = L[_S_DV]
-        if L[_S_H + 1] > o:
-            for i in range(N):
-                out[o + i] = h[i]
-                out[o2 + i] = dV[i]
+        assemble(fdat, idat, q, vel, B, V, SD, ws, M, h, dV, pris)
+        _write_assembled(out, L, M, h, dV)
         if job & (JOB_SOLVE | JOB_QDDOT):
-            rhs = np.zeros(N)
+            st = _solve(out, L, job, Q, qd, M, h, dV)
+    if job & _OBSERVABLES:
+        vel = (job & (JOB_ENERGY | JOB_MOMENTUM | JOB_FRAMES)) != 0
+        part = np.zeros(12)
+        for k in range(K):
             for i in range(N):
-                rhs[i] = Q[i] - h[i] - dV[i]
-            x, status, dmin, dmax = _cholesky_solve(M, rhs)
-            st = float(status)
-            if L[_S_STATUS + 1] > 0:
-                out[0] = status
-                out[1] = dmin
-                out[2] = dmax
-            o = L[_S_YDOT]
-            if job & JOB_SOLVE:
-                for i in range(N):
-                    out[o + i] = qd[i]
-                o += N
-            for i in range(N):
-                out[o + i] = x[i] if status == 0 else math.nan
-    obs = job & (JOB_ENERGY | JOB_MOMENTUM | JOB_POINTS | JOB_JACOBIANS | JOB_FRAMES)
-    if obs == 0:
-        return st
-    vel = (job & (JOB_ENERGY | JOB_MOMENTUM | JOB_FRAMES)) != 0
-    TS = 0
-    TDS = n + 1
-    TDDS = 2 * n + 2
-    SS = 3 * n + 3
-    WK = SS + 2 * N
-    B = np.zeros((WK + _W_SIZE, 4, 4))
-    V = np.zeros((2 * _mmax(idat) + 4, 4))
-    SD = np.zeros(n * _sd_stride(_mmax(idat)))
-    part = np.zeros(12)
-    for k in range(K):
-        for i in range(N):
-            q[i] = qs[N * k + i]
-            qd[i] = qds[N * k + i]
-        chain_frames(fdat, idat, q, qd, vel, B, TS, TDS, TDDS, SS, WK, pris, ends)
-        if job & (JOB_ENERGY | JOB_MOMENTUM):
-            _link_observables(fdat, idat, q, qd, B, TS, TDS, WK, V, part, SD, pris)
-            if job & JOB_ENERGY:
-                o = L[_S_EN] + 3 * k
-                for a in range(3):
-                    out[o + a] = part[a]
-            if job & JOB_MOMENTUM:
-                o = L[_S_MO] + 9 * k
-                for a in range(9):
-                    out[o + a] = part[3 + a]
-        for j in range(n + 1):
-            if job & JOB_POINTS:
-                o = L[_S_PTS] + 3 * (npts * k + j)
-                for a in range(3):
-                    out[o + a] = B[TS + j, a, 3]
-            if job & JOB_FRAMES:
-                o = L[_S_FR] + 48 * ((n + 1) * k + j)
-                for a in range(4):
-                    for b in range(4):
-                        out[o + 4 * a + b] = B[TS + j, a, b]
-                        out[o + 16 + 4 * a + b] = B[TDS + j, a, b]
-                        out[o + 32 + 4 * a + b] = B[TDDS + j, a, b]
-            if job & JOB_JACOBIANS:
-                o = L[_S_JAC] + 3 * N * (npts * k + j)
-                for c in range(N):
-                    if idat[_H + _CI * c + 2] <= j:
-                        f2 = idat[_H + _CI * c + 5]
-                        for a in range(3):
-                            s = B[SS + c, a, 3]
-                            for b in range(3):
-                                s += B[SS + c, a, b] * B[TS + j, b, 3]
-                            if 0 <= f2 <= j:
-                                s += B[SS + N + c, a, 3]
-                                for b in range(3):
-                                    s += B[SS + N + c, a, b] * B[TS + j, b, 3]
-                            out[o + N * a + c] = s
-        if pris is not None and job & (JOB_POINTS | JOB_JACOBIANS):
-            _extra_points(fdat, idat, q, B, TS, SS, out, L[_S_PTS], L[_S_JAC], job, npts, k)
+                q[i] = qs[N * k + i]
+                qd[i] = qds[N * k + i]
+            chain_frames(fdat, idat, q, qd, vel, B, ws, pris, ends)
+            if energies:
+                moments(fdat, idat, q, qd, B, V, SD, ws, pris)
+            _observables(fdat, idat, q, qd, job, out, L, B, V, SD, ws, part, k, pris)
     return st
+
+
+@inline
+def _write_assembled(out, L, M, h, dV):
+    """M (N N,) row-major into the M section of out, h and dV into theirs, where layout L has them."""
+    N = h.shape[0]
+    o = L[_S_M]
+    if L[_S_M + 1] > o:
+        for i in range(N):
+            for j in range(N):
+                out[o + N * i + j] = M[i, j]
+    o = L[_S_H]
+    o2 = L[_S_DV]
+    if L[_S_H + 1] > o:
+        for i in range(N):
+            out[o + i] = h[i]
+            out[o2 + i] = dV[i]
+
+
+@inline
+def _solve(out, L, job, Q, qd, M, h, dV):
+    """Solve stage: M qddot = Q - h - dV/dq by Cholesky; qddot (NaN unless M is positive
+    definite) into the ydot section of out after qdot (JOB_SOLVE) or alone (JOB_QDDOT), the
+    status and pivots into the status section when layout L has one. Returns the status."""
+    N = qd.shape[0]
+    rhs = np.zeros(N)
+    for i in range(N):
+        rhs[i] = Q[i] - h[i] - dV[i]
+    x, status, dmin, dmax = _cholesky_solve(M, rhs)
+    if L[_S_STATUS + 1] > 0:
+        out[0] = status
+        out[1] = dmin
+        out[2] = dmax
+    o = L[_S_YDOT]
+    if job & JOB_SOLVE:
+        for i in range(N):
+            out[o + i] = qd[i]
+        o += N
+    for i in range(N):
+        out[o + i] = x[i] if status == 0 else math.nan
+    return float(status)
+
+
+@inline
+def _observables(fdat, idat, q, qd, job, out, L, B, V, SD, ws, part, k, pris):
+    """Observables stage of state k, from its frames (and, for energies and momenta, its body
+    moments): the energy, momentum, point, Jacobian and frame sections of out (layout L);
+    part (12,) is scratch."""
+    npts = idat[0] + 1 + idat[3]
+    if job & (JOB_ENERGY | JOB_MOMENTUM):
+        link_observables(fdat, idat, q, qd, B, V, SD, ws, part, pris)
+        if job & JOB_ENERGY:
+            o = L[_S_EN] + 3 * k
+            for a in range(3):
+                out[o + a] = part[a]
+        if job & JOB_MOMENTUM:
+            o = L[_S_MO] + 9 * k
+            for a in range(9):
+                out[o + a] = part[3 + a]
+    frame_outputs(idat, B, ws, out, L, job, npts, k)
+    if pris is not None and job & (JOB_POINTS | JOB_JACOBIANS):
+        _extra_points(fdat, idat, q, B, ws, out, L, job, npts, k)

@@ -34,14 +34,12 @@ import math
 
 import numpy as np
 
-from .layout import _CI, _F_BASE, _H, _LI, BASE_FIXED, BASE_FREE, END_RIGID, JOINT_PA, JOINT_PB, JOINT_R, _joint_field
+from .layout import (_CI, _F_BASE, _H, _LI, BASE_FIXED, BASE_FREE, END_RIGID, JOINT_PA, JOINT_PB, JOINT_R,
+                     _joint_field, inline)
 from .mat4 import _conjugate, _copy4, _mm, _mm_add, _put_skew, _zero4, rodrigues_directional
 
-# -- forward recursion -----------------------------------------------------------
-# Work slots relative to w (the running frame): w T, w+1 Td, w+2 Tdd0, then the
-# scratch of _end_step (w+3 .. w+19) and of the link moments (w+20 .. w+23).
-_W_SIZE = 24
 
+# -- forward recursion -----------------------------------------------------------
 
 def _rot_step(B, w, si, axis, th, thd, vel):
     """T <- T Rot_axis(th) for T = B[w] (with Td = B[w+1], Tdd0 = B[w+2] when vel);
@@ -120,6 +118,7 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
     _apply_local(B, w, w + _E_G, vel, w + _E_TN)
 
 
+@inline
 def _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi):
     """E, Ed, Edd0 of a link end into B[w + _E_G .. w + _E_G + 2] (_end_step), from its m
     coordinates delta = q[d0:d0 + m] and their rates (end_t, end_phi at fdat[o_t], fdat[o_phi]):
@@ -152,6 +151,7 @@ def _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi):
             B[kG + 2, a, b] = B[w + _E_D2R, a, b]
 
 
+@inline
 def _end_twists(fdat, B, w, s0, m, o_t, o_phi):
     """World twists B[s0 + k] of the m end coordinates delta_k of a link (_end_step), from the
     frame before E (B[w]) and E's t, phi (rows 0, 2 of B[w + _E_V]):
@@ -338,6 +338,7 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
     _apply_local(B, w, w + _PA_G, vel, w + _PA_TN)
 
 
+@inline
 def _host_sums(fdat, idat, link, q, qd, d, c, B, ss, S, ab):
     """The host sums of the carriage of joint ``link`` at d [m] with half-length c [m] (_pa_step):
 
@@ -387,6 +388,7 @@ def _host_sums(fdat, idat, link, q, qd, d, c, B, ss, S, ab):
     return mh, h0, jD, Ddot
 
 
+@inline
 def _pa_transform(B, kG, th, d, dd, vb, thd, vbd, th0dd, vb0dd, vel):
     """The carriage's G, Gd, Gdd0 into B[kG], B[kG+1], B[kG+2] (_pa_step), theta = th [rad]:
 
@@ -434,6 +436,7 @@ def _carriage_twist(B, w, o, th_q, lx, ly):
     _conjugate(B, w, kL, o, w + _PA_S)
 
 
+@inline
 def _host_twists(B, w, s0, mh, ab, c, vb, d):
     """World twists B[s0 + k] of the host coordinates delta_k that move the carriage (_pa_step):
     theta_k = a_k, t_k = (0, b_k, 0), so L_k = [[Z a_k, (a_k vbar, b_k - a_k d, 0)], [0, 0]]."""
@@ -476,12 +479,14 @@ def _pb_step(fdat, idat, link, q, qd, vel, B, w, ss):
             B[w + 1, r, 3] += a * B[w + 1, r, 0] + dd * B[w, r, 0]
 
 
-def chain_frames(fdat, idat, q, qd, vel, B, ts, tds, tdds, ss, w, pris, ends):
-    """Frames of the n links and of the tip into B[ts + i], i = 0 .. n (and their
-    time derivatives into B[tds + i], B[tdds + i] when vel); twists into B[ss + c].
+def chain_frames(fdat, idat, q, qd, vel, B, ws, pris, ends):
+    """Position stage: the frames of the n links and of the tip into B[ts + i], i = 0 .. n (and
+    their time derivatives into B[tds + i], B[tdds + i] when vel); the world twists into B[ss + c].
 
-    B[w .. w + _W_SIZE) is work space. pris, ends: the variant (see kernel's compilation notes).
+    ts, tds, tdds, ss and the work space B[w .. w + _W_SIZE) from work_slots ws (layout.py).
+    pris, ends: the variant (compile.py).
     """
+    ts, tds, tdds, ss, w, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
     n = idat[0]
     N = idat[1]
     _zero4(B, w + 1)

@@ -31,6 +31,66 @@ _F_JOINT = 5
 _GAUSS = 4  # Gauss-Legendre points per (stretching) element: exact for degree <= 7
 
 
+def inline(f):
+    """Mark a kernel helper that numba compiles as part of its caller (compile.py: an
+    ``njit(inline="always")`` dispatcher, inlined before typing), as if its code were written there.
+
+    For the parts a long kernel function is split into for reading, one item of the derivation
+    each, where they take arrays: a separately compiled helper that takes arrays costs ~0.1-0.4 s
+    of compile time (more for every layer above it, which re-optimises it) and a reference count
+    per array and call. Inlining keeps the branches on ``pris is None``, ``ends is None`` removed
+    (a helper registered with ``register_jitable(inline="always")`` would keep them). Not for a
+    helper called in an inner loop: the inlined copy still counts a reference per array argument
+    and call (measured: the mass-matrix entry as an inlined helper, 0.65 us more per
+    forward_dynamics on case 1), nor for small helpers of integers only (work_slots), which are
+    cheaper compiled once. As plain Python (NUMBA_DISABLE_JIT=1) the function runs as it is.
+    """
+    f.kernel_inline = True
+    return f
+
+
+# -- work arrays of a kernel call ------------------------------------------------------
+# Every 4x4 matrix of a call lives in one array B (k, 4, 4) and every 4-vector in one array V
+# (k, 4), each named by its index k (mat4.py). Work slots relative to w (the running frame of
+# chain_frames): w T, w+1 Td, w+2 Tdd0, then the scratch of _end_step and _pa_step
+# (w+3 .. w+19), and of the later stages (w+20 .. w+23).
+_W_SIZE = 24
+
+
+def work_slots(n, N, mmax):
+    """Offsets of a kernel call's work arrays for n links, N coordinates and at most mmax own
+    modes a link: (TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE).
+
+    B (k, 4, 4): T, Td, Tdd0 of frames 0 .. n (n + 1 each, from TS, TDS, TDDS), twists S_c then
+    second twists S2_c (2 N, from SS), _W_SIZE work slots (from WK): what frames, points and
+    Jacobians need; then the body moments P, Pv (n + 1 each, from PS, PVS): what energies and
+    momenta need too; then the composites Pi^c, F^c (n + 1 each) and X_d (N, from XS): what M, h
+    and dV need too. V (k, 4): m_r and mdot_r (n + 1 each), q_l and qd_l (mmax + 1 a link each,
+    from QV, QDV), then the composites mu^c (n + 1) and y_c, e_c (N each). work_sizes gives k.
+    """
+    n1 = n + 1
+    SS = 3 * n1
+    WK = SS + 2 * N
+    PS = WK + _W_SIZE
+    PIC = PS + 2 * n1
+    QV = 2 * n1
+    QDV = QV + (mmax + 1) * n
+    MUC = QDV + (mmax + 1) * n
+    return (0, n1, 2 * n1, SS, WK, PS, PS + n1, PIC, PIC + n1, PIC + 2 * n1, 0, n1, QV, QDV, MUC, MUC + n1,
+            MUC + n1 + N)
+
+
+def work_sizes(ws, N, moments, dynamics):
+    """(rows of B, rows of V) of work_slots ws: frames only, with the body moments (moments), or
+    with the composites too (dynamics)."""
+    TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
+    if dynamics:
+        return XS + N, EE + N
+    if moments:
+        return PIC, MUC
+    return PS, 0
+
+
 def _joint_field(fdat, idat, link, k):
     """Entry k of link ``link``'s _F_JOINT values: 0 gamma [rad], 1 c [m], 2 n_e, 3 mu [kg/m], 4 EI [N m^2]."""
     base = _H + _CI * idat[1] + _LI * link

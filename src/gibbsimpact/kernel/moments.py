@@ -24,13 +24,50 @@ from __future__ import annotations
 
 import numpy as np
 
-from .layout import _CI, _F_JOINT, _GAUSS, _H, _LI, JOINT_PB
+from .layout import _CI, _F_JOINT, _GAUSS, _H, _LI, JOINT_PB, _mmax, inline
+
+
+def moments(fdat, idat, q, qd, B, V, SD, ws, pris):
+    """Moments stage: the body moments of every link i at q, qdot (_link_body) into the work
+    arrays of work_slots ws: B[PS + i] = P_i, B[PVS + i] = Pv_i, V[MR + i] = m_r,i, and for its
+    own shapes l V[QV + R i + l] = q_l, V[QDV + R i + l] = qd_l, R = mmax + 1; a Pb link's shape
+    data in SD[S i:], S = _sd_stride(mmax) (_pb_moments).
+    """
+    TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
+    mmax = _mmax(idat)
+    R = mmax + 1
+    S = _sd_stride(mmax)
+    for i in range(idat[0]):
+        _link_body(fdat, idat, i, q, qd, B, PS + i, PVS + i, V, MR + i, QV + R * i, QDV + R * i, SD, S * i, pris)
 
 
 def _sd_stride(mmax):
     """Per-link stride of the per-call shape data SD of Pb links (_pb_moments)."""
     ms = mmax + 1
     return 2 * ms + ms * ms + 4 + ms + mmax + 2
+
+
+def _sd_offsets(o, m):
+    """Offsets of a Pb link's shape data at SD[o:] (_pb_moments' layout), m = its number of
+    deltas: (c1, Mpsi, qa, ha, K delta, dV_s/dd); cx starts at o, V_s follows dV_s/dd."""
+    ms = m + 1
+    o_c1 = o + ms
+    o_M = o_c1 + ms
+    o_qa = o_M + ms * ms
+    o_ha = o_qa + 4
+    o_K = o_ha + ms
+    return o_c1, o_M, o_qa, o_ha, o_K, o_K + m
+
+
+@inline
+def _own_source(fdat, idat, link, SD, so, pris):
+    """(ms, src, o_cx): the number of own shapes of ``link`` and where their moments cx (ms),
+    c1 (ms), Mpsi (ms ms) live: src[o_cx:], fdat for a link of R or Pa joint, SD[so:] for a Pb
+    link (whose chi is an own shape more, _pb_moments)."""
+    base = _H + _CI * idat[1] + _LI * link
+    if pris is not None and idat[base + 5] == JOINT_PB:
+        return idat[base] + 1, SD, so
+    return idat[base], fdat, idat[base + 3] + 21
 
 
 def _pb_moments(fdat, idat, link, q, qd, SD, o):
@@ -54,13 +91,7 @@ def _pb_moments(fdat, idat, link, q, qd, SD, o):
     d0 = idat[base + 1]
     jd = idat[base + 2]
     off = idat[base + 3]
-    ms = m + 1
-    o_c1 = o + ms
-    o_M = o_c1 + ms
-    o_qa = o_M + ms * ms
-    o_ha = o_qa + 4
-    o_K = o_ha + ms
-    o_dK = o_K + m
+    o_c1, o_M, o_qa, o_ha, o_K, o_dK = _sd_offsets(o, m)
     for k in range(o, o_dK + 2):
         SD[k] = 0.0
     if m == 0:
@@ -71,15 +102,32 @@ def _pb_moments(fdat, idat, link, q, qd, SD, o):
     EI = fdat[ox + 4]
     l = fdat[off + 20]
     G = _GAUSS * ne
-    oxi = ox + _F_JOINT
+    oxi = ox + _F_JOINT  # the tables: xi (G), w (G), N, N', N'' (G m each), Kunit (m m), a (m)
+    oKu = oxi + 2 * G + 3 * G * m
+    _pb_gauss(fdat, q, qd, d0, m, oxi, G, mu, l, q[jd], qd[jd], SD, o)
+    _pb_stiffness(fdat, q, d0, m, oKu + m * m, oKu, EI, q[jd], SD, o_K, o_dK)
+
+
+@inline
+def _pb_gauss(fdat, q, qd, d0, m, oxi, G, mu, l, d, dd, SD, o):
+    """The Gauss rule of _pb_moments: its G points xi_g, weights w_g and shape tables N, N', N''
+    (G m each), a_k (m) from fdat[oxi:] (pack's layout); at each point, with W = mu d w_g [kg],
+    x = l - d + d xi [m],
+
+        phi_k = d^a_k N_k,  chi = phi_m = sum_k delta_k rho_k,  v = sum_k phi_k delta_k,
+        a0 = ddot^2 sum delta_k d rho_k/dd + 2 ddot sum deltadot_k rho_k,
+        cx_l += W phi_l x,  c1_l += W phi_l,  ha_l += W phi_l a0,  Mpsi_lk += W phi_l phi_k,
+        qa += W a0 (x, v, 0, 1)
+
+    into the shape data SD[o:] (_sd_offsets); d [m], dd [m/s] the protruding length and its rate.
+    """
+    ms = m + 1
+    o_c1, o_M, o_qa, o_ha, o_K, o_dK = _sd_offsets(o, m)
     ow = oxi + G
     oN = ow + G
     oN1 = oN + G * m
     oN2 = oN1 + G * m
-    oKu = oN2 + G * m
-    oa = oKu + m * m
-    d = q[jd]
-    dd = qd[jd]
+    oa = oN2 + G * m + m * m
     phi = np.zeros(ms)
     for g in range(G):
         xi = fdat[oxi + g]
@@ -118,6 +166,16 @@ def _pb_moments(fdat, idat, link, q, qd, SD, o):
         SD[o_qa] += W * x * acc
         SD[o_qa + 1] += W * v * acc
         SD[o_qa + 3] += W * acc
+
+
+@inline
+def _pb_stiffness(fdat, q, d0, m, oa, oKu, EI, d, SD, o_K, o_dK):
+    """A Pb link's stiffness terms at its protruding length d [m] (_pb_moments):
+
+        K(d)_kj = EI d^(a_k + a_j - 3) Kunit_kj:  SD[o_K + k] = (K delta)_k,
+        SD[o_dK] = dV_s/dd = 1/2 delta^T K' delta,  K'_kj = (a_k + a_j - 3) K_kj / d,
+        SD[o_dK + 1] = V_s = 1/2 delta^T K delta
+    """
     for k in range(m):
         ak = fdat[oa + k]
         for j in range(m):
@@ -141,27 +199,18 @@ def _own(idat, link, q, qd, k):
 
 
 def _link_body(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, so, pris):
-    """Body moments of ``link`` at delta, deltadot; returns (ms, src, o_cx): the number of own
-    shapes and where their moments cx, c1, Mpsi live (fdat, or SD[so:] for a Pb link).
+    """Body moments of ``link`` at delta, deltadot (and a Pb link's shape data in SD[so:]).
 
     B[kP] = P = P0 + Cd^T + sum_l delta_l Q_l (rotary pseudo-inertia included),
     V[kmr] = m_r, V[kqv + l] = q_l = c0_l + sum_k delta_k Mpsi_kl e_{a_k}, c0_l = (cx_l, 0, 0, c1_l),
     V[kqdv + l] = sum_k deltadot_k Mpsi_kl e_{a_k}, B[kPv] = Pv = sum_l deltadot_l q_l e_{a_l}^T
-    (over the own shapes; a Pb link adds chi with velocity coefficient ddot, _pb_moments).
+    (over the own shapes, _own_source; a Pb link adds chi with velocity coefficient ddot, _pb_moments).
     """
-    N = idat[1]
-    base = _H + _CI * N + _LI * link
-    m = idat[base]
+    base = _H + _CI * idat[1] + _LI * link
     off = idat[base + 3]
     if pris is not None and idat[base + 5] == JOINT_PB:
         _pb_moments(fdat, idat, link, q, qd, SD, so)
-        src = SD
-        o_cx = so
-        ms = m + 1
-    else:
-        src = fdat
-        o_cx = off + 21
-        ms = m
+    ms, src, o_cx = _own_source(fdat, idat, link, SD, so, pris)
     for a in range(4):
         V[kmr, a] = fdat[off + 16 + a]
         for b in range(4):
@@ -190,4 +239,3 @@ def _link_body(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, so, p
             B[kPv, r, al] += vl * V[kqv + l, r]
         B[kP, al, 0] += dl * src[o_cx + l]
         B[kP, al, 3] += dl * src[o_c1 + l]
-    return ms, src, o_cx

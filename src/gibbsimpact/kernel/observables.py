@@ -1,4 +1,4 @@
-"""Observables stage: energies, momenta and first moment per link, and the extra contact points.
+"""Observables stage: energies, momenta and first moment per link, frames, points, Jacobians.
 
 Kinetic energy per link: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 int mu vdot^2
 (P, Pv from moments.py; the frames from frames.py).
@@ -6,60 +6,55 @@ Kinetic energy per link: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 int mu vdot^2
 
 from __future__ import annotations
 
-from .layout import _CI, _F_G, _H, _LI, JOB_JACOBIANS, JOB_POINTS, JOINT_PB, JOINT_R, _mmax
+from .layout import (_CI, _F_G, _H, _LI, _S_FR, _S_JAC, _S_PTS, JOB_FRAMES, JOB_JACOBIANS, JOB_POINTS, JOINT_PB,
+                     JOINT_R, _mmax, inline)
 from .mat4 import _mm, _mmt
-from .moments import _link_body, _own, _sd_stride
+from .moments import _own, _own_source, _sd_offsets, _sd_stride
 
 
-def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out, SD, pris):
+def link_observables(fdat, idat, q, qd, B, V, SD, ws, out, pris):
     """out (12,): kinetic, gravity, strain energy [J]; linear momentum L [kg m/s];
     angular momentum about the origin H0 [kg m^2/s]; first moment sum T m_r [kg m].
 
-    Frames in B[ts + i], B[tds + i]; B[w + 20 .. w + 23], V (2 mmax + 4, 4) and SD are scratch.
+    From the frames (position stage) and body moments (moments stage) in B, V, SD (work_slots ws):
     E_k = sum 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 deltadot^T M_dd deltadot,
     V_g = -g~ . sum T m_r,  V_s = 1/2 delta^T K delta,
     L = sum (Td m_r + T m_rdot),  H0 = sum vee(X),  X = T P Td^T + T Pv T^T = int mu p pdot^T.
     """
-    n = idat[0]
+    TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
     N = idat[1]
     mmax = _mmax(idat)
-    kP = w + 20
-    kPv = w + 21
-    kX = w + 22
-    kA = w + 23
-    MR = 0
-    MRD = 1
-    QV = 2
-    QDV = 3 + mmax
     SDS = _sd_stride(mmax)
+    kX = WK + 22
+    kA = WK + 23
     for a in range(12):
         out[a] = 0.0
-    for i in range(n):
+    for i in range(idat[0]):
         base = _H + _CI * N + _LI * i
         m = idat[base]
         d0 = idat[base + 1]
         off = idat[base + 3]
-        ms, src, o_cx = _link_body(fdat, idat, i, q, qd, B, kP, kPv, V, MR, QV, QDV, SD, i * SDS, pris)
-        T = ts + i
-        Td = tds + i
+        ms, src, o_cx = _own_source(fdat, idat, i, SD, i * SDS, pris)
+        T = TS + i
+        Td = TDS + i
         # Kinetic energy: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) here, the modal part below.
         for a in range(4):
             for b in range(4):
                 x = 0.0
                 z = 0.0
                 for c in range(4):
-                    x += B[Td, a, c] * B[kP, c, b]
-                    z += B[Td, a, c] * B[kPv, c, b]
+                    x += B[Td, a, c] * B[PS + i, c, b]
+                    z += B[Td, a, c] * B[PVS + i, c, b]
                 out[0] += 0.5 * x * B[Td, a, b] + z * B[T, a, b]
         o_K = off + 21 + 2 * m + m * m
         for a in range(4):
-            V[MRD, a] = 0.0
+            V[MRD + i, a] = 0.0
         for l in range(ms):
             al, dl, vl = _own(idat, i, q, qd, l)
-            out[0] += 0.5 * vl * V[QDV + l, al]
-            V[MRD, al] += vl * src[o_cx + ms + l]
+            out[0] += 0.5 * vl * V[QDV + (mmax + 1) * i + l, al]
+            V[MRD + i, al] += vl * src[o_cx + ms + l]
         if pris is not None and idat[base + 5] == JOINT_PB:
-            out[2] += SD[i * SDS + 3 * ms + ms * ms + 4 + m + 1]
+            out[2] += SD[_sd_offsets(i * SDS, m)[5] + 1]
         else:
             for l in range(m):
                 for k in range(m):
@@ -68,15 +63,15 @@ def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out, SD, pris):
             s = 0.0
             p = 0.0
             for b in range(4):
-                s += B[Td, a, b] * V[MR, b] + B[T, a, b] * V[MRD, b]
-                p += B[T, a, b] * V[MR, b]
+                s += B[Td, a, b] * V[MR + i, b] + B[T, a, b] * V[MRD + i, b]
+                p += B[T, a, b] * V[MR + i, b]
             out[3 + a] += s
             out[9 + a] += p
             out[1] -= fdat[_F_G + a] * p
         # X = T P Td^T + (T Pv) T^T
-        _mm(B, T, kP, kA)
+        _mm(B, T, PS + i, kA)
         _mmt(B, kA, Td, kX)
-        _mm(B, T, kPv, kA)
+        _mm(B, T, PVS + i, kA)
         for a in range(3):
             for b in range(3):
                 s = 0.0
@@ -88,10 +83,54 @@ def _link_observables(fdat, idat, q, qd, B, ts, tds, w, V, out, SD, pris):
         out[8] += B[kX, 0, 1] - B[kX, 1, 0]
 
 
-def _extra_points(fdat, idat, q, B, ts, ss, out, o_pts, o_jac, job, npts, k):
-    """The tips of host links h whose child joint is prismatic (contact points n + 1 ..):
+@inline
+def frame_outputs(idat, B, ws, out, L, job, npts, k):
+    """State k's frame outputs of the kernel (layout L): JOB_POINTS the origins O_j = T_j[:3, 3]
+    (K P 3,), JOB_FRAMES T, Td, Tdd0 (K (n+1) 48,), JOB_JACOBIANS dO_j/dq (K P 3 N,):
+
+        dO_j/dq_c = (S_c O_j)[:3] (+ (S2_c O_j)[:3] when f2_c <= j) for f_c <= j, else 0
+
+    From the position stage's frames and twists in B (work_slots ws).
+    """
+    ts, tds, tdds, ss, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
+    n = idat[0]
+    N = idat[1]
+    for j in range(n + 1):
+        if job & JOB_POINTS:
+            o = L[_S_PTS] + 3 * (npts * k + j)
+            for a in range(3):
+                out[o + a] = B[ts + j, a, 3]
+        if job & JOB_FRAMES:
+            o = L[_S_FR] + 48 * ((n + 1) * k + j)
+            for a in range(4):
+                for b in range(4):
+                    out[o + 4 * a + b] = B[ts + j, a, b]
+                    out[o + 16 + 4 * a + b] = B[tds + j, a, b]
+                    out[o + 32 + 4 * a + b] = B[tdds + j, a, b]
+        if job & JOB_JACOBIANS:
+            o = L[_S_JAC] + 3 * N * (npts * k + j)
+            for c in range(N):
+                if idat[_H + _CI * c + 2] <= j:
+                    f2 = idat[_H + _CI * c + 5]
+                    for a in range(3):
+                        s = B[ss + c, a, 3]
+                        for b in range(3):
+                            s += B[ss + c, a, b] * B[ts + j, b, 3]
+                        if 0 <= f2 <= j:
+                            s += B[ss + N + c, a, 3]
+                            for b in range(3):
+                                s += B[ss + N + c, a, b] * B[ts + j, b, 3]
+                        out[o + N * a + c] = s
+
+
+def _extra_points(fdat, idat, q, B, ws, out, L, job, npts, k):
+    """State k's extra contact points into the point and Jacobian sections of out (layout L):
+    the tips of host links h whose child joint is prismatic (contact points n + 1 ..):
     p = T_h (l_h e_x + sum end_t_k delta_k, 1),  dp/dq_c = (S_c p)[:3] for f_c <= h,
     R_h end_t_k for h's own delta_k (docs/theory.md §7.1: E_h is not on the chain's path)."""
+    ts, TDS, TDDS, ss, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
+    o_pts = L[_S_PTS]
+    o_jac = L[_S_JAC]
     n = idat[0]
     N = idat[1]
     x = n + 1
