@@ -164,18 +164,10 @@ def checked_forward_dynamics(model, q, qdot) -> np.ndarray:
     the cost of one dot product when they are float64 (N,) arrays with finite entries: the call behind
     Model.forward_dynamics. (forward_dynamics itself passes non-finite states through: a solver's trial
     state may be one, and its NaN accelerations make the solver shrink the step.)"""
-    f, fdat, idat, zeros, v0, v1, _ = model.kernel_call
-    if q.__class__ is _NDARRAY and qdot.__class__ is _NDARRAY and q.shape == zeros.shape \
-            and qdot.shape == zeros.shape and _isfinite(q.dot(q) + qdot.dot(qdot)):
-        out = _EMPTY(zeros.size)
-        try:
-            status = f(fdat, idat, q, qdot, zeros, _JOB_QDDOT, v0, v1, out)
-        except TypeError:
-            pass
-        else:
-            if status:
-                _singular(model, q, qdot, None)
-            return out
+    shape = model.kernel_call[3].shape
+    if q.__class__ is _NDARRAY and qdot.__class__ is _NDARRAY and q.shape == shape and qdot.shape == shape \
+            and _isfinite(q.dot(q) + qdot.dot(qdot)):
+        return forward_dynamics(model, q, qdot)
     return forward_dynamics(model, *model.check_state(q, qdot))
 
 
