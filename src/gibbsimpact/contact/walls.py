@@ -67,8 +67,23 @@ def _check_radius(owner, r):
     return float(r)
 
 
+class _RoundWall:
+    """What Circle and Sphere share: a radius about a centre of 2 or 3 coordinates, checked once."""
+
+    def __post_init__(self):
+        name, dims = type(self).__name__, len(type(self).__dataclass_fields__["center"].default)
+        object.__setattr__(self, "radius", _check_radius(name, self.radius))
+        object.__setattr__(self, "center", _check_vector(name, "center", self.center, dims))
+        object.__setattr__(self, "restitution", _check_restitution(name, self.restitution))
+        object.__setattr__(self, "friction", _check_friction(name, self.friction))
+
+    def parameters(self) -> dict:
+        """Its geometry as case files and result files name it."""
+        return {"radius": self.radius, "center": list(self.center)}
+
+
 @dataclass(frozen=True)
-class Circle:
+class Circle(_RoundWall):
     """Circular wall of radius R about centre c in the X1-X2 plane (a cylinder along X3).
 
     g(p) = R - |(p - c)_12|,   n = -(p - c)_12 / |(p - c)_12|
@@ -92,11 +107,6 @@ class Circle:
     friction: float = 0.0
     kind = "circle"
 
-    def __post_init__(self):
-        object.__setattr__(self, "radius", _check_radius("Circle", self.radius))
-        object.__setattr__(self, "center", _check_vector("Circle", "center", self.center, 2))
-        object.__setattr__(self, "restitution", _check_restitution("Circle", self.restitution))
-        object.__setattr__(self, "friction", _check_friction("Circle", self.friction))
 
     def gap(self, p: np.ndarray) -> np.ndarray:
         """g(p) for p (K, 3) [m] -> (K,) [m]."""
@@ -127,10 +137,6 @@ class Circle:
         dv = _dot(d, vt)
         return self.radius - r, n, -(_dot(vt, vt) - dv * dv / (r * r)) / r
 
-    def parameters(self) -> dict:
-        """Its geometry as case files and result files name it."""
-        return {"radius": self.radius, "center": list(self.center)}
-
     def describe(self) -> str:
         return f"circle R={self.radius:g} m centre ({self.center[0]:g}, {self.center[1]:g})"
 
@@ -140,7 +146,7 @@ class Circle:
 
 
 @dataclass(frozen=True)
-class Sphere:
+class Sphere(_RoundWall):
     """Spherical wall of radius R about centre c.
 
     g(p) = R - |p - c|,   n = -(p - c) / |p - c|
@@ -154,11 +160,6 @@ class Sphere:
     friction: float = 0.0
     kind = "sphere"
 
-    def __post_init__(self):
-        object.__setattr__(self, "radius", _check_radius("Sphere", self.radius))
-        object.__setattr__(self, "center", _check_vector("Sphere", "center", self.center, 3))
-        object.__setattr__(self, "restitution", _check_restitution("Sphere", self.restitution))
-        object.__setattr__(self, "friction", _check_friction("Sphere", self.friction))
 
     def gap(self, p: np.ndarray) -> np.ndarray:
         """g(p) for p (K, 3) [m] -> (K,) [m]."""
@@ -186,10 +187,6 @@ class Sphere:
             return self.radius - r, n, None
         dv = _dot(d, v)
         return self.radius - r, n, -(_dot(v, v) - dv * dv / (r * r)) / r
-
-    def parameters(self) -> dict:
-        """Its geometry as case files and result files name it."""
-        return {"radius": self.radius, "center": list(self.center)}
 
     def describe(self) -> str:
         return f"sphere R={self.radius:g} m centre ({', '.join(f'{c:g}' for c in self.center)})"
