@@ -81,6 +81,15 @@ class _RoundWall:
         """Its geometry as case files and result files name it."""
         return {"radius": self.radius, "center": list(self.center)}
 
+    def normal(self, p: np.ndarray) -> np.ndarray:
+        """Unit inward normal for p (K, 3) -> (K, 3); zero on the axis (circle) or at the centre (sphere),
+        R away from the wall, where it is undefined."""
+        return self.geometry(p)[1]
+
+    def curvature(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """v^T H_g v (K,) [m/s^2] for points p (K, 3) [m] moving at v (K, 3) [m/s], H_g the Hessian of g."""
+        return self.geometry(p, v)[2]
+
 
 @dataclass(frozen=True)
 class Circle(_RoundWall):
@@ -112,14 +121,6 @@ class Circle(_RoundWall):
         """g(p) for p (K, 3) [m] -> (K,) [m]."""
         d = p[..., :2] - np.asarray(self.center)
         return self.radius - np.hypot(d[..., 0], d[..., 1])
-
-    def normal(self, p: np.ndarray) -> np.ndarray:
-        """Unit inward normal for p (K, 3) -> (K, 3); zero on the axis, R away from the wall, where it is undefined."""
-        return self.geometry(p)[1]
-
-    def curvature(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """v^T H_g v (K,) [m/s^2] for points p (K, 3) [m] moving at v (K, 3) [m/s], H_g the Hessian of g."""
-        return self.geometry(p, v)[2]
 
     def geometry(self, p: np.ndarray, v: np.ndarray | None = None):
         """Gap g (K,) [m], unit normal n (K, 3) and curvature term v^T H_g v (K,) [m/s^2] (None
@@ -165,14 +166,6 @@ class Sphere(_RoundWall):
         """g(p) for p (K, 3) [m] -> (K,) [m]."""
         d = p - np.asarray(self.center)
         return self.radius - _norm(d)
-
-    def normal(self, p: np.ndarray) -> np.ndarray:
-        """Unit inward normal for p (K, 3) -> (K, 3); zero at the centre, R away from the wall, where it is undefined."""
-        return self.geometry(p)[1]
-
-    def curvature(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """v^T H_g v (K,) [m/s^2] for points p (K, 3) [m] moving at v (K, 3) [m/s], H_g the Hessian of g."""
-        return self.geometry(p, v)[2]
 
     def geometry(self, p: np.ndarray, v: np.ndarray | None = None):
         """Gap g (K,) [m], unit normal n (K, 3) and curvature term v^T H_g v (K,) [m/s^2] (None
