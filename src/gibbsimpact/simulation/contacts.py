@@ -12,7 +12,7 @@ from .. import kernel as _k
 from ..dynamics.gibbs_appell import energy, mass_matrix
 from .flight import EventSpec
 from ..contact.friction import solve_frictional_impulses
-from ..contact.impact import solve_impulses
+from ..contact.impact import actuator_impulses, held_impulses, solve_impulses
 from ..dynamics.kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
 from .results import ImpactRecord
 from ..contact.walls import packed_walls, tangent_basis
@@ -309,10 +309,14 @@ def contact_band(contact_tol: float, lipschitz: float, rtol: float, atol: float,
     return max(2.0 * contact_tol, lipschitz * (atol + rtol * float(np.abs(q).max(initial=0.0))))
 
 
-def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink_pair, resting=None):
+def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink_pair, resting=None,
+                 prescribed=None):
     """The impact at (t, q, qd), if there is one.
 
     resting : None or (W, J) bool, the pairs in resting contact: they take e = 0 (gibbsimpact.resting).
+    prescribed : None or (n_p,) int, coordinates whose actuators hold their velocity (formulation §16): the
+        impulse problem is solved on the free ones, the record carries the actuators' impulses.
+    Raises contact.impact.HeldContactError when a contact is moved by prescribed coordinates only.
     Returns (record or None, near (W, J) bool: the pairs in the contact band g <= band [m]).
     """
     g, nrm, Jac, pts, valid = contacts.full(q)
@@ -338,27 +342,42 @@ def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink
     if resting is not None:
         e_k = np.where(resting[pairs[:, 0], pairs[:, 1]], 0.0, e_k)
     mu_k = np.array([contacts.walls[w].friction for w in pairs[:, 0]])
-    friction = {}
+    friction, held = {}, {}
     if np.any(mu_k > 0):
         # Moreau's law with Coulomb's cone (friction.py): tangents t1, t2 of each contact.
         T = tangent_basis(normals)  # (k, 2, 3)
         Wt = np.einsum("kac,kcn->nka", T, Jk)
-        sol = solve_frictional_impulses(M, Wmat, Wt, qd, e_k, mu_k)
+        sol, qdot_after = _solve(M, Wmat, qd, prescribed, lambda M_, r, v: solve_frictional_impulses(
+            M_, Wmat[r], Wt[r], v, e_k, mu_k), Wt)
         world = lambda a: np.einsum("ka,kac->kc", a, T)  # noqa: E731
         friction = dict(friction_impulses=world(sol.tangential_impulses), slip_before=world(sol.slip_before),
                         slip_after=world(sol.slip_after))
         rounds = sol.rounds
+        impulse = Wmat @ sol.impulses + np.einsum("nka,ka->n", Wt, sol.tangential_impulses)
     else:
-        sol = solve_impulses(M, Wmat, qd, e_k)
+        sol, qdot_after = _solve(M, Wmat, qd, prescribed, lambda M_, r, v: solve_impulses(M_, Wmat[r], v, e_k))
         rounds = len(sol.rounds)
+        impulse = Wmat @ sol.impulses
+    if prescribed is not None:
+        held = dict(actuator_impulses=actuator_impulses(M, qd, qdot_after, impulse, prescribed))
     rec = ImpactRecord(
         time=t, joints=tuple(int(j) + 1 for j in pairs[:, 1]), wall=tuple(int(w) for w in pairs[:, 0]),
         normals=normals, impulses=sol.impulses, v_before=sol.v_before, v_after=sol.v_after,
-        restitution=e_k, qdot_before=qd.copy(), qdot_after=sol.qdot_after.copy(),
-        energy_before=energy(model, q, qd), energy_after=energy(model, q, sol.qdot_after),
-        rounds=rounds, points=pts[pairs[:, 0], pairs[:, 1]].copy(), **friction,
+        restitution=e_k, qdot_before=qd.copy(), qdot_after=qdot_after.copy(),
+        energy_before=energy(model, q, qd), energy_after=energy(model, q, qdot_after),
+        rounds=rounds, points=pts[pairs[:, 0], pairs[:, 1]].copy(), **friction, **held,
     )
     return rec, near
+
+
+def _solve(M, W, qd, prescribed, solve, Wt=None):
+    """(solution, qdot_after (N,)) of solve(M, rows, qdot) on every coordinate, or on the free ones with the
+    prescribed (n_p,) holding their velocity (contact.impact.held_impulses; W (N, k), Wt (N, k, 2) or None)."""
+    if prescribed is None:
+        sol = solve(M, slice(None), qd)
+        return sol, sol.qdot_after
+    W_all = W if Wt is None else np.hstack((W, Wt.reshape(W.shape[0], -1)))
+    return held_impulses(M, W_all, qd, prescribed, solve)
 
 
 def phase_events(near, g_start, band, sink_depth, row0=0, skip=None):
