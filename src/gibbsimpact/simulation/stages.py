@@ -206,9 +206,10 @@ def impact(run) -> None:
 def _record_impact(run, rec, q) -> None:
     """The state after an impact (the record's qdot_after), recorded as the start of a new phase."""
     N = run.N
-    run.y = np.concatenate((q, rec.qdot_after, run.y[2 * N:]))
     run.phase += 1
     run.recorder.impact(rec, q, run.phase)
+    # The work states go on from the recorded ones: the actuators' impulses did work (Recorder.impact).
+    run.y = np.concatenate((q, rec.qdot_after, run.recorder.chunks[-1].work[-1] if run.equations.driven else []))
     run.clock.n_impacts = run.recorder.n_impacts
 
 
