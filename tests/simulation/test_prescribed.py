@@ -159,8 +159,10 @@ def test_contact_moved_only_by_the_actuator_stops_the_run():
     ({"delta_1_1": gi.profiles.constant_speed(0.0, 1.0)}, r"is an elastic coordinate; only joint coordinates"),
     ({"theta_1": 2.0}, r"must be a function f\(t\) -> \(q, qdot, qddot\)"),
     ({"theta_1": lambda t: (0.0, 0.0)}, r"must return three finite numbers"),
-    ({"theta_1": gi.profiles.constant_speed(0.5, 0.0)}, r"q0\[0\] = -1.0 \(theta_1\) differs from .* set q0\[0\] = 0.5"),
-    ({"theta_1": gi.profiles.samples([0, 0.1, 0.2, 0.3], [-1.0, 0, 0, 0])}, r"is defined on \[0, 0.3\] s only"),
+    ({"theta_1": gi.profiles.constant_speed(0.5, 0.0)},
+     r"q0\[0\] = -1.0 \(theta_1\) differs from .* set q0\[0\] = 0.5"),
+    ({"theta_1": gi.profiles.samples([0, 0.1, 0.2, 0.3], [-1.0, 0, 0, 0])},
+     r"is defined on \[0, 0.3\] s only"),
     (["theta_1"], r"prescribed=\['theta_1'\] must be a dict"),
 ])
 def test_bad_prescribed_arguments_name_the_fix(prescribed, match):

@@ -87,7 +87,8 @@ def prescription(model, prescribed, t_span, q0, qdot0) -> Prescribed | None:
         v = _call(name, prescribed[name], t0)
         for what, given, want in (("q0", q0[k], v[0]), ("qdot0", qdot0[k], v[1])):
             if abs(given - want) > START_TOL * (1.0 + abs(want)):
-                raise ValueError(f"simulate {what}[{k}] = {float(given)!r} ({name}) differs from prescribed[{name!r}]"
-                                 f"(t0 = {t0:g} s) = {float(want)!r}; start on the profile: set {what}[{k}] = {float(want)!r}")
+                raise ValueError(f"simulate {what}[{k}] = {float(given)!r} ({name}) differs from "
+                                 f"prescribed[{name!r}](t0 = {t0:g} s) = {float(want)!r}; start on the profile: "
+                                 f"set {what}[{k}] = {float(want)!r}")
         _call(name, prescribed[name], t_end)
     return Prescribed(tuple(order), index, tuple(prescribed[n] for n in order))

@@ -97,7 +97,8 @@ class Settings:
                        state=None, **positive) -> Settings:
         """Validate simulate's options (each error names the argument and what it must be).
 
-        prescribed : simulate's ``prescribed``, checked against state = (model, q0, qdot0) (simulation.prescribed)."""
+        prescribed : simulate's ``prescribed``, checked against state = (model, q0, qdot0)
+        (simulation.prescribed)."""
         t0, t_end = _t_span(t_span)
         prescribed = None if prescribed is None else prescription(*state[:1], prescribed, (t0, t_end), *state[1:])
         walls = _walls(walls)

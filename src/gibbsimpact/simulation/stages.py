@@ -205,7 +205,6 @@ def impact(run) -> None:
 
 def _record_impact(run, rec, q) -> None:
     """The state after an impact (the record's qdot_after), recorded as the start of a new phase."""
-    N = run.N
     run.phase += 1
     run.recorder.impact(rec, q, run.phase)
     # The work states go on from the recorded ones: the actuators' impulses did work (Recorder.impact).
@@ -427,7 +426,8 @@ def finish(run, started: float) -> Result:
 
 
 def _efforts(run, t, q, qdot) -> dict:
-    """Result's prescribed (names) and effort (K, n_p) [N m or N] at every sample ({} without prescribed coordinates)."""
+    """Result's prescribed (names) and effort (K, n_p) [N m or N] at every sample ({} without prescribed
+    coordinates)."""
     P = run.settings.prescribed
     if P is None:
         return {}
