@@ -177,3 +177,24 @@ def test_a_moving_base_orientation_cannot_be_prescribed():
     q0 = np.zeros(model.n_dof)
     with pytest.raises(ValueError, match=r"'theta_1'\] is a coordinate of the moving base; .*: theta_2"):
         gi.simulate(model, q0, q0, (0.0, 1.0), prescribed={"theta_1": gi.profiles.constant_speed(0.0, 0.0)})
+
+
+def test_effort_and_actuator_impulses_in_files_summary_and_figure(tmp_path):
+    """timeseries.csv gains work_actuators_J and effort_theta_1_N_m; the NPZ keeps effort, the prescribed names and
+    the actuators' impulses exactly; the summary lists the prescribed coordinates; the "effort" figure is drawn."""
+    import csv
+
+    model = _rod_model(2, gravity=0.0)
+    res = gi.simulate(model, np.zeros(2), np.array([2.0, 0.0]), (0.0, 0.6), walls=[gi.Plane((0.0, 1.5, 0.0),
+                      (0.0, -1.0, 0.0))], restitution=0.5, prescribed={"theta_1": gi.profiles.constant_speed(0.0, 2.0)},
+                      link_contacts=False, output_dt=0.05)
+    rows = list(csv.reader(res.to_csv(tmp_path)["timeseries"].open()))
+    assert rows[0][-2:] == ["work_actuators_J", "effort_theta_1_N_m"]
+    assert [float(r[-1]) for r in rows[1:]] == res.effort[:, 0].tolist()
+    back = gi.load_result(res.save(tmp_path / "r.npz"))
+    assert back.prescribed == ("theta_1",) and np.array_equal(back.effort, res.effort)
+    assert np.array_equal(back.impacts[0].actuator_impulses, res.impacts[0].actuator_impulses)
+    summary = res.summary()
+    assert summary["prescribed_coordinates"] == ["theta_1"]
+    assert summary["work_final_J"]["actuators"] == res.work[-1, 2]
+    assert res.plot("effort") is not None
