@@ -50,6 +50,23 @@ def test_rigid_pendulum_effort_is_the_closed_form_torque(profile):
     assert res.energy_error_whole_run <= 1e-9
 
 
+def test_carriage_on_an_inclined_rail_needs_m_times_its_acceleration_plus_weight():
+    """A rigid rod (m = 1 kg) on a carriage (Pa, joint 1) running along a base rail inclined at beta = 0.4 rad,
+    d_1 prescribed by a quintic move: the actuator's force along the rail is m (d'' + g sin beta) at every sample
+    (Newton's law along the rail; the rod does not turn). Tolerance: round-off of M, dV/dq."""
+    beta = 0.4
+    rod = gi.Link(1.0, 1.0, 1e4)
+    model = gi.Model(gi.Chain([rod], joints=[gi.SlidingPrismatic(angle=0.3, range=(-1.0, 2.0))],
+                              base=gi.FixedBase((0.0, 0.0), beta)), gravity=(0.0, -G, 0.0))
+    move = gi.profiles.point_to_point(0.0, 1.5, 0.1, 0.6)
+    res = gi.simulate(model, np.zeros(1), np.zeros(1), (0.0, 0.8), prescribed={"d_1": move}, output_dt=0.01)
+    assert res.status == "finished" and model.coordinate_names == ("d_1",)
+    qdd = np.array([move(t)[2] for t in res.t])
+    force = qdd + G * math.sin(beta)
+    assert np.all(np.abs(res.effort[:, 0] - force) <= 16 * EPS * (np.abs(qdd) + G))
+    assert res.energy_error_whole_run <= 1e-9
+
+
 def _free_run_profile(model, q0, qd0, t_end, k):
     """The free motion of coordinate k from an independent integration (scipy solve_ivp, DOP853, rtol 1e-13)
     as a profile: (q_k, qdot_k, qddot_k)(t) from its dense output and the equations of motion there."""
@@ -198,3 +215,16 @@ def test_effort_and_actuator_impulses_in_files_summary_and_figure(tmp_path):
     assert summary["prescribed_coordinates"] == ["theta_1"]
     assert summary["work_final_J"]["actuators"] == res.work[-1, 2]
     assert res.plot("effort") is not None
+
+
+def test_an_accumulation_with_prescribed_coordinates_stops_with_a_reason():
+    """Resting contact is not modelled with prescribed coordinates (docs): the arm of the power-balance test with
+    e = 0.5 accumulates impacts at its tip near t = 0.403 s and stops there with status "zeno", saying why."""
+    model = _flexible_arm()
+    q0 = model.state(theta_1=-np.pi / 2, theta_2=1.2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gi.ValidityWarning)
+        res = gi.simulate(model, q0, np.zeros_like(q0), (0.0, 0.5), walls=[FLOOR], restitution=0.5,
+                          prescribed={"theta_1": SPIN})
+    assert res.status == "zeno" and "resting contact is not modelled with prescribed coordinates" in res.message
+    assert res.energy_error_whole_run <= 1e-9
