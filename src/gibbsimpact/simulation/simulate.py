@@ -137,12 +137,7 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
         Result.contact_forces) or "stop" (status "zeno" there)
     link_contacts : True: the closest point of every flexible link to every wall is a contact
         candidate too; False: joints only, as in the published case studies
-    prescribed : None, or {joint coordinate name: f(t) -> (q, qdot, qddot)} (gibbsimpact.profiles): those
-        coordinates follow f; the free ones obey M_ff qddot_f = Q_f - h_f - dV/dq_f - M_fp qddot_p, impacts
-        hold qdot_p (the actuator takes an impulse, ImpactRecord.actuator_impulses), Result.effort holds the
-        actuator's Q_p and Result.work its work (column 3). q0, qdot0 must agree with f(t0) (else ValueError).
-        Resting contact is not modelled with prescribed coordinates (an accumulation stops with "zeno"); a
-        limit of a prescribed d_i is not watched (checked at t0 only)
+    prescribed : None or {joint coordinate: f(t) -> (q, qdot, qddot)}, motions imposed by actuators (docs/api.md)
     max_cpu_time [s], max_rhs_calls : None (no limit), or the CPU time (its thread's) and right-hand
         sides after which the run stops with "budget_exceeded" (simulation.budget; cost estimates them)
     _in_step_check : private; False leaves solve_ivp's sign test at step ends only (benchmarks, tests)
