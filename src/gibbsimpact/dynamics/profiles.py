@@ -44,6 +44,10 @@ class Profile:
     def __call__(self, t: float) -> tuple[float, float, float]:
         return self.fun(float(t))
 
+    def __reduce__(self):
+        """Pickled as its kind and parameters (its closure is not picklable): sweeps over processes send it."""
+        return _rebuild, (self.kind, self.parameters)
+
 
 def _number(kind, name, v, positive=False) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not math.isfinite(v) \
@@ -110,6 +114,10 @@ def samples(t, q) -> Profile:
 
 _BUILDERS = {"spin_up": spin_up, "constant_speed": constant_speed, "point_to_point": point_to_point,
              "samples": samples}
+
+
+def _rebuild(kind: str, parameters: dict) -> Profile:
+    return profile(kind, **parameters)
 
 
 def profile(kind: str, **parameters) -> Profile:
