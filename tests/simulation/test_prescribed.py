@@ -208,6 +208,9 @@ def test_effort_and_actuator_impulses_in_files_summary_and_figure(tmp_path):
     rows = list(csv.reader(res.to_csv(tmp_path)["timeseries"].open()))
     assert rows[0][-2:] == ["work_actuators_J", "effort_theta_1_N_m"]
     assert [float(r[-1]) for r in rows[1:]] == res.effort[:, 0].tolist()
+    impacts = list(csv.reader(res.to_csv(tmp_path)["impacts"].open()))
+    assert impacts[0][-1] == "actuator_impulse_theta_1_N_m_s"
+    assert float(impacts[1][-1]) == res.impacts[0].actuator_impulses[0]
     back = gi.load_result(res.save(tmp_path / "r.npz"))
     assert back.prescribed == ("theta_1",) and np.array_equal(back.effort, res.effort)
     assert np.array_equal(back.impacts[0].actuator_impulses, res.impacts[0].actuator_impulses)

@@ -213,9 +213,11 @@ def _friction_columns(rec, c) -> np.ndarray:
 def write_impacts_csv(result: Result, path) -> Path:
     """One row per contact: impact number, time, joint, wall, normal, impulse, normal velocities, energies."""
     path = Path(path)
+    # With prescribed coordinates each impact's actuator impulses (Lambda_p), repeated on its contacts' rows.
+    held = [c.replace("effort_", "actuator_impulse_", 1) + "_s" for c in effort_columns(result)]
     with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(IMPACT_COLUMNS)
+        w.writerow(IMPACT_COLUMNS + held)
         for i, rec in enumerate(result.impacts, start=1):
             for c, (joint, wall) in enumerate(zip(rec.joints, rec.wall)):
                 w.writerow(
@@ -227,6 +229,7 @@ def write_impacts_csv(result: Result, path) -> Path:
                     + [_fmt(v) for v in rec.energy_after]
                     + [_fmt(v) for v in (np.asarray(rec.points)[c] if rec.points is not None else [math.nan] * 3)]
                     + [_fmt(v) for v in _friction_columns(rec, c)]
+                    + ([_fmt(v) for v in rec.actuator_impulses] if held else [])
                 )
     return path
 
