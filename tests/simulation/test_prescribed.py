@@ -231,3 +231,29 @@ def test_an_accumulation_with_prescribed_coordinates_stops_with_a_reason():
                           prescribed={"theta_1": SPIN})
     assert res.status == "zeno" and "resting contact is not modelled with prescribed coordinates" in res.message
     assert res.energy_error_whole_run <= 1e-9
+
+
+def test_frictional_impact_on_a_prescribed_hub_balances_the_free_rows():
+    """The hub impact of the closed-form test on a wall with friction mu = 0.3 (Moreau's law on the free partition):
+    with the tip's Jacobian J written by hand, M (qdot+ - qdot-) = J^T (n P_n + F_t) + (Lambda_p, 0) row by row,
+    v_n+ = -e v_n-, |F_t| <= mu P_n, and theta_1' is held."""
+    from gibbsimpact.dynamics.gibbs_appell import mass_matrix
+
+    model = _rod_model(2, gravity=0.0)
+    Om, e, mu = 2.0, 0.5, 0.3
+    wall = gi.Plane((0.0, 1.5, 0.0), (0.0, -1.0, 0.0), friction=mu)
+    res = gi.simulate(model, np.zeros(2), np.array([Om, 0.0]), (0.0, 1.0), walls=[wall], restitution=e,
+                      prescribed={"theta_1": gi.profiles.constant_speed(0.0, Om)}, max_impacts=1,
+                      link_contacts=False)
+    rec = res.impacts[0]
+    th1, th2 = res.q[np.nonzero(res.t == rec.time)[0][0]]
+    J = np.array([[-math.sin(th1) - math.sin(th1 + th2), -math.sin(th1 + th2)],
+                  [math.cos(th1) + math.cos(th1 + th2), math.cos(th1 + th2)], [0.0, 0.0]])
+    generalized = J.T @ (rec.normals[0] * rec.impulses[0] + rec.friction_impulses[0])
+    residual = mass_matrix(model, np.array([th1, th2])) @ (rec.qdot_after - rec.qdot_before) - generalized
+    scale = abs(generalized).max()
+    assert abs(residual[1]) <= 1e-12 * scale
+    assert residual[0] == pytest.approx(rec.actuator_impulses[0], abs=1e-12 * scale)
+    assert rec.qdot_after[0] == Om and rec.v_after[0] == pytest.approx(-e * rec.v_before[0], rel=1e-12)
+    assert np.linalg.norm(rec.friction_impulses[0]) <= mu * rec.impulses[0] * (1 + 1e-12)
+    assert np.linalg.norm(rec.friction_impulses[0]) > 0
