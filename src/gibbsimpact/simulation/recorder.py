@@ -36,9 +36,9 @@ class Recorder:
 
     work : (K, 2) [J] the work of the inputs and of the damping since t0 (zeros
     for an undriven, undamped run), and with prescribed coordinates a third column, the work of
-    their actuators: int qdot_p . Q_p dt, plus Lambda_p . qdot_p at each impact (qdot_p does not jump). In a flight phase E(t) - E(start) equals
-    W(t) - W(start) up to the integration error, which is what energy_error measures per
-    phase; balance_J adds up those errors, signed, with the energy jumps of the impacts that
+    their actuators: int qdot_p . Q_p dt, plus Lambda_p . qdot_p at each impact (qdot_p does not
+    jump). In a flight phase E(t) - E(start) equals W(t) - W(start) up to the integration error,
+    which is what energy_error measures per phase; balance_J adds up those errors, signed, with the energy jumps of the impacts that
     should conserve E (e = 1, no friction impulse) into the error of the whole run.
 
     Everything is kept as a list of Chunk, each added by one ``list.append``:
