@@ -1,4 +1,4 @@
-"""The spin-up benchmark of flexible multibody dynamics (issue 24): why a spinning arm needs foreshortening.
+"""The spin-up benchmark (issue 24): why a spinning flexible arm needs foreshortening.
 
 A 10 m cantilever (mu = 1.2 kg/m, EI = 14 000 N m^2; Simo & Vu-Quoc 1986, Kane, Ryan &
 Banerjee 1987) is clamped to a hub whose angle is prescribed: the speed rises smoothly from

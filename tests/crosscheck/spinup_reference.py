@@ -71,6 +71,8 @@ from scipy.linalg.lapack import dposv
 __all__ = [
     "spin_up_profile",
     "RitzBeam",
+    "accelerations",
+    "energy",
     "spinup_reference",
     "spinup_summary",
 ]
@@ -214,8 +216,9 @@ def spinup_reference(Omega_s=6.0, T_s=15.0, t_end=30.0, n=4, t_eval=None, L=10.0
     """Spin-up benchmark by the Ritz model above, from rest (q = qd = 0 at t = 0).
 
     Omega_s [rad/s], T_s [s], t_end [s]; n Ritz terms; t_eval (k,) [s] output times
-    (default 0.01 s spacing); L [m], mu [kg/m], EI [N m^2]; rtol of DOP853 (atol = rtol). ``foreshortening=False`` is the linear beam. The run stops early (status 1)
-    once |v(L)| exceeds ``blow_up`` [m] (default 100 L): only a linear beam gets there.
+    (default 0.01 s spacing); L [m], mu [kg/m], EI [N m^2]; rtol of DOP853 (atol = rtol).
+    ``foreshortening=False`` is the linear beam. The run stops early (status 1) once
+    |v(L)| exceeds ``blow_up`` [m] (default 100 L): only a linear beam gets there.
 
     Returns a dict of arrays over the output times reached, shape (k,):
       t [s]; tip_deflection v(L, t) [m], the transverse tip displacement in the hub frame;
