@@ -57,6 +57,15 @@ route. All integrands are polynomials: H(x) by an (n+1)-point Gauss rule on [0, 
 every integral over the beam by a (2n+4)-point Gauss rule on [0, L] are exact (the highest
 degree, in int mu (H q)(H q)^T, is 4n+2).
 
+Checking the package with it
+----------------------------
+Run the package on the same link and profile (``spin_up_profile`` gives (q, qdot, qddot) of
+the hub angle), take link 0's deflection at x = L from every sample (the link frame of a
+fixed-base R joint at the root is the hub frame), and call
+``spinup_reference(..., t_eval=result.t)``: both are then sampled at the same instants, and
+``max |v_package - v_reference| / max |v_reference|`` is the number issue 24 bounds by 1 %
+(the reference's own error at n = 4 is 1.6e-4 of the peak for Omega_s = 6).
+
 Units: SI (m, kg/m, N m^2, s, rad).
 """
 
