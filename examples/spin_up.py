@@ -97,6 +97,7 @@ def figure(curves, path):
                                       " (foreshortening)"))
         ax.legend(loc="best")
     axes[0].set_yscale("symlog", linthresh=1.0)
+    axes[0].set_ylim(-1e4, 1e4)   # a linear run goes on to 1e41 m; nothing past 1 km means anything
     axes[0].set_ylabel("tip deflection v(L) in the hub frame [m]")
     fig.suptitle(f"spin-up to {OMEGA_S:g} rad/s in {T_S:g} s; L = {L:g} m, EI = {EI:g} N m$^2$")
     fig.savefig(path, dpi=120)
@@ -104,6 +105,10 @@ def figure(curves, path):
 
 
 def main():
+    # Once issue 24's geometric_stiffening and prescribed= are merged, add the package's runs:
+    #     curves[(beam, "gibbsimpact")] = package_run(stiffened, T_END)[:2]
+    # (measured on a local merge of both branches, 4 elements: max |v - v_ref| = 2.4e-4 of the
+    # peak, 32 s CPU; 8 elements: 1.6e-5).
     curves = {}
     for beam, stiffened in (("stiffened", True), ("linear", False)):
         r, cpu = reference_run(stiffened, T_END)
