@@ -307,3 +307,24 @@ def test_case2_with_restitution_08_runs_3_s_and_ends_resting_in_the_sphere():
     # Both ends on the sphere at the end (resting pairs are held within contact_tol).
     p = model.joint_positions(res.q[-1])
     np.testing.assert_allclose(np.linalg.norm(p[:2], axis=1), 1.0, atol=1e-9)
+
+
+def test_carriage_on_a_fixed_base_rail_comes_to_rest_at_its_o1():
+    """Issue 25 item 8 (the random tester's reproducer): a rigid link on a Pa carriage that runs down a
+    vertical rail of a fixed base drops 1 cm onto a floor with e = 0.5. O_1 (the carriage) moves with
+    d_1, so it must rest after the accumulation of bounces (at 3 sqrt(2 h / g) = 0.1355 s: each
+    bounce lasts e times the one before), not stop "zeno" blaming a link's span. At rest the floor
+    carries the weight: lambda n^T J = -m g . dr_G/dd with n^T J = -1 and dr_G/dd = (0, -1), so
+    lambda = m g (m = 0.5 kg)."""
+    link = gi.Link(0.5, 1.0, (20.0, 20.0), rotary_inertia=(1e-4, 5e-5, 5e-5))
+    joint = gi.SlidingPrismatic(angle=1.8707963267948966, half_length=0.0, range=(-0.5, 0.6))
+    chain = gi.Chain([link], base=gi.FixedBase((0.0, 0.5, 0.0), -1.5707963267948966), joints=[joint])
+    model = gi.Model(chain, gravity=(0.0, -9.81, 0.0))
+    res = gi.simulate(model, np.array([0.49]), np.array([0.0]), (0.0, 0.3),
+                      walls=[gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0))], restitution=0.5)
+    assert res.status == "finished", res.message
+    assert res.t[-1] == pytest.approx(0.3, rel=1e-12)
+    assert res.impacts[0].time == pytest.approx(np.sqrt(2 * 0.01 / 9.81), rel=1e-6)
+    assert res.resting_time == pytest.approx(0.3 - 3 * np.sqrt(2 * 0.01 / 9.81), abs=1e-3)
+    assert res.contact_forces[-1, 0, 0] == pytest.approx(0.5 * 9.81, rel=1e-9)
+    assert abs(res.q[-1, 0] - 0.5) <= 1e-9
