@@ -186,6 +186,47 @@ def test_closest_points_against_brute_force(name, rng):
     assert (n_interior == 0) if not flexible else (n_interior >= 4)
 
 
+def _obstacles_near(model, q, i, rng):
+    """An obstacle circle and sphere of radius 0.05-0.2 m beside link i, 5 mm off the point at a random
+    abscissa, on the side of a random direction normal to the chord (towards a bulge or away from it)."""
+    a, b = lp.search_interval(model, q)
+    x = rng.uniform(0.2, 0.8)
+    pa, pm, pb = lp.material_points(model, q, i, [a[i], a[i] + x * (b[i] - a[i]), b[i]])
+    chord = (pb - pa) / np.linalg.norm(pb - pa)
+    u = rng.normal(size=3)
+    if model.planar:
+        u[2] = 0.0
+    u -= (u @ chord) * chord
+    u /= np.linalg.norm(u)
+    R = rng.uniform(0.05, 0.2)
+    c = pm + (R + 0.005) * u
+    return [gi.Circle(R, c[:2], inside=False), gi.Sphere(R, c, inside=False)]
+
+
+@pytest.mark.parametrize("name", list(MODELS))
+def test_closest_points_to_obstacles_against_brute_force(name, rng):
+    """Obstacles (inside=False, g = |P (p - c)| - R, convex along a line): the closest point of a
+    rigid link is the projection of the centre onto it (closed form), of a flexible link a
+    refined interior minimum; both against 10^5 samples and a bounded minimisation (<= 1e-10 m),
+    with the obstacles beside the links at interior points (every pair of the obstacles beside
+    link i has an interior minimum on link i)."""
+    model = MODELS[name]()
+    for trial in range(3):
+        q, _ = _state(model, rng, delta=0.08)
+        i = trial % model.n_links
+        walls = _obstacles_near(model, q, i, rng) + _walls_near(model, q, rng)
+        res = lp.closest_points(model, q, walls)
+        assert lp.interior(model, q, res.x)[:2, i].all(), (name, trial, res.x[:2, i])
+        samples = [_samples(model, q, k) for k in range(model.n_links)]
+        for w, wall in enumerate(walls):
+            for k in range(model.n_links):
+                x_bf, g_bf = _brute_force(model, q, wall, k, samples[k])
+                assert abs(res.gap[w, k] - g_bf) <= 1e-10, (name, trial, w, k, res.x[w, k], x_bf, res.gap[w, k], g_bf)
+                p = lp.material_points(model, q, k, [res.x[w, k]])
+                assert abs(wall.gap(p)[0] - res.gap[w, k]) <= 1e-13
+                assert np.max(np.abs(wall.normal(p)[0] - res.normal[w, k])) <= 1e-12
+
+
 def test_bowed_link_touches_at_mid_span():
     """A clamped-clamped link along X1 bowed by delta towards the plane X2 = -c: x* = l / 2, gap = c - delta."""
     model = _case1()
