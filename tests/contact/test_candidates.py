@@ -28,7 +28,8 @@ from gibbsimpact.contact import candidates as lp
 from gibbsimpact.dynamics.kinematics import joint_positions
 
 from conftest import random_state
-from link_models import CC, MODELS, _case1, _prismatic, _spatial_fe, _state, _walls_hugging, _walls_near  # noqa: F401
+from link_models import (CC, MODELS, _case1, _obstacles_near, _prismatic, _spatial_fe, _state,  # noqa: F401
+                         _walls_hugging, _walls_near)
 
 # -- 1. positions ------------------------------------------------------------------------------
 
@@ -184,23 +185,6 @@ def test_closest_points_against_brute_force(name, rng):
                 assert np.max(np.abs(wall.normal(p)[0] - res.normal[w, i])) <= 1e-12
     # Rigid links: always an end (closed form); the hugging walls give interior minima.
     assert (n_interior == 0) if not flexible else (n_interior >= 4)
-
-
-def _obstacles_near(model, q, i, rng):
-    """An obstacle circle and sphere of radius 0.05-0.2 m beside link i, 5 mm off the point at a random
-    abscissa, on the side of a random direction normal to the chord (towards a bulge or away from it)."""
-    a, b = lp.search_interval(model, q)
-    x = rng.uniform(0.2, 0.8)
-    pa, pm, pb = lp.material_points(model, q, i, [a[i], a[i] + x * (b[i] - a[i]), b[i]])
-    chord = (pb - pa) / np.linalg.norm(pb - pa)
-    u = rng.normal(size=3)
-    if model.planar:
-        u[2] = 0.0
-    u -= (u @ chord) * chord
-    u /= np.linalg.norm(u)
-    R = rng.uniform(0.05, 0.2)
-    c = pm + (R + 0.005) * u
-    return [gi.Circle(R, c[:2], inside=False), gi.Sphere(R, c, inside=False)]
 
 
 @pytest.mark.parametrize("name", list(MODELS))
