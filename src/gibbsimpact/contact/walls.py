@@ -104,6 +104,33 @@ class _RoundWall:
             out["inside"] = False
         return out
 
+    flat = False
+
+    def section(self, n_samples: int = 721) -> np.ndarray:
+        """Its section with the plane X3 = 0, (n_samples, 2) [m]: a circle of radius r about c_12 sampled
+        from angle 0 to 2 pi (r = R for a circle, sqrt(R^2 - c_3^2) for a sphere); (0, 2) when none."""
+        r2 = self.radius ** 2 - (self.center[2] ** 2 if len(self.center) == 3 else 0.0)
+        if r2 <= 0.0:
+            return np.zeros((0, 2))
+        s = np.linspace(0.0, 2.0 * np.pi, n_samples)
+        return np.asarray(self.center[:2]) + np.sqrt(r2) * np.stack([np.cos(s), np.sin(s)], axis=-1)
+
+    def bounds(self) -> tuple:
+        """(lo, hi), (3,) each [m]: its bounding box; a circle (a cylinder along X3) sets none along X3
+        (lo = +inf, hi = -inf there, so that np.minimum / np.maximum with it leave a box unchanged)."""
+        c = np.zeros(3)
+        c[:len(self.center)] = self.center
+        r = np.full(3, self.radius)
+        lo, hi = c - r, c + r
+        if len(self.center) == 2:
+            lo[2], hi[2] = np.inf, -np.inf
+        return lo, hi
+
+    def in_plane(self, tol: float) -> bool:
+        """True when its section with every plane X3 = z of a planar motion is the X1-X2 curve of
+        section(): always for a circle, for a sphere centred within tol [m] of X3 = 0."""
+        return len(self.center) == 2 or abs(self.center[2]) < tol
+
     def _describe(self, shape: str, center) -> str:
         where = "" if self.inside else " (obstacle: the chain stays outside)"
         return f"{shape} R={self.radius:g} m centre ({', '.join(f'{c:g}' for c in center)}){where}"
@@ -236,6 +263,8 @@ class Plane:
     friction: float = 0.0
     kind = "plane"
     obstacle = False
+    #: A flat wall: figures clip it as a line or a polygon (the other kinds are drawn from section()).
+    flat = True
 
     def __init__(self, point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), restitution=None, friction=0.0):
         object.__setattr__(self, "point", _check_vector("Plane", "point", point, 3))
@@ -262,6 +291,14 @@ class Plane:
     def geometry(self, p: np.ndarray, v: np.ndarray | None = None):
         """Gap (K,) [m], normal (K, 3) and curvature term (K,) [m/s^2] (zero; None without v), as Circle.geometry."""
         return self.gap(p), self.normal(p), None if v is None else self.curvature(p, v)
+
+    def bounds(self) -> tuple:
+        """(lo, hi) (3,) [m]: no bounding box (lo = +inf, hi = -inf: it leaves a box unchanged)."""
+        return np.full(3, np.inf), np.full(3, -np.inf)
+
+    def in_plane(self, tol: float) -> bool:
+        """True when its normal lies in the X1-X2 plane (within tol): its section is a line there."""
+        return abs(self.normal_vector[2]) < tol
 
     def parameters(self) -> dict:
         """Its geometry as case files and result files name it."""
