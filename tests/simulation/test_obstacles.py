@@ -1,5 +1,6 @@
 """gibbsimpact.simulate with obstacles (Circle / Sphere with inside=False, g = |P (p - c)| - R), against
-closed forms and invariants: a rod striking a post or a ball with its span, a rod balanced on a
+closed forms and invariants: a rod striking a post or a ball with its span (frictionless, and sliding
+or sticking on a rough post), a rod balanced on a
 rough cylinder, a mixed run of containers, obstacles and a plane at e = 1. (A module of its own: the
 behaviour runs through contact/walls.py, contact/closest_points.py, kernel/contact.py and
 simulation/contacts.py at once.)"""
@@ -54,6 +55,35 @@ def test_rod_dropped_on_a_post_or_ball_bounces_by_newtons_law(wall, e):
     x = np.linspace(0.0, l, 64)
     p = res.q[:, None, :2] + x[None, :, None] * np.stack((np.cos(res.q[:, 2]), np.sin(res.q[:, 2])), axis=1)[:, None]
     assert np.min(np.hypot(p[..., 0], p[..., 1]) - R) >= -res.settings["contact_tol"]
+
+
+@pytest.mark.parametrize("mu", [0.1, 2.0])
+def test_rod_sliding_onto_a_rough_post_obeys_coulomb_in_the_impact(mu):
+    """The rod of the test above, moving sideways at u = 0.5 m/s as it falls, strikes a rough post (mu = 0.1:
+    it slides through the impact; mu = 2: it sticks) with e = 0.5. At the contact the tangent t = X1 is
+    along G -> contact (r = (a, 0)), so the normal and tangential problems decouple (r x t = 0):
+
+        P_n = (1 + e) v / (1 / m + a^2 / I_G)   (as above, a = -(x0 + l/2 + u t*))
+        Moreau-Glocker (friction.py): the average U_t = (u+ + e u-) / (1 + e) is 0 when sticking, which
+        needs f = (1 + e) m u <= mu P_n; then u+ = -e u, else f = mu P_n and u+ = u - mu P_n / m.
+
+    X1' after the impact is u+ (the tangential impulse turns nothing: r x t = 0); X2', theta_1' as above."""
+    model = planar_rod()
+    x0, y0, R, l, m, u, e = -0.3, 0.5, 0.1, 1.0, 1.0, 0.5, 0.5
+    wall = gi.Circle(R, (0.0, 0.0), inside=False, friction=mu)
+    res = gi.simulate(model, model.state(X1=x0, X2=y0), model.state(X1=u), (0.0, 0.3), walls=[wall], restitution=e)
+    assert res.status == "finished", res.message
+    rec = res.impacts[0]
+    t_star = np.sqrt(2 * (y0 - R) / G)
+    v, a, I_G = G * t_star, -(x0 + l / 2 + u * t_star), m * l * l / 12
+    Pn = (1 + e) * v / (1 / m + a * a / I_G)
+    stick = (1 + e) * m * u <= mu * Pn
+    assert stick == (mu > 1.0)
+    u_after = -e * u if stick else u - mu * Pn / m
+    vg, om = -v + Pn / m, a * Pn / I_G
+    assert rec.time == pytest.approx(t_star, rel=1e-12) and rec.joints == (3,)
+    assert rec.impulses[0] == pytest.approx(Pn, rel=1e-9)
+    np.testing.assert_allclose(rec.qdot_after, (u_after, vg - om * l / 2, om), rtol=1e-9, atol=1e-9)
 
 
 def test_rod_balanced_on_a_rough_cylinder_pivots_about_its_end():
