@@ -1,6 +1,7 @@
 """gibbsimpact.simulate with obstacles (Circle / Sphere with inside=False, g = |P (p - c)| - R), against
 closed forms and invariants: a rod striking a post or a ball with its span (frictionless, and sliding
-or sticking on a rough post), a rod balanced on a rough cylinder, a mixed run of containers, obstacles
+or sticking on a rough post; a free rod in space on a ball off its plane), a rod balanced on a rough
+cylinder, a mixed run of containers, obstacles
 and a plane at e = 1. (A module of its own: the behaviour runs through contact/walls.py,
 contact/closest_points.py, kernel/contact.py and simulation/contacts.py at once.)"""
 
@@ -142,3 +143,34 @@ def test_mixed_containers_obstacles_and_plane_conserve_energy_at_e1():
     assert {1, 2} <= hit and len(hit) >= 3, hit          # both obstacles and one other wall are struck
     E = res.energy().total
     assert np.max(np.abs(E - E[0])) <= 1e-9 * np.max(np.abs(res.energy().kinetic))
+
+
+def test_spatial_rod_strikes_a_ball_off_its_plane():
+    """A free rod in space (l = 1 m, m = 1 kg, rotary inertia j = (5e-5, 2.5e-5, 2.5e-5) kg m, so
+    I_perp = m l^2 / 12 + j_z l about both axes normal to it) falls along -X2 with its axis along X1 onto
+    an obstacle ball of R = 0.1 m centred z_c = 0.06 m off its vertical plane, below x = 0 (a = 0.2 m
+    right of G). Closed form: it touches when the axis is R from the centre, at height y* = sqrt(R^2 -
+    z_c^2) = 0.08 m, so t* = sqrt(2 (y0 - y*) / g); n = (0, y*, -z_c) / R; v_n = -g t* y* / R; r = (a, 0, 0)
+    from G, |r x n| = a with r x n normal to the rod, so 1 / m_eff = 1 / m + a^2 / I_perp and
+    Lambda = (1 + e) |v_n| m_eff; G's velocity after is (0, -g t*, 0) + Lambda n / m."""
+    j = (5e-5, 2.5e-5, 2.5e-5)
+    model = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0, rotary_inertia=j)]), gravity=(0.0, -G, 0.0))
+    x0, y0, R, zc, e, m, l = -0.3, 0.5, 0.1, 0.06, 0.5, 1.0, 1.0
+    ball = gi.Sphere(R, (0.0, 0.0, zc), inside=False)
+    res = gi.simulate(model, model.state(X1=x0, X2=y0), np.zeros(model.n_dof), (0.0, 0.3), walls=[ball],
+                      restitution=e)
+    assert res.status == "finished", res.message
+    rec = res.impacts[0]
+    ys = np.sqrt(R * R - zc * zc)
+    t_star = np.sqrt(2 * (y0 - ys) / G)
+    n = np.array([0.0, ys, -zc]) / R
+    vn = -G * t_star * ys / R
+    a, I_perp = 0.0 - (x0 + l / 2), m * l * l / 12 + j[2] * l
+    lam = (1 + e) * abs(vn) / (1 / m + a * a / I_perp)
+    assert rec.time == pytest.approx(t_star, rel=1e-12) and rec.joints == (3,)
+    np.testing.assert_allclose(rec.normals[0], n, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(rec.points[0], (0.0, ys, 0.0), rtol=0, atol=1e-12)
+    assert rec.v_before[0] == pytest.approx(vn, rel=1e-12) and rec.impulses[0] == pytest.approx(lam, rel=1e-12)
+    # Until the impact the rod only translates: q* = (x0, y*, 0, 0, 0, 0).
+    p_after = model.linear_momentum(model.state(X1=x0, X2=ys), rec.qdot_after)
+    np.testing.assert_allclose(p_after, m * np.array([0.0, -G * t_star, 0.0]) + lam * n, rtol=0, atol=1e-12)
