@@ -1,9 +1,9 @@
 """gibbsimpact.simulate with obstacles (Circle / Sphere with inside=False, g = |P (p - c)| - R), against
 closed forms and invariants: a rod striking a post or a ball with its span (frictionless, and sliding
 or sticking on a rough post; a free rod in space on a ball off its plane), a rod balanced on a rough
-cylinder, a mixed run of containers, obstacles
-and a plane at e = 1. (A module of its own: the behaviour runs through contact/walls.py,
-contact/closest_points.py, kernel/contact.py and simulation/contacts.py at once.)"""
+cylinder, a mixed run of containers, obstacles and a plane at e = 1. (A module of its own: the
+behaviour runs through contact/walls.py, contact/closest_points.py, kernel/contact.py and
+simulation/contacts.py at once.)"""
 
 from __future__ import annotations
 
