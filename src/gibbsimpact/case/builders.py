@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..contact.walls import Circle, Plane, Sphere
+from ..contact.walls import WALL_KINDS, Plane
 from ..dynamics.inputs import INPUT_KINDS, InputSpec, is_angle_coordinate, named_inputs
 from ..model.model import Model
 from .links import read_chain
@@ -250,10 +250,10 @@ def _wall(r: _Reader, tbl, path: str):
         radius = r.get(tbl, path, "radius_m", "number", required=True, what="radius R in m")
         dim = 2 if kind == "circle" else 3
         center = r.get(tbl, path, "center_m", f"vector{dim}", default=[0.0] * dim)
-        if _BAD in (radius, center, e, mu):
+        inside = r.get(tbl, path, "inside", "bool", default=True)
+        if _BAD in (radius, center, e, mu, inside):
             return _BAD
-        cls = Circle if kind == "circle" else Sphere
-        return cls(radius=radius, center=tuple(center), restitution=e, friction=mu)
+        return WALL_KINDS[kind](radius=radius, center=tuple(center), restitution=e, friction=mu, inside=inside)
     point = r.get(tbl, path, "point_m", "vector3", default=[0.0, 0.0, 0.0])
     normal = r.get(tbl, path, "normal", "vector3", required=True, what="normal pointing into the free side")
     if _BAD in (point, normal, e, mu):

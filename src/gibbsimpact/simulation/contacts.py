@@ -15,12 +15,19 @@ from ..contact.friction import solve_frictional_impulses
 from ..contact.impact import actuator_impulses, held_impulses, solve_impulses
 from ..dynamics.kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
 from .results import ImpactRecord
-from ..contact.walls import packed_walls, tangent_basis
+from ..contact.walls import has_obstacle, packed_walls, tangent_basis
 
 
 def flexible_links(model) -> list:
-    """0-based indices of the links with elastic coordinates: the link columns of Contacts, in order."""
+    """0-based indices of the links with elastic coordinates, in order."""
     return [i for i in range(model.n_links) if model.delta_index[i].size]
+
+
+def link_columns(model, walls=()) -> list:
+    """0-based indices of the links with a link column in Contacts, in order: the flexible links, or every
+    link when one of ``walls`` is an obstacle (its gap is convex along a line: a rigid link's closest
+    point to it can lie between the link's ends, and a rigid rod can strike a post with its span)."""
+    return list(range(model.n_links)) if has_obstacle(walls) else flexible_links(model)
 
 
 #: Gap [m] of a link candidate whose closest point is at an end of the link (its end joint stands for it).
@@ -31,12 +38,14 @@ class Contacts:
     """Gaps, normals and Jacobians of every (wall, contact point) pair (docs/theory.md §10; issue 9 item 2).
 
     Columns c = 0 .. C-1 of the (W, C) gap matrix: the P joint points (model.contact_point_names),
-    then one column per flexible link i (``flex``): the material point of link i closest to
-    wall w (gibbsimpact.linkpoints), deflection included. A link column holds that point's gap
+    then one column per flexible link i (``flex``; every link when a wall is an obstacle:
+    link_columns): the material point of link i closest to wall w (gibbsimpact.linkpoints),
+    deflection included. A link column holds that point's gap
     when it is *interior* (farther than 1e-6 l_i from the link's ends), else NOT_INTERIOR: at
     an end, the end joint's own column is the candidate, so nothing is counted twice. Its
     event fires where a link bulges into a wall between its joints. Rigid links have no column
-    (their closest point is always an end). Link columns cannot rest (resting.py).
+    unless a wall is an obstacle (else their closest point is always an end). Link columns
+    cannot rest (resting.py).
 
     link_contacts=False: joints only (C = P), the model of the published case studies.
 
@@ -47,9 +56,9 @@ class Contacts:
     G(s) = g(p(s)) [m] on one wall, the end joints A = p(0), B = p(1) (linkpoints.end_joints;
     every mode and element shape is 0 at x = 0) with gaps g_A, g_B [m].
 
-    * Walls: every gap is concave along a straight line (Plane: linear; Circle, Sphere: the
-      inside, g = R - |P (p - c)| with |P (.)| convex; walls.py has no other kind) and
-      1-Lipschitz (|grad g| = 1).
+    * Walls: every gap is 1-Lipschitz (|grad g| = 1) and, except on obstacles, concave along a
+      straight line (Plane: linear; Circle, Sphere: the inside, g = R - |P (p - c)| with |P (.)|
+      convex). Rules (1), (3), (4) below use the concavity; an obstacle's pairs take rule (5).
     * Chord c(s) = (1 - s) A + s B [m]. The axial coordinate of p(s) in the link frame is
       linear in s, so p(s) - c(s) = R_i (0, phi(s)), phi = (v, w)(s) - (1 - s) (v, w)(0)
       - s (v, w)(1) = sum_k e_k phi_k(s), linear in the elastic coordinates (e_k = delta_k; on
@@ -84,6 +93,9 @@ class Contacts:
 
       as T^2 - rho_A^2 = h_A (2 T - h_A). (With both joints on the wall: the chord's sagitta
       L^2 / (8 R) exceeds the largest offset Lam / 4 of the link from its chord.)
+    * (5) Obstacle (g = |P (p - c)| - R): rho_min - R - Lam / 4 > t, rho_min the distance of
+      the chord from the centre (projected by P): by (2), G(s) >= g(c(s)) - Lam u >= rho_min
+      - R - Lam / 4 (kernel.contact._skip_obstacle).
 
     Why a skip never hides a contact: the search returns an interior point s* with
     G(s*) <= refine_below only as a refined minimum that beats both end samples (linkpoints:
@@ -102,7 +114,7 @@ class Contacts:
     def __init__(self, model, walls, link_contacts=True):
         self.model, self.walls = model, walls
         self.N, self.n_joints = model.n_dof, model.n_joints
-        self.flex = flexible_links(model) if (walls and link_contacts) else []
+        self.flex = link_columns(model, walls) if (walls and link_contacts) else []
         self.n_cols = self.n_joints + len(self.flex)
         # Link minima farther than this from a wall are not refined (a sample's gap: sign exact).
         self.refine_below = 0.01 * (1.0 + sum(ld.length for ld in model.link_data))

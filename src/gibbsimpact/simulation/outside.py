@@ -20,7 +20,7 @@ import numpy as np
 from ..contact.candidates import closest_points, interior
 from ..dynamics.kinematics import joint_positions
 from ..dynamics.link_points import material_points
-from .contacts import flexible_links
+from .contacts import link_columns
 
 __all__ = ["Outside", "outside_walls", "point_name"]
 
@@ -47,7 +47,7 @@ class Outside:
 
 def outside_walls(model, q, walls, tol: float, link_contacts: bool = True) -> list[Outside]:
     """Every contact point of the state q (N,) with gap g < -tol [m] to one of ``walls``: the joints
-    first, wall by wall, then (with ``link_contacts``) the interior closest points of flexible links."""
+    first, wall by wall, then (with ``link_contacts``) the interior closest points of links (contacts.link_columns)."""
     walls = tuple(walls)
     p = joint_positions(model, q)
     out = []
@@ -55,7 +55,7 @@ def outside_walls(model, q, walls, tol: float, link_contacts: bool = True) -> li
         g = w.gap(p)
         out += [Outside(k, float(-g[j]), tuple(float(c) for c in p[j]), joint=int(j))
                 for j in np.nonzero(g < -tol)[0]]
-    flex = flexible_links(model) if link_contacts else []
+    flex = link_columns(model, walls) if link_contacts else []
     if not (flex and walls):
         return out
     cp = closest_points(model, q, walls)

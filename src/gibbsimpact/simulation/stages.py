@@ -91,12 +91,14 @@ def _check_inside(model, q, walls, contact_tol, link_contacts=True):
     lines = []
     for o in bad:
         w, at = f"wall {o.wall + 1} ({describe(walls[o.wall])})", np.round(o.point, 6).tolist()
+        how = "passes" if walls[o.wall].obstacle else "bends"   # through an obstacle a straight link can pass
         lines.append(f"{point_name(model, o)} at {at} m is {o.depth:.3g} m outside {w}" if o.link is None else
-                     f"link {o.link + 1} bends {o.depth:.3g} m beyond {w} between its joints: its point at "
+                     f"link {o.link + 1} {how} {o.depth:.3g} m beyond {w} between its joints: its point at "
                      f"x = {o.x:.6g} m (of {model.chain.links[o.link].length:.6g} m) is at {at} m")
     kinds = {"a joint" if o.link is None else "a link" for o in bad}
     what = " and ".join(sorted(kinds))
-    raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(lines) + ". Move the chain inside.")
+    fix = "out of the obstacle" if any(walls[o.wall].obstacle for o in bad) else "inside"
+    raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(lines) + f". Move the chain {fix}.")
 
 
 def _check_start(model, q0, qdot0, settings, limits):
