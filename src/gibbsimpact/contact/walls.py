@@ -15,6 +15,8 @@ from numbers import Real
 
 import numpy as np
 
+from .compliant import check_compliance
+
 
 def _check_restitution(name, e):
     if e is None:
@@ -67,6 +69,18 @@ def _check_radius(owner, r):
     return float(r)
 
 
+def _set_compliance(wall, name, stiffness, exponent, damping) -> None:
+    """Check and set the compliant law's stiffness, exponent, damping of a (frozen) wall."""
+    k, p, d = check_compliance(name, stiffness, exponent, damping)
+    for key, value in (("stiffness", k), ("exponent", p), ("damping", d)):
+        object.__setattr__(wall, key, value)
+
+
+def is_compliant(wall) -> bool:
+    """Whether the wall resolves contact by the compliant law (a stiffness) rather than Newton's law."""
+    return getattr(wall, "stiffness", None) is not None
+
+
 class _RoundWall:
     """What Circle and Sphere share: a radius about a centre of 2 or 3 coordinates, checked once."""
 
@@ -76,6 +90,7 @@ class _RoundWall:
         object.__setattr__(self, "center", _check_vector(name, "center", self.center, dims))
         object.__setattr__(self, "restitution", _check_restitution(name, self.restitution))
         object.__setattr__(self, "friction", _check_friction(name, self.friction))
+        _set_compliance(self, name, self.stiffness, self.exponent, self.damping)
 
     def parameters(self) -> dict:
         """Its geometry as case files and result files name it."""
@@ -108,12 +123,20 @@ class Circle(_RoundWall):
         Coulomb's coefficient mu on this wall, in impacts (gibbsimpact.friction) and in
         resting contact (gibbsimpact.resting); 0 (default) is frictionless. The same
         parameter exists for every wall type.
+    stiffness : float or None
+        k [N/m^p] of the compliant (Hunt-Crossley) law F_n = k g_-^p (1 + chi gdot_- / v_0)
+        (gibbsimpact.contact.compliant); None (default): Newton's impulse law.
+    exponent : float, p of the compliant law (1.5: Hertz); damping : "flores" (default) or
+        "lankarani-nikravesh", the relation chi(e). The same three exist for every wall type.
     """
 
     radius: float
     center: tuple = (0.0, 0.0)
     restitution: float | None = None
     friction: float = 0.0
+    stiffness: float | None = None
+    exponent: float = 1.5
+    damping: str = "flores"
     kind = "circle"
 
 
@@ -152,13 +175,16 @@ class Sphere(_RoundWall):
 
     g(p) = R - |p - c|,   n = -(p - c) / |p - c|
 
-    restitution, friction : as for Circle.
+    restitution, friction, stiffness, exponent, damping : as for Circle.
     """
 
     radius: float
     center: tuple = (0.0, 0.0, 0.0)
     restitution: float | None = None
     friction: float = 0.0
+    stiffness: float | None = None
+    exponent: float = 1.5
+    damping: str = "flores"
     kind = "sphere"
 
 
@@ -195,16 +221,20 @@ class Plane:
 
     g(p) = n . (p - point)
 
-    restitution, friction : as for Circle.
+    restitution, friction, stiffness, exponent, damping : as for Circle.
     """
 
     point: tuple
     normal_vector: tuple = (0.0, 1.0, 0.0)
     restitution: float | None = None
     friction: float = 0.0
+    stiffness: float | None = None
+    exponent: float = 1.5
+    damping: str = "flores"
     kind = "plane"
 
-    def __init__(self, point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), restitution=None, friction=0.0):
+    def __init__(self, point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), restitution=None, friction=0.0,
+                 stiffness=None, exponent=1.5, damping="flores"):
         object.__setattr__(self, "point", _check_vector("Plane", "point", point, 3))
         nv = np.array(_check_vector("Plane", "normal", normal, 3))
         nn = np.linalg.norm(nv)
@@ -213,6 +243,7 @@ class Plane:
         object.__setattr__(self, "normal_vector", tuple(nv / nn))
         object.__setattr__(self, "restitution", _check_restitution("Plane", restitution))
         object.__setattr__(self, "friction", _check_friction("Plane", friction))
+        _set_compliance(self, "Plane", stiffness, exponent, damping)
 
     def gap(self, p: np.ndarray) -> np.ndarray:
         """g(p) for p (K, 3) [m] -> (K,) [m]."""
@@ -266,7 +297,9 @@ def packed_walls(walls):
 def describe(wall) -> str:
     """One-line description of a wall, for messages and summaries."""
     mu = f", friction {wall.friction:g}" if wall.friction else ""
-    return wall.describe() + mu
+    law = (f", compliant k={wall.stiffness:g} N/m^{wall.exponent:g} ({wall.damping})" if is_compliant(wall)
+           else "")
+    return wall.describe() + mu + law
 
 
 def tangent_basis(n: np.ndarray) -> np.ndarray:

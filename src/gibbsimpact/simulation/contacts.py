@@ -309,16 +309,19 @@ def contact_band(contact_tol: float, lipschitz: float, rtol: float, atol: float,
     return max(2.0 * contact_tol, lipschitz * (atol + rtol * float(np.abs(q).max(initial=0.0))))
 
 
-def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink_pair, resting=None):
+def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink_pair, resting=None, compliant=None):
     """The impact at (t, q, qd), if there is one.
 
     resting : None or (W, J) bool, the pairs in resting contact: they take e = 0 (gibbsimpact.resting).
+    compliant : None or (W,) bool, the walls of the compliant law: never candidates (simulation.compliant).
     Returns (record or None, near (W, J) bool: the pairs in the contact band g <= band [m]).
     """
     g, nrm, Jac, pts, valid = contacts.full(q)
     # Candidates: every pair within the contact band (a pair caught by its "sink"
     # event sits just below its phase-start gap); a link column only with an interior point.
     near = g <= band
+    if compliant is not None:
+        near &= ~compliant[:, None]
     if not np.any(near & valid):
         return None, near
     pairs = np.argwhere(near & valid)  # (k, 2): wall, column

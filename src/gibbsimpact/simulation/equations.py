@@ -7,7 +7,9 @@ gibbsimpact.dynamics.forces):
     q' = qdot,   M qddot = Q_in + Q_damp - h - dV/dq,   W_in' = qdot . Q_in,   W_damp' = qdot . Q_damp
 
 In a contact phase (pairs resting on walls) qddot comes from the constrained equations of
-gibbsimpact.contact.resting, and the power of friction joins the damping's.
+gibbsimpact.contact.resting, and the power of friction joins the damping's. With compliant walls
+(gibbsimpact.simulation.compliant) their contact force joins Q_damp, and y ends with the 3 + N
+states of that module.
 """
 
 from __future__ import annotations
@@ -25,9 +27,10 @@ class Equations:
     resting : the run's RestingContacts (asked for the constrained accelerations in a contact phase)
     clock : a progress throttle with ``tick(t)`` (gibbsimpact.simulation.progress.Clock)
     budget : the run's limits (gibbsimpact.simulation.budget), checked when nfev reaches check_at
+    compliant : None, or the run's CompliantContacts (simulation.compliant): its force and extra states
     """
 
-    def __init__(self, model, settings, q0, qdot0, resting, clock):
+    def __init__(self, model, settings, q0, qdot0, resting, clock, compliant=None):
         self.model, self.resting, self.clock = model, resting, clock
         self.N = N = model.n_dof
         self.Q_in = generalized_force(model, settings.inputs, settings.t0, q0, qdot0)
@@ -35,7 +38,12 @@ class Equations:
         self.C_damp = damping_matrix(model, q0)
         self.damped = bool(np.any(self.C_damp))
         # Friction in resting contact does work too: a frictional wall makes the run keep its work.
-        self.driven = self.Q_in is not None or self.damped or any(w.friction > 0 for w in settings.walls)
+        self.compliant = compliant
+        self.driven = (self.Q_in is not None or self.damped or any(w.friction > 0 for w in settings.walls)
+                       or compliant is not None)
+        #: States after (q, qdot): W_in, W_damp when driven, then the compliant contacts' own.
+        self.n_extra = (2 if self.driven else 0) + (0 if compliant is None else compliant.n_extra)
+        self._compliant_rates = None
         self.zeros = np.zeros(N)
         self.nfev = 0
         self.budget = Budget(settings.max_rhs_calls, settings.max_cpu_time)
@@ -48,10 +56,18 @@ class Equations:
         if not self.driven:
             return None
         Qi = self.Q_in(t, q, qd) if self.Q_in is not None else self.zeros
-        if not self.damped:
-            return Qi, self.zeros
-        C = damping_matrix(self.model, q) if self.C_varies else self.C_damp
-        return Qi, -(C @ qd)
+        Qd = self.zeros
+        if self.damped:
+            C = damping_matrix(self.model, q) if self.C_varies else self.C_damp
+            Qd = -(C @ qd)
+        if self.compliant is not None:
+            Qc, self._compliant_rates = self.compliant.generalized_force(q, qd)
+            Qd = Qd + Qc
+        return Qi, Qd
+
+    def _extra(self, *rates):
+        """The extra states' rates: W_in', W_damp' (rates), then the compliant contacts' of the last forces()."""
+        return rates if self.compliant is None else (*rates, *self._compliant_rates)
 
     def applied(self, t, q, qd):
         """Q = Q_in + Q_damp (N,) of the equations of motion, or None (gibbsimpact.contact.resting)."""
@@ -71,12 +87,13 @@ class Equations:
             if self.resting_phase:
                 f = self.forces(t, q, qd)
                 qdd, _, _, power, *_ = self.resting.acceleration(q, qd, None if f is None else f[0] + f[1])
-                return np.concatenate((qd, qdd) if f is None else (qd, qdd, [qd @ f[0], qd @ f[1] + power.sum()]))
+                return np.concatenate((qd, qdd) if f is None else
+                                      (qd, qdd, self._extra(qd @ f[0], qd @ f[1] + power.sum())))
             if not self.driven:
                 return np.concatenate((qd, forward_dynamics(self.model, q, qd)))
             Qi, Qd = self.forces(t, q, qd)
             qdd = forward_dynamics(self.model, q, qd, Qi + Qd)
-            return np.concatenate((qd, qdd, [qd @ Qi, qd @ Qd]))
+            return np.concatenate((qd, qdd, self._extra(qd @ Qi, qd @ Qd)))
         except SingularMassMatrixError as exc:
             # A trial stage of a too-long step can land on a meaningless state (e.g. right
             # after an impact that excites high modes): NaN makes the solver reject the
