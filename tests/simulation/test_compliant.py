@@ -1,0 +1,129 @@
+"""The compliant (Hunt-Crossley) contact law in the event loop (gibbsimpact.simulation.compliant, issue 26):
+a rigid rod falling end-first against Hertz's closed form, the law's own restitution against the closed
+form of its one-degree-of-freedom rebound, the energy balance of the damping, mixed Newton/compliant runs."""
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+from scipy.special import beta
+
+import gibbsimpact as gi
+from gibbsimpact.contact.compliant import damping_factor
+
+#: The rod: l = 1 m, mu = 1 kg/m (m = 1 kg), a round section's rotary inertia (a free-flying link needs j_x > 0).
+ROD = gi.Link(1.0, 1.0, 20.0, rotary_inertia=(5e-5, 2.5e-5, 2.5e-5))
+MASS = 1.0
+
+
+def falling_rod(v, k, e=1.0, damping="flores", gap=0.01, t_end=None, gravity=0.0, **kw):
+    """The rod hanging vertical (O1 on top, O2 below) at ``gap`` [m] above the floor Y = 0, falling at v [m/s]
+    without rotation onto a compliant floor (k [N/m^1.5], exponent 1.5): the Result."""
+    model = gi.Model(gi.Chain([ROD]), gravity=(0.0, -gravity, 0.0))
+    q0 = model.state(X2=1.0 + gap, theta_1=-np.pi / 2)
+    qd0 = model.state(X2=-v)
+    floor = gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), restitution=e, stiffness=k, exponent=1.5, damping=damping)
+    t_end = gap / v + 3.0 * hertz_duration(MASS, v, k) if t_end is None else t_end
+    return gi.simulate(model, q0, qd0, (0.0, t_end), walls=[floor], **kw)
+
+
+def hertz_duration(m, v, k):
+    """Contact time [s] of a mass m [kg] striking at v [m/s] a spring F = k d^(3/2) (Hertz):
+
+    (1/2) m v^2 = (1/2) m d'^2 + (2/5) k d^(5/2)  ->  t = 2 (d_max / v) int_0^1 dx / sqrt(1 - x^(5/2))
+    = 2 (d_max / v) (2/5) B(2/5, 1/2) = 2.94325 d_max / v,  d_max = (5 m v^2 / (4 k))^(2/5)."""
+    return 2.0 * 0.4 * beta(0.4, 0.5) * hertz_penetration(m, v, k) / v
+
+
+def hertz_penetration(m, v, k):
+    return (5.0 * m * v * v / (4.0 * k)) ** 0.4
+
+
+def hunt_crossley_restitution(chi):
+    """The rebound of one degree of freedom under F = k d^p (1 + chi d' / v0), v0 = d'(0): with u = d',
+    m u du/dd = -k d^p (1 + a u), a = chi / v0, integrates to m [u/a - ln(1 + a u)/a^2] = -k d^(p+1)/(p+1) + C,
+    so the exit speed u_f = -e v0 (d = 0 again) solves
+
+        -chi e - ln(1 - chi e) = chi - ln(1 + chi)
+
+    (independent of m, k, p and v0; 1 - chi e > 0: the clamp F >= 0 is never reached)."""
+    if chi == 0.0:
+        return 1.0
+    rhs = chi - np.log1p(chi)
+    return brentq(lambda e: -chi * e - np.log1p(-chi * e) - rhs, 0.0, (1.0 - 1e-15) / chi, xtol=1e-15)
+
+
+def test_hertz_rod_penetration_and_duration():
+    """(a) e = 1, p = 3/2: the deepest penetration and the contact time of Hertz's closed forms to 1e-4, the
+    rod's velocity reversed, no rotation."""
+    v, k = 1.0, 1e6
+    dt = hertz_duration(MASS, v, k)
+    res = falling_rod(v, k, output_dt=dt / 4000)
+    (contact,) = res.compliant_contacts
+    assert contact.approach_speed == pytest.approx(v, rel=1e-9)
+    assert (contact.end - contact.start) / dt == pytest.approx(1.0, abs=1e-4)
+    depth = -res.joint_positions()[:, 1, 1].min()
+    assert depth / hertz_penetration(MASS, v, k) == pytest.approx(1.0, abs=1e-4)
+    theta = res.q[:, 5]
+    assert np.ptp(theta) < 1e-12
+    assert res.qdot[-1, 1] == pytest.approx(v, rel=1e-8)
+    # The normal impulse, integrated with the state, is the momentum change 2 m v.
+    assert res.compliant_integrals[-1, 2] == pytest.approx(2.0 * MASS * v, rel=1e-8)
+
+
+@pytest.mark.parametrize("damping, e", [("flores", 0.5), ("flores", 0.9), ("lankarani-nikravesh", 0.8),
+                                        ("lankarani-nikravesh", 0.3)])
+def test_rod_rebounds_with_the_laws_own_restitution(damping, e):
+    """(b) e < 1: the rod's exit speed over its approach speed is the closed form of the law's rebound."""
+    v, k = 2.0, 1e6
+    res = falling_rod(v, k, e=e, damping=damping)
+    e_closed = hunt_crossley_restitution(damping_factor(e, damping))
+    assert res.qdot[-1, 1] / v == pytest.approx(e_closed, abs=1e-7)
+    assert res.compliant_integrals[-1, 2] == pytest.approx(MASS * v * (1.0 + e_closed), rel=1e-7)
+
+
+def test_the_relations_rebound_table_of_the_docs():
+    """The rebound each chi(e) gives (docs/theory.md §11.6): Flores et al. within 0.045 of e over the whole range,
+    Lankarani-Nikravesh near e only close to 1 (at e = 0.5 the rod leaves at 0.73)."""
+    table = {0.1: (0.0694, 0.6653), 0.3: (0.2562, 0.6842), 0.5: (0.4704, 0.7252), 0.8: (0.7885, 0.8471),
+             0.9: (0.8939, 0.9132), 1.0: (1.0, 1.0)}
+    for e, (flores, ln) in table.items():
+        assert hunt_crossley_restitution(damping_factor(e, "flores")) == pytest.approx(flores, abs=5e-5)
+        assert hunt_crossley_restitution(damping_factor(e, "lankarani-nikravesh")) == pytest.approx(ln, abs=5e-5)
+        assert abs(flores - e) < 0.045
+
+
+@pytest.mark.parametrize("e", [1.0, 0.5])
+def test_energy_balance_of_the_damping(e):
+    """(c) e = 1 conserves E to the integrator's tolerance; e < 1 loses exactly the work of the damping
+    (integrated as a state: Result.compliant_integrals[:, 0]), with gravity acting during the contact.
+    Both are integrated quantities: at rtol = 1e-12 (some 60 steps) their balance holds to ~1e-11; the
+    bound 1e-8 is the issue's (at the default rtol = 1e-10, atol = 1e-12 it is ~1e-7 of E)."""
+    v, k = 1.5, 1e6
+    res = falling_rod(v, k, e=e, gravity=9.81, rtol=1e-12, atol=1e-14)
+    E = res.energy().total
+    lost = E[0] - E[-1]
+    damping_work = res.compliant_integrals[-1, 0] - res.compliant_integrals[0, 0]
+    scale = 0.5 * MASS * v * v
+    assert abs(lost + damping_work) / scale < 1e-8
+    if e == 1.0:
+        assert abs(lost) / scale < 1e-8 and damping_work == 0.0
+    else:
+        assert lost / scale > 0.5
+
+
+def test_walls_check_the_compliant_parameters():
+    for bad, match in [(dict(stiffness=-1.0), "stiffness"), (dict(stiffness=1e6, exponent=0.5), "exponent"),
+                       (dict(stiffness=1e6, damping="hertz"), "damping")]:
+        with pytest.raises(ValueError, match=match):
+            gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), **bad)
+        with pytest.raises(ValueError, match=match):
+            gi.Circle(1.0, **bad)
+    with pytest.raises(ValueError, match="e=0 with damping='flores'"):
+        damping_factor(0.0, "flores")
+    assert damping_factor(0.0, "lankarani-nikravesh") == 0.75
+    assert gi.Sphere(2.0, stiffness=1e6).stiffness == 1e6
+
+
+def test_flores_refuses_a_plastic_wall_at_the_start():
+    with pytest.raises(ValueError, match="e=0"):
+        falling_rod(1.0, 1e6, e=0.0)
