@@ -127,3 +127,22 @@ def test_walls_check_the_compliant_parameters():
 def test_flores_refuses_a_plastic_wall_at_the_start():
     with pytest.raises(ValueError, match="e=0"):
         falling_rod(1.0, 1e6, e=0.0)
+
+
+def test_a_compliant_contact_is_one_episode():
+    """Result.episodes: one episode from the start event to the rebound, its impulse the integrated normal impulse
+    m v (1 + e'), its effective restitution e' (the law's closed form), energy lost = -damping work, the deepest
+    penetration and largest force of the samples."""
+    v, k, e = 2.0, 1e6, 0.5
+    res = falling_rod(v, k, e=e)
+    e_closed = hunt_crossley_restitution(damping_factor(e, "flores"))
+    (ep,) = res.episodes
+    (contact,) = res.compliant_contacts
+    assert ep.start == contact.start and ep.end > contact.end
+    assert ep.n_impacts == 0 and ep.points == (2,) and ep.first_point == 2 and ep.resting_time == 0.0
+    assert ep.impulse == pytest.approx(MASS * v * (1.0 + e_closed), rel=1e-7)
+    assert ep.restitution == pytest.approx(e_closed, abs=1e-7)
+    assert ep.energy_lost == pytest.approx(-ep.damping_work, rel=1e-6)
+    assert ep.friction_work == 0.0
+    assert ep.max_force == pytest.approx(res.compliant_forces.max())
+    assert 0.5 * hertz_penetration(MASS, v, k) < ep.max_penetration < hertz_penetration(MASS, v, k)

@@ -73,9 +73,9 @@ def normal_force(penetration, rate, k, p, chi, v0):
 
     F_d is the force of the damping term (its power F_d gdot_- ... is what the contact dissipates).
     """
-    d = np.maximum(np.asarray(penetration, dtype=float), 0.0)
+    d = np.maximum(penetration, 0.0)
     Fe = k * d ** p
-    Fn = np.maximum(Fe * (1.0 + chi * np.asarray(rate, dtype=float) / v0), 0.0)
+    Fn = np.maximum(Fe * (1.0 + chi * rate / v0), 0.0)
     return Fn, Fn - Fe
 
 

@@ -79,6 +79,8 @@ class CompliantContacts:
         self._zero_rates = np.zeros(self.n_extra)
         self.log: list[CompliantContact] = []
         self._open: dict = {}  # (w, c) -> index into log of the pair's contact under way
+        self._one_wall = None  # the wall of every active pair when there is one such wall
+        self._frictional = False  # whether an active pair is on a wall with friction
 
     # -- episode state ----------------------------------------------------------------------------
 
@@ -88,15 +90,22 @@ class CompliantContacts:
         approach = -float(nrm[w, c] @ J[w, c] @ qd)
         self.v0[w, c] = max(approach, MIN_APPROACH_SPEED)
         self.active[w, c] = True
-        self._pairs = np.argwhere(self.active)
+        self._changed()
         self._open[(w, c)] = len(self.log)
         self.log.append(CompliantContact(int(w), int(c) + 1, float(t), float("nan"), approach))
+
+    def _changed(self) -> None:
+        """The active pairs changed: their list and what the force's fast paths read from it."""
+        self._pairs = np.argwhere(self.active)
+        walls = np.unique(self._pairs[:, 0])
+        self._one_wall = int(walls[0]) if walls.size == 1 else None
+        self._frictional = bool(np.any(self.mu[walls] > 0))
 
     def end(self, w: int, c: int, t: float) -> None:
         """Deactivate pair (w, c) at its end event at t [s]."""
         self.active[w, c] = False
         self.v0[w, c] = np.nan
-        self._pairs = np.argwhere(self.active)
+        self._changed()
         i = self._open.pop((w, c))
         self.log[i] = self.log[i]._replace(end=float(t))
 
@@ -110,6 +119,9 @@ class CompliantContacts:
             g, nrm, J, _, _ = self.contacts.full(q)
             return g[w, c], nrm[w, c], J[w, c]
         p, Jac = joint_positions_and_jacobians(self.model, q)
+        if self._one_wall is not None:  # every active pair on one wall: one geometry call
+            g, nrm, _ = self.contacts.walls[self._one_wall].geometry(p[c])
+            return g, nrm, Jac[c]
         g, nrm = np.empty(len(pairs)), np.empty((len(pairs), 3))
         for i, (wi, ci) in enumerate(pairs):
             gi, ni, _ = self.contacts.walls[wi].geometry(p[ci][None, :])
@@ -122,12 +134,16 @@ class CompliantContacts:
         forces (k, N) of the k active pairs at (q, qd) (N,) each."""
         w, c = self._pairs[:, 0], self._pairs[:, 1]
         g, nrm, J = self._geometry(q)
-        v = np.einsum("kcn,n->kc", J, qd)  # point velocities (k, 3) [m/s]
-        gdot = np.einsum("kc,kc->k", nrm, v)  # |grad g| = 1: gdot = n . pdot
+        v = J @ qd  # point velocities (k, 3) [m/s]
+        gdot = (nrm * v).sum(axis=1)  # |grad g| = 1: gdot = n . pdot
         Fn, Fd = normal_force(-g, -gdot, self.k[w], self.p[w], self.chi[w], self.v0[w, c])
         v_t = v - gdot[:, None] * nrm
-        Ft = friction_force(Fn, v_t, self.mu[w])
-        Qk = np.einsum("kcn,kc->kn", J, nrm * Fn[:, None] + Ft)
+        if self._frictional:
+            Ft = friction_force(Fn, v_t, self.mu[w])
+            f = nrm * Fn[:, None] + Ft
+        else:
+            Ft, f = np.zeros_like(v_t), nrm * Fn[:, None]
+        Qk = (f[:, None, :] @ J)[:, 0, :]  # J^T f per pair (k, N)
         return Fn, Fd, Ft, gdot, v_t, Qk
 
     def generalized_force(self, q, qd):
@@ -136,7 +152,7 @@ class CompliantContacts:
             return np.zeros(self.N), self._zero_rates
         Fn, Fd, Ft, gdot, v_t, Qk = self.pair_forces(q, qd)
         Q = Qk.sum(axis=0)
-        rates = np.concatenate(([Fd @ gdot, np.einsum("kc,kc->", Ft, v_t), Fn.sum()], Q))
+        rates = np.concatenate(([Fd @ gdot, float((Ft * v_t).sum()), Fn.sum()], Q))
         return Q, rates
 
     def force_matrix(self, q, qd) -> np.ndarray:
