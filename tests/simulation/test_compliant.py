@@ -2,6 +2,8 @@
 a rigid rod falling end-first against Hertz's closed form, the law's own restitution against the closed
 form of its one-degree-of-freedom rebound, the energy balance of the damping, mixed Newton/compliant runs."""
 
+import functools
+
 import numpy as np
 import pytest
 from scipy.optimize import brentq
@@ -146,3 +148,84 @@ def test_a_compliant_contact_is_one_episode():
     assert ep.friction_work == 0.0
     assert ep.max_force == pytest.approx(res.compliant_forces.max())
     assert 0.5 * hertz_penetration(MASS, v, k) < ep.max_penetration < hertz_penetration(MASS, v, k)
+
+
+def test_resting_on_a_compliant_wall_is_a_steady_compliant_state():
+    """Dropped with gravity and e = 0.5, the rod bounces twice and comes to rest in contact: no impact, no resting
+    mode, the force m g at the static penetration (m g / k)^(1/p) (to the integrator's tolerance)."""
+    g, k = 9.81, 1e6
+    res = falling_rod(1.0, k, e=0.5, gravity=g, t_end=1.0)
+    assert res.status == "finished" and not res.impacts and res.resting_time == 0.0
+    assert [np.isnan(c.end) for c in res.compliant_contacts] == [False, False, True]
+    assert res.compliant_forces[-1, 0, 1] == pytest.approx(MASS * g, rel=1e-6)
+    assert 1.0 - res.q[-1, 1] == pytest.approx((MASS * g / k) ** (1 / 1.5), rel=1e-6)
+    assert abs(res.qdot[-1, 1]) < 1e-9
+
+
+def test_mixed_newton_and_compliant_walls():
+    """A Newton ceiling (e = 1) above a compliant floor (e = 1): the rod rebounds from the floor, strikes the ceiling
+    with O1 (one impact, Newton's law), and comes back onto the floor (a second compliant contact); energy kept."""
+    v, k = 1.0, 1e6
+    ceiling = gi.Plane((0.0, 1.05, 0.0), (0.0, -1.0, 0.0), restitution=1.0)
+    model = gi.Model(gi.Chain([ROD]), gravity=(0.0, 0.0, 0.0))
+    floor = gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), restitution=1.0, stiffness=k)
+    q0, qd0 = model.state(X2=1.01, theta_1=-np.pi / 2), model.state(X2=-v)
+    res = gi.simulate(model, q0, qd0, (0.0, 0.15), walls=[floor, ceiling])
+    assert [(r.wall, r.joints) for r in res.impacts] == [((1,), (1,))]
+    assert [c.wall for c in res.compliant_contacts] == [0, 0]
+    assert res.qdot[-1, 1] == pytest.approx(v, rel=1e-8)
+    E = res.energy().total
+    assert abs(E[-1] - E[0]) / E[0] < 1e-8
+    # The flight between: O1 rises from 1.0 m to the ceiling at 1.05 m and falls back at v.
+    first, second = res.compliant_contacts
+    assert second.start - first.end == pytest.approx(2 * 0.05 / v, rel=1e-8)
+
+
+# -- the flexible arm of issue 26 ----------------------------------------------------------------------------
+#: Its floor, compliant: e = 0.5 (Flores), k = 1e4 N/m^1.5: the tip (effective mass 1/3 kg, 3.3 m/s) stays
+#: 56 ms in contact, 14 periods of the first bending mode at EI = 1e4 (omega_1 = 15.4 sqrt(EI) rad/s, pinned-free).
+ARM_FLOOR = gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), restitution=0.5, stiffness=1e4)
+
+
+def arm_state(model, gap=1e-3):
+    """(q, qdot) of the arm released horizontal at rest when its tip is ``gap`` [m] above the floor, undeformed, in
+    the rigid rod's closed form: (1/2)(m l^2 / 3) omega^2 = m g (l / 2) sin|theta| -> omega^2 = 3 g sin|theta| / l."""
+    s = 0.5 - gap  # l sin|theta| = 0.5 m - gap, l = 1 m
+    q, qd = np.zeros(model.n_dof), np.zeros(model.n_dof)
+    q[model.theta_index[0]], qd[model.theta_index[0]] = -np.arcsin(s), -np.sqrt(3.0 * 9.81 * s)
+    return q, qd
+
+
+@functools.cache
+def arm_episode(elements, EI=1e4):
+    """The one collision episode of the arm of issue 26 (``elements`` Hermite elements, 0: the rigid rod) on
+    ARM_FLOOR, from 1 mm above the floor to 60 ms (the contact ends at 56.3 ms)."""
+    from conftest import issue26_model
+
+    model = issue26_model(elements, EI)
+    q0, qd0 = arm_state(model)
+    res = gi.simulate(model, q0, qd0, (0.0, 0.06), walls=[ARM_FLOOR])
+    assert res.status == "finished" and not res.impacts
+    (ep,) = res.episodes
+    return ep
+
+
+@pytest.mark.parametrize("elements", [2, pytest.param(4, marks=pytest.mark.slow),
+                                      pytest.param(8, marks=pytest.mark.slow)])
+def test_rigid_limit_of_the_flexible_arm(elements):
+    """(d) EI = 1e4 (contact 14 first-bending periods long): the arm's effective restitution (angular momentum about
+    the pivot after over before, gravity removed: Episode.restitution) is the rigid rod's within 0.02 for every
+    mesh (measured: 0.59877 rigid, 0.60012 for n_e = 2 and 4), where Newton's law gave 0.65-0.77; its impulse too."""
+    rigid, arm = arm_episode(0), arm_episode(elements)
+    assert abs(arm.restitution - rigid.restitution) < 0.02
+    assert arm.impulse == pytest.approx(rigid.impulse, rel=0.02)
+    assert arm.non_contact_share < 0.2  # gravity's share of the 56 ms contact, removed from e_eff
+
+
+@pytest.mark.slow
+def test_compliant_collision_converges_with_the_mesh():
+    """(e) EI = 1e3 (contact 4.4 first-bending periods long): the episode's total impulse and effective restitution
+    change by less than 2 % from n_e = 8 to 16 (Newton's law: the first impulse halves)."""
+    coarse, fine = arm_episode(8, EI=1e3), arm_episode(16, EI=1e3)
+    assert fine.impulse == pytest.approx(coarse.impulse, rel=0.02)
+    assert fine.restitution == pytest.approx(coarse.restitution, rel=0.02)
