@@ -229,3 +229,21 @@ def test_compliant_collision_converges_with_the_mesh():
     coarse, fine = arm_episode(8, EI=1e3), arm_episode(16, EI=1e3)
     assert fine.impulse == pytest.approx(coarse.impulse, rel=0.02)
     assert fine.restitution == pytest.approx(coarse.restitution, rel=0.02)
+
+
+def test_compliant_forces_in_the_files_and_the_figure(tmp_path):
+    """contact_forces.csv holds the compliant force per sample (Fc_w<wall>_<point>_N), episodes.csv the damping
+    work, result.npz gives back the same Result (forces, integrals, contacts, episodes), the figure is drawn."""
+    from gibbsimpact.io.result_files import read_csv, to_csv
+
+    res = falling_rod(2.0, 1e6, e=0.5)
+    out = to_csv(res, tmp_path)
+    table = read_csv(out["contact_forces"])
+    assert np.array_equal(table["Fc_w1_O2_N"], res.compliant_forces[:, 0, 1]) and not np.any(table["Fc_w1_O1_N"])
+    episodes = read_csv(out["episodes"])
+    assert episodes["damping_work_J"][0] == res.episodes[0].damping_work < 0.0
+    res.save(tmp_path / "result.npz")
+    back = gi.load_result(tmp_path / "result.npz")
+    assert back.compliant_contacts == res.compliant_contacts and back.episodes == res.episodes
+    assert np.array_equal(back.compliant_integrals, res.compliant_integrals)
+    assert res.plot("contact_forces") is not None
