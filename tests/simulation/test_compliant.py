@@ -84,7 +84,7 @@ def test_rod_rebounds_with_the_laws_own_restitution(damping, e):
 
 
 def test_the_relations_rebound_table_of_the_docs():
-    """The rebound each chi(e) gives (docs/theory.md §11.6): Flores et al. within 0.045 of e over the whole range,
+    """The rebound each chi(e) gives (docs/theory.md §11.5): Flores et al. within 0.045 of e over the whole range,
     Lankarani-Nikravesh near e only close to 1 (at e = 0.5 the rod leaves at 0.73)."""
     table = {0.1: (0.0694, 0.6653), 0.3: (0.2562, 0.6842), 0.5: (0.4704, 0.7252), 0.8: (0.7885, 0.8471),
              0.9: (0.8939, 0.9132), 1.0: (1.0, 1.0)}

@@ -1,4 +1,4 @@
-"""Compliant (Hunt-Crossley) contact: the normal force law of a wall with a stiffness (docs/theory.md §11.6).
+"""Compliant (Hunt-Crossley) contact: the normal force law of a wall with a stiffness (docs/theory.md §11.5).
 
 A wall given ``stiffness=k`` resolves a collision in time instead of by Newton's impulse law. With
 g_- = max(0, -g) [m] the penetration of a contact point, gdot_- = -gdot [m/s] its rate and v_0 [m/s]

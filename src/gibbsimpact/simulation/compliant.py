@@ -1,5 +1,5 @@
 """Compliant contact in the event loop: the Hunt-Crossley force of the walls with a stiffness, its episode
-state and its events (docs/theory.md §11.6; the law: gibbsimpact.contact.compliant).
+state and its events (docs/theory.md §11.5; the law: gibbsimpact.contact.compliant).
 
 A (wall, contact point) pair of a compliant wall is *active* from its start event to its end event:
 
