@@ -359,7 +359,8 @@ def test_walls_of_the_compliant_law(tmp_path):
     keeps them."""
     from gibbsimpact.io.plain_data import wall_from_dict, wall_to_dict
 
-    text = GOOD.replace('radius_m = 1.5', 'radius_m = 1.5\nstiffness = 1e6\nexponent = 1.0\ndamping = "lankarani-nikravesh"')
+    law = 'stiffness = 1e6\nexponent = 1.0\ndamping = "lankarani-nikravesh"'
+    text = GOOD.replace('radius_m = 1.5', 'radius_m = 1.5\n' + law)
     (wall,) = gi.load_case(write(tmp_path, text)).walls
     assert wall == gi.Circle(radius=1.5, stiffness=1e6, exponent=1.0, damping="lankarani-nikravesh")
     assert wall_from_dict(wall_to_dict(wall)) == wall

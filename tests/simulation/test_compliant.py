@@ -219,7 +219,7 @@ def test_rigid_limit_of_the_flexible_arm(elements):
     rigid, arm = arm_episode(0), arm_episode(elements)
     assert abs(arm.restitution - rigid.restitution) < 0.02
     assert arm.impulse == pytest.approx(rigid.impulse, rel=0.02)
-    assert arm.non_contact_share < 0.2  # gravity's share of the 56 ms contact, removed from e_eff
+    assert arm.non_contact_share < 0.25  # gravity's share of the 56 ms contact (0.195), removed from e_eff
 
 
 @pytest.mark.slow

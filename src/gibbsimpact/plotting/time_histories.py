@@ -313,7 +313,8 @@ def plot_contact_forces(result, case_name=None, ax=None):
         _curve(axes[0], result.t, F[:, w, j], label=f"{names[j]} on wall {w + 1}", **_style(c, _joint_colour(int(j))))
         c += 1
     for w, j in (np.argwhere(np.any(Fc != 0.0, axis=0)) if Fc is not None else ()):
-        label = (names[j] if j < len(names) else _point_name(result.model, int(j) + 1)) + f" on wall {w + 1} (compliant)"
+        point = names[j] if j < len(names) else _point_name(result.model, int(j) + 1)
+        label = f"{point} on wall {w + 1} (compliant)"
         _curve(axes[0], result.t, Fc[:, w, j], label=label, **_style(c, _joint_colour(int(j))))
         c += 1
     axes[0].set_ylabel("contact force [N]")

@@ -5,9 +5,9 @@ Rules, with the symbols of the docs (b the contact band, §14.2):
 
 * **A pair is engaged** from an impact of it, or a sample where it carries a contact force
   (resting contact, Result.contact_forces; a compliant wall's force, Result.compliant_forces, from the
-  sample before its force rises from zero: its start event, where the gap closes), until the first later sample where its gap is above the
-  band, ``g > b``, and it carries no force: the loop's "leave" event (§14.3), whose time is always a
-  sample. That sample ends the pair's engagement.
+  sample before its force rises from zero: its start event, where the gap closes), until the first
+  later sample where its gap is above the band, ``g > b``, and it carries no force: the loop's
+  "leave" event (§14.3), whose time is always a sample. That sample ends the pair's engagement.
 * **The body is the chain**: one impact couples every link through M, so contacts of several
   links, simultaneous or not, and of several walls belong to one episode while they overlap.
   Episodes are disjoint in time, and their energies add up.
@@ -29,11 +29,12 @@ Rules, with the symbols of the docs (b the contact band, §14.2):
   w_R^T M_RR^-1 p_R is the normal velocity of the first contact for the chain made rigid with the
   same momenta p_R. An episode that starts with a compliant contact (its start event: no impact) takes p^- at
   that sample, P from the integrated generalised impulse of the compliant forces (Result.compliant_integrals,
-  exact to the integrator's tolerance) and w = J_j^T n_j of its first compliant pair there. p^- + P keeps the momenta the contacts gave and leaves out what gravity, the
-  inputs and the velocity terms did during the episode. For one impact of a rigid chain it is
+  exact to the integrator's tolerance) and w = J_j^T n_j of its first compliant pair there.
+  p^- + P keeps the momenta the contacts gave and leaves out what gravity, the inputs and the
+  velocity terms did during the episode. For one impact of a rigid chain it is
   -v_n^+ / v_n^- = e exactly; for an arm on a fixed pivot (R = {theta_1}) it is the ratio of the
   angular momenta about the pivot, after (gravity removed) over before. NaN for an episode that
-  did not start with an impact (it started resting: nothing approached). It presumes an impulsive
+  did not start with an impact or a compliant contact (it started resting: nothing approached). It presumes an impulsive
   collision: ``non_contact_share``, the change of w_R^T M_RR^-1 p_R that the other forces made during
   the episode over its value before, says how far that holds (e_eff moves by up to that much if they
   are counted).
