@@ -62,6 +62,7 @@ def test_hertz_rod_penetration_and_duration():
     res = falling_rod(v, k, output_dt=dt / 4000)
     (contact,) = res.compliant_contacts
     assert contact.approach_speed == pytest.approx(v, rel=1e-9)
+    assert contact.start == pytest.approx(0.01 / v, abs=1e-13)  # the start event located on the dense output
     assert (contact.end - contact.start) / dt == pytest.approx(1.0, abs=1e-4)
     depth = -res.joint_positions()[:, 1, 1].min()
     assert depth / hertz_penetration(MASS, v, k) == pytest.approx(1.0, abs=1e-4)
