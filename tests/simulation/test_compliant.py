@@ -258,3 +258,29 @@ def test_compliant_forces_in_the_files_and_the_figure(tmp_path):
     assert back.compliant_contacts == res.compliant_contacts and back.episodes == res.episodes
     assert np.array_equal(back.compliant_integrals, res.compliant_integrals)
     assert res.plot("contact_forces") is not None
+
+
+def test_a_span_contact_is_a_force_at_the_links_closest_point(tmp_path):
+    """A flexible link bulging into a compliant floor between its joints: the link column carries the force, at
+    the material point deepest in the floor (an independent search: conftest.deepest_point), recorded in
+    Result.compliant_points and contact_forces.csv; the joints, above the floor, carry none."""
+    from conftest import deepest_point
+
+    from gibbsimpact.io.result_files import read_csv, to_csv
+
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")], rotary_inertia=(5e-5, 2.5e-5, 2.5e-5))
+    model = gi.Model(gi.Chain([link]), gravity=(0.0, 0.0, 0.0))
+    floor = gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), restitution=0.8, stiffness=1e5)
+    res = gi.simulate(model, model.state(X1=-0.5, X2=1e-3), model.state(delta_1_1=-0.5), (0.0, 0.01), walls=[floor])
+    assert res.status == "finished" and not res.impacts
+    first, *later = res.compliant_contacts
+    assert first.point == 3 and later[0].start > first.start  # column 3: link 1's closest point; its ends come later
+    during = res.t < later[0].start
+    F = res.compliant_forces[during, 0]
+    assert not F[:, :2].any() and F[:, 2].max() > 0.0
+    k = int(np.argmax(F[:, 2]))
+    x, depth = deepest_point(model, res.q[k], 0, floor)
+    assert res.compliant_points[k, 0, 2, 1] == pytest.approx(-depth, abs=1e-9)
+    assert res.compliant_points[k, 0, 2, 0] == pytest.approx(res.q[k, 0] + x, abs=1e-6)
+    table = read_csv(to_csv(res, tmp_path)["contact_forces"])
+    assert np.array_equal(table["Xc_w1_link1_X2_m"], res.compliant_points[:, 0, 2, 1], equal_nan=True)

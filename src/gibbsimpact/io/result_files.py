@@ -13,7 +13,8 @@ Files (docs/case-format.md, "Output files"):
   t, phase, and the normal force [N] of every (wall, contact point) pair in resting contact (0
   elsewhere), then (with friction on a wall) the friction force of each pair, world components,
   then (with compliant walls) the compliant normal force Fc_w<wall>_<point>_N of every (wall,
-  contact column) pair: the joints, then the closest point of each flexible link ("link<i>").
+  contact column) pair: the joints, then the closest point of each flexible link ("link<i>"),
+  and where that closest point is in contact, Xc_w<wall>_link<i>_X<a>_m (NaN out of contact).
 * ``summary.json``: versions, settings, impacts, energies, status.
 * ``result.npz``: everything in a :class:`~gibbsimpact.results.Result`
   (trajectory, every field of every impact, status, settings, counters, the
@@ -262,6 +263,13 @@ def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
     if result.compliant_forces is not None:
         F = np.hstack((F, np.asarray(result.compliant_forces).reshape(K, -1)))
         header += compliant_force_columns(result)
+        # Where a link's closest point touches (a joint's position is in timeseries.csv): NaN out of contact.
+        P = result.model.n_joints
+        X = np.asarray(result.compliant_points)[:, :, P:]
+        if X.size:
+            F = np.hstack((F, X.reshape(K, -1)))
+            header += [c.replace("Fc_", "Xc_", 1)[:-2] + f"_X{a + 1}_m" for c in compliant_force_columns(result)
+                       if "_link" in c for a in range(3)]
     with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
@@ -551,6 +559,7 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         arrays["friction_forces"] = np.asarray(result.friction_forces, dtype=float)
     if result.compliant_forces is not None:
         arrays["compliant_forces"] = np.asarray(result.compliant_forces, dtype=float)
+        arrays["compliant_points"] = np.asarray(result.compliant_points, dtype=float)
         arrays["compliant_integrals"] = np.asarray(result.compliant_integrals, dtype=float)
         arrays["compliant_contacts"] = np.array(result.compliant_contacts, dtype=float).reshape(-1, 5)
     meta = {
@@ -628,7 +637,8 @@ def load_result(path, with_metadata: bool = False):
         energy_error_whole_run_J=float(_untag(meta.get("energy_error_whole_run_J", float("nan")))),
         work=a.get("work"), contact_forces=a.get("contact_forces"), friction_forces=a.get("friction_forces"),
         resting_time=float(_untag(meta.get("resting_time", 0.0))),
-        compliant_forces=a.get("compliant_forces"), compliant_integrals=a.get("compliant_integrals"),
+        compliant_forces=a.get("compliant_forces"), compliant_points=a.get("compliant_points"),
+        compliant_integrals=a.get("compliant_integrals"),
         compliant_contacts=[CompliantContact(int(r[0]), int(r[1]), *map(float, r[2:]))
                             for r in a.get("compliant_contacts", np.zeros((0, 5)))],
     )

@@ -112,28 +112,29 @@ class CompliantContacts:
     # -- forces -----------------------------------------------------------------------------------
 
     def _geometry(self, q):
-        """Gaps (k,) [m], normals (k, 3), Jacobians (k, 3, N) of the active pairs at q (N,)."""
+        """Gaps (k,) [m], normals (k, 3), Jacobians (k, 3, N) and positions (k, 3) [m] of the active pairs'
+        points at q (N,)."""
         pairs = self._pairs
         w, c = pairs[:, 0], pairs[:, 1]
         if np.any(c >= self.model.n_joints):  # a link column: the closest point's search (Contacts.full)
-            g, nrm, J, _, _ = self.contacts.full(q)
-            return g[w, c], nrm[w, c], J[w, c]
+            g, nrm, J, pts, _ = self.contacts.full(q)
+            return g[w, c], nrm[w, c], J[w, c], pts[w, c]
         p, Jac = joint_positions_and_jacobians(self.model, q)
         if self._one_wall is not None:  # every active pair on one wall: one geometry call
             g, nrm, _ = self.contacts.walls[self._one_wall].geometry(p[c])
-            return g, nrm, Jac[c]
+            return g, nrm, Jac[c], p[c]
         g, nrm = np.empty(len(pairs)), np.empty((len(pairs), 3))
         for i, (wi, ci) in enumerate(pairs):
             gi, ni, _ = self.contacts.walls[wi].geometry(p[ci][None, :])
             g[i], nrm[i] = gi[0], ni[0]
-        return g, nrm, Jac[c]
+        return g, nrm, Jac[c], p[c]
 
     def pair_forces(self, q, qd):
         """Normal forces F_n (k,) [N], their damping parts F_d (k,) [N], friction forces F_t (k, 3) [N],
-        normal rates gdot (k,) [m/s], tangential velocities v_t (k, 3) [m/s] and J^T-mapped generalised
-        forces (k, N) of the k active pairs at (q, qd) (N,) each."""
+        normal rates gdot (k,) [m/s], tangential velocities v_t (k, 3) [m/s], J^T-mapped generalised
+        forces (k, N) and the points' positions (k, 3) [m] of the k active pairs at (q, qd) (N,) each."""
         w, c = self._pairs[:, 0], self._pairs[:, 1]
-        g, nrm, J = self._geometry(q)
+        g, nrm, J, pts = self._geometry(q)
         v = J @ qd  # point velocities (k, 3) [m/s]
         gdot = (nrm * v).sum(axis=1)  # |grad g| = 1: gdot = n . pdot
         Fn, Fd = normal_force(-g, -gdot, self.k[w], self.p[w], self.chi[w], self.v0[w, c])
@@ -144,29 +145,35 @@ class CompliantContacts:
         else:
             Ft, f = np.zeros_like(v_t), nrm * Fn[:, None]
         Qk = (f[:, None, :] @ J)[:, 0, :]  # J^T f per pair (k, N)
-        return Fn, Fd, Ft, gdot, v_t, Qk
+        return Fn, Fd, Ft, gdot, v_t, Qk, pts
 
     def generalized_force(self, q, qd):
         """(Q (N,) [N, N m], rates (3 + N,) of the extra states: module docstring) at (q, qd) (N,) each."""
         if not len(self._pairs):
             return np.zeros(self.N), self._zero_rates
-        Fn, Fd, Ft, gdot, v_t, Qk = self.pair_forces(q, qd)
+        Fn, Fd, Ft, gdot, v_t, Qk, _ = self.pair_forces(q, qd)
         Q = Qk.sum(axis=0)
         rates = np.concatenate(([Fd @ gdot, float((Ft * v_t).sum()), Fn.sum()], Q))
         return Q, rates
 
-    def force_matrix(self, q, qd) -> np.ndarray:
-        """F_n (W, C) [N] of every pair at (q, qd), zero for the inactive ones (for the recorded samples)."""
-        F = np.zeros(self.active.shape)
+    def force_matrix(self, q, qd) -> tuple:
+        """F_n (W, C) [N] of every pair at (q, qd), zero for the inactive ones, and where each active pair's
+        point is, (W, C, 3) [m] (NaN for the inactive ones): for the recorded samples."""
+        F, X = np.zeros(self.active.shape), np.full(self.active.shape + (3,), np.nan)
         if len(self._pairs):
-            F[self._pairs[:, 0], self._pairs[:, 1]] = self.pair_forces(q, qd)[0]
-        return F
+            w, c = self._pairs[:, 0], self._pairs[:, 1]
+            out = self.pair_forces(q, qd)
+            F[w, c], X[w, c] = out[0], out[-1]
+        return F, X
 
-    def sample_forces(self, Y) -> np.ndarray:
-        """F_n (K, W, C) [N] at the states Y (K, 2N [+ extra]) of one phase (its active set)."""
-        N = self.N
-        return np.stack([self.force_matrix(y[:N], y[N:2 * N]) for y in Y]) if len(Y) else \
-            np.zeros((0,) + self.active.shape)
+    def sample_forces(self, Y) -> tuple:
+        """F_n (K, W, C) [N] and the points (K, W, C, 3) [m] (force_matrix) at the states Y (K, 2N [+ extra]) of
+        one phase (its active set)."""
+        N, shape = self.N, self.active.shape
+        if not len(Y):
+            return np.zeros((0,) + shape), np.zeros((0,) + shape + (3,))
+        F, X = zip(*(self.force_matrix(y[:N], y[N:2 * N]) for y in Y))
+        return np.stack(F), np.stack(X)
 
     def joint_shift(self, w: int, c: int) -> float:
         """The shift [m] of entry (w, c) that Contacts.gap_single leaves out: it reads a joint column's gap

@@ -24,7 +24,8 @@ class Chunk(NamedTuple):
     forces: np.ndarray | None = None  # (k, W, P) [N] resting-contact forces; None: all zero
     friction: np.ndarray | None = None  # (k, W, P, 3) [N] their tangential forces; None: all zero
     balance: float = 0.0  # [J] signed change of E - W from the sample before, counted in the whole-run error
-    compliant: tuple | None = None  # ((k, W, C) [N] compliant normal forces, (k, 3 + N) their integrals); None: none
+    compliant: tuple | None = None  # compliant normal forces (k, W, C) [N], their points (k, W, C, 3) [m] and
+    # integrals (k, 3 + N) (simulation.compliant); None: no compliant force on these samples
 
 
 def one_sample(E: Energy) -> Energy:
@@ -73,8 +74,8 @@ class Recorder:
 
         forces : None or (K, W, P) [N], the resting-contact forces at the samples;
         friction : None or (K, W, P, 3) [N], their tangential (friction) forces;
-        compliant : None or (K, W, C) [N], the compliant contacts' normal forces (simulation.compliant),
-        whose integrals are Y's last 3 + N columns.
+        compliant : None or ((K, W, C) [N], (K, W, C, 3) [m]), the compliant contacts' normal forces and points
+        (simulation.compliant), whose integrals are Y's last 3 + N columns.
         """
         N = self.model.n_dof
         last = self.chunks[-1]
@@ -86,7 +87,7 @@ class Recorder:
         E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
         balance = E.total - E_start.total - (W.sum(axis=1) - W_start)
         err = float(np.abs(balance).max() / scale) if T.size else 0.0
-        extra = None if compliant is None else (compliant, Y[:, 2 * N + 2:])
+        extra = None if compliant is None else (*compliant, Y[:, 2 * N + 2:])
         self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces,
                                   friction, float(balance[-1]) if T.size else 0.0, extra))
 
@@ -125,21 +126,23 @@ class Recorder:
         return [c.impact for c in self.chunks if c.impact is not None]
 
     def compliant_arrays(self, shape: tuple):
-        """Compliant normal forces (K, W, C) [N] and their integrals (K, 3 + N) (simulation.compliant) at every
-        sample; shape = (W, C). Samples of an impact or a mode change hold no compliant force and the
-        integrals of the sample before."""
-        F, I = [], []
+        """Compliant normal forces (K, W, C) [N], their points (K, W, C, 3) [m] and integrals (K, 3 + N)
+        (simulation.compliant) at every sample; shape = (W, C). Samples of an impact or a mode change hold
+        no compliant force (points NaN) and the integrals of the sample before."""
+        F, X, I = [], [], []
         last = np.zeros(3 + self.model.n_dof)
         for c in self.chunks:
             if c.compliant is None:
                 F.append(np.zeros((c.t.size,) + shape))
+                X.append(np.full((c.t.size,) + shape + (3,), np.nan))
                 I.append(np.tile(last, (c.t.size, 1)))
             else:
                 F.append(c.compliant[0])
-                I.append(c.compliant[1])
+                X.append(c.compliant[1])
+                I.append(c.compliant[2])
                 if c.t.size:
-                    last = c.compliant[1][-1]
-        return np.concatenate(F), np.concatenate(I)
+                    last = c.compliant[2][-1]
+        return np.concatenate(F), np.concatenate(X), np.concatenate(I)
 
     def arrays(self):
         """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2), Energy of (K,) arrays,

@@ -117,6 +117,9 @@ class Result:
         stiffness: gibbsimpact.simulation.compliant) on contact column c (the joints O_1 .. O_P, then the
         closest point of each flexible link, as ImpactRecord.joints numbers them) at every sample; None
         for a run without compliant walls
+    compliant_points : (K, W, C, 3) [m] or None: where each pair's contact point is while the pair is in
+        compliant contact (for a link column: the link's material point closest to the wall, deflection
+        included), NaN elsewhere
     compliant_integrals : (K, 3 + N) or None: since t_span[0], the work of the compliant contacts'
         damping [J] and friction [J] (both <= 0), their normal impulse sum_j int F_n dt [N s], and their
         generalised impulse int sum_j J_j^T (n F_n + F_t) dt (N,)
@@ -157,6 +160,7 @@ class Result:
     friction_forces: np.ndarray | None = None
     resting_time: float = 0.0
     compliant_forces: np.ndarray | None = None
+    compliant_points: np.ndarray | None = None
     compliant_integrals: np.ndarray | None = None
     compliant_contacts: list = field(default_factory=list)
     _energy_cache: Energy | None = field(default=None, repr=False)

@@ -413,6 +413,7 @@ def finish(run, started: float) -> Result:
         friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
         resting_time=run.counters["resting_time"],
         **({} if run.compliant is None else dict(zip(
-            ("compliant_forces", "compliant_integrals"), run.recorder.compliant_arrays(run.compliant.active.shape)),
+            ("compliant_forces", "compliant_points", "compliant_integrals"),
+            run.recorder.compliant_arrays(run.compliant.active.shape)),
             compliant_contacts=list(run.compliant.log))),
     )
