@@ -284,3 +284,19 @@ def test_a_span_contact_is_a_force_at_the_links_closest_point(tmp_path):
     assert res.compliant_points[k, 0, 2, 0] == pytest.approx(res.q[k, 0] + x, abs=1e-6)
     table = read_csv(to_csv(res, tmp_path)["contact_forces"])
     assert np.array_equal(table["Xc_w1_link1_X2_m"], res.compliant_points[:, 0, 2, 1], equal_nan=True)
+
+
+def test_regularised_coulomb_friction_slows_a_sliding_rod():
+    """The rod lying on a compliant floor with friction mu = 0.3, sliding at 1 m/s: the floor's normal impulse is
+    m (g T + v_y(T)) (vertical momentum: only gravity and the floor act vertically), so sliding throughout,
+    v_x(T) = v_x(0) - mu (g T + v_y(T)), to the regularisation's v_eps^2 / (2 v^2) ~ 1e-6; the friction's work
+    is recorded and the run's energy balance holds."""
+    g, mu, T = 9.81, 0.3, 0.1
+    model = gi.Model(gi.Chain([ROD]), gravity=(0.0, -g, 0.0))
+    floor = gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), restitution=0.5, stiffness=1e6, friction=mu)
+    res = gi.simulate(model, model.state(), model.state(X1=1.0), (0.0, T), walls=[floor])
+    assert res.status == "finished" and [c.point for c in res.compliant_contacts] == [1, 2]
+    vx, vy = res.qdot[-1, 0], res.qdot[-1, 1]
+    assert res.compliant_integrals[-1, 2] == pytest.approx(MASS * (g * T + vy), rel=1e-9)
+    assert vx == pytest.approx(1.0 - mu * (g * T + vy), abs=1e-6)
+    assert res.compliant_integrals[-1, 1] < -0.2 and res.energy_error < 1e-8
