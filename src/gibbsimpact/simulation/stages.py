@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..contact.resting import RestingContacts
-from ..contact.walls import describe
+from ..contact.walls import describe, is_compliant
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .accumulation import Accumulation
 from .compliant import COMPLIANT_EVENTS, CompliantContacts, compliant_event, compliant_gap_functions
@@ -122,7 +122,7 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     band = contact_band(s.contact_tol, lipschitz, s.rtol, s.atol, q0)
     resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols)
     compliant = (CompliantContacts(model, contacts, s.wall_restitution, lipschitz)
-                 if any(w.stiffness is not None for w in walls) else None)
+                 if any(map(is_compliant, walls)) else None)
     equations = Equations(model, s, q0, qdot0, resting, clock, compliant)
     return Run(
         model=model, settings=s, contacts=contacts, limits=limits, stops=stops, resting=resting,
