@@ -368,3 +368,21 @@ def test_obstacle_walls_in_a_case_file_round_trip_through_a_result_file(tmp_path
     assert back.walls == case.walls
     err = problems_of(tmp_path, text.replace("inside = false", 'inside = "no"', 1))
     assert [p for p, _ in err.problems] == ["walls[2].inside"]
+
+
+def test_walls_of_the_compliant_law(tmp_path):
+    """stiffness, exponent, damping of a [[walls]] table make the wall compliant (contact.compliant); without
+    stiffness it keeps Newton's law; a bad damping name or exponent is a problem of that key; a result file
+    keeps them."""
+    from gibbsimpact.io.plain_data import wall_from_dict, wall_to_dict
+
+    law = 'stiffness = 1e6\nexponent = 1.0\ndamping = "lankarani-nikravesh"'
+    text = GOOD.replace('radius_m = 1.5', 'radius_m = 1.5\n' + law)
+    (wall,) = gi.load_case(write(tmp_path, text)).walls
+    assert wall == gi.Circle(radius=1.5, stiffness=1e6, exponent=1.0, damping="lankarani-nikravesh")
+    assert wall_from_dict(wall_to_dict(wall)) == wall
+    assert gi.load_case(write(tmp_path, GOOD)).walls[0].stiffness is None
+    err = problems_of(tmp_path, text.replace('"lankarani-nikravesh"', '"hertz"'))
+    assert [p for p, _ in err.problems] == ["walls[1].damping"]
+    err = problems_of(tmp_path, text.replace("exponent = 1.0", "exponent = 0.5"))
+    assert [p for p, _ in err.problems] == ["walls[1].exponent"]

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..contact.compliant import DAMPING_RELATIONS
 from ..contact.walls import WALL_KINDS, Plane
 from ..dynamics.inputs import INPUT_KINDS, InputSpec, is_angle_coordinate, named_inputs
 from ..model.model import Model
@@ -246,6 +247,15 @@ def _wall(r: _Reader, tbl, path: str):
     r.table(tbl, path, _WALL_KEYS[kind])
     e = r.get(tbl, path, "restitution", "number", default=None)
     mu = r.get(tbl, path, "friction", "number", default=0.0)
+    law = {"stiffness": r.get(tbl, path, "stiffness", "number", default=None),
+           "exponent": r.get(tbl, path, "exponent", "number", default=1.5),
+           "damping": r.get(tbl, path, "damping", "str", default="flores")}
+    if law["damping"] not in (_BAD, *DAMPING_RELATIONS):
+        r.add(join(path, "damping"), f"unknown damping {law['damping']!r}; use "
+              + " or ".join(map(repr, DAMPING_RELATIONS)))
+        return _BAD
+    if _BAD in law.values():
+        return _BAD
     if kind in ("circle", "sphere"):
         radius = r.get(tbl, path, "radius_m", "number", required=True, what="radius R in m")
         dim = 2 if kind == "circle" else 3
@@ -253,12 +263,13 @@ def _wall(r: _Reader, tbl, path: str):
         inside = r.get(tbl, path, "inside", "bool", default=True)
         if _BAD in (radius, center, e, mu, inside):
             return _BAD
-        return WALL_KINDS[kind](radius=radius, center=tuple(center), restitution=e, friction=mu, inside=inside)
+        return WALL_KINDS[kind](radius=radius, center=tuple(center), restitution=e, friction=mu, inside=inside,
+                               **law)
     point = r.get(tbl, path, "point_m", "vector3", default=[0.0, 0.0, 0.0])
     normal = r.get(tbl, path, "normal", "vector3", required=True, what="normal pointing into the free side")
     if _BAD in (point, normal, e, mu):
         return _BAD
-    return Plane(point=tuple(point), normal=tuple(normal), restitution=e, friction=mu)
+    return Plane(point=tuple(point), normal=tuple(normal), restitution=e, friction=mu, **law)
 
 
 # -- inputs ---------------------------------------------------------------------------------

@@ -80,6 +80,8 @@ RANGES = {
     "walls.normal": Range(1e-6, 1e6, direction=True, why="it is normalised on load"),
     "walls.restitution": Range(0, 1, why="1 = elastic, 0 = plastic"),
     "walls.friction": Range(0, MAX_FRICTION, why="Coulomb's coefficient; 0 = frictionless"),
+    "walls.stiffness": Range(1e-6, 1e20, "N/m^p", why="k of the compliant law F_n = k g^p (1 + chi gdot / v0)"),
+    "walls.exponent": Range(1, 10, why="p of the compliant law: 1.5 Hertz, 1 linear"),
     **{f"inputs.{key}": rng for key, rng in {
         # {F}: N_m on an angle coordinate, N on a length coordinate (_INPUT_KEYS).
         "value_N_m": Range(-1e12, 1e12, "N m", why="far beyond any machine, far from overflow"),
@@ -312,6 +314,12 @@ _MODE_KEYS = {
     "direction": "deflection direction, 'y' (in-plane v) or 'z' (out-of-plane w)",
     "number": "which eigenfunction, 1 = fundamental",
 }
+#: The compliant law's keys of every wall kind (gibbsimpact.contact.compliant; without stiffness: Newton's law).
+_COMPLIANT_KEYS = {
+    "stiffness": "k in N/m^p of the compliant (Hunt-Crossley) contact law; absent: Newton's impulse law",
+    "exponent": "p of the compliant law (default 1.5, Hertz)",
+    "damping": "chi(e) of the compliant law: 'flores' (default) or 'lankarani-nikravesh'",
+}
 _WALL_KEYS = {
     "circle": {
         "type": "wall type",
@@ -320,6 +328,7 @@ _WALL_KEYS = {
         "inside": "true: the chain stays inside (a container, the default); false: outside (an obstacle)",
         "restitution": "coefficient of restitution of this wall",
         "friction": "Coulomb friction coefficient of this wall (impacts and resting contact; default 0)",
+        **_COMPLIANT_KEYS,
     },
     "sphere": {
         "type": "wall type",
@@ -328,6 +337,7 @@ _WALL_KEYS = {
         "inside": "true: the chain stays inside (a container, the default); false: outside (an obstacle)",
         "restitution": "coefficient of restitution of this wall",
         "friction": "Coulomb friction coefficient of this wall (impacts and resting contact; default 0)",
+        **_COMPLIANT_KEYS,
     },
     "plane": {
         "type": "wall type",
@@ -335,6 +345,7 @@ _WALL_KEYS = {
         "normal": "normal pointing into the free side (any length)",
         "restitution": "coefficient of restitution of this wall",
         "friction": "Coulomb friction coefficient of this wall (impacts and resting contact; default 0)",
+        **_COMPLIANT_KEYS,
     },
 }
 _INITIAL_KEYS = {

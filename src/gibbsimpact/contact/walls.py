@@ -20,6 +20,8 @@ from numbers import Real
 
 import numpy as np
 
+from .compliant import check_compliance
+
 
 def _check_restitution(name, e):
     if e is None:
@@ -72,6 +74,18 @@ def _check_radius(owner, r):
     return float(r)
 
 
+def _set_compliance(wall, name, stiffness, exponent, damping) -> None:
+    """Check and set the compliant law's stiffness, exponent, damping of a (frozen) wall."""
+    k, p, d = check_compliance(name, stiffness, exponent, damping)
+    for key, value in (("stiffness", k), ("exponent", p), ("damping", d)):
+        object.__setattr__(wall, key, value)
+
+
+def is_compliant(wall) -> bool:
+    """Whether the wall resolves contact by the compliant law (a stiffness) rather than Newton's law."""
+    return getattr(wall, "stiffness", None) is not None
+
+
 class _RoundWall:
     """What Circle and Sphere share: a radius about a centre of 2 or 3 coordinates, checked once."""
 
@@ -95,6 +109,7 @@ class _RoundWall:
     def obstacle(self) -> bool:
         """True when the chain stays outside (inside=False)."""
         return not self.inside
+        _set_compliance(self, name, self.stiffness, self.exponent, self.damping)
 
     def parameters(self) -> dict:
         """Its geometry as case files and result files name it (``inside`` only for an obstacle, so that
@@ -165,6 +180,11 @@ class Circle(_RoundWall):
     inside : bool
         True (default): the chain stays inside the circle (a container); False: outside it
         (an obstacle: a post, a peg, a cylinder to rest on). The same for Sphere.
+    stiffness : float or None
+        k [N/m^p] of the compliant (Hunt-Crossley) law F_n = k g_-^p (1 + chi gdot_- / v_0)
+        (gibbsimpact.contact.compliant); None (default): Newton's impulse law.
+    exponent : float, p of the compliant law (1.5: Hertz); damping : "flores" (default) or
+        "lankarani-nikravesh", the relation chi(e). The same three exist for every wall type.
     """
 
     radius: float
@@ -172,6 +192,9 @@ class Circle(_RoundWall):
     restitution: float | None = None
     friction: float = 0.0
     inside: bool = True
+    stiffness: float | None = None
+    exponent: float = 1.5
+    damping: str = "flores"
     kind = "circle"
 
     def gap(self, p: np.ndarray) -> np.ndarray:
@@ -210,7 +233,7 @@ class Sphere(_RoundWall):
 
     g(p) = s (R - |p - c|),   n = -s (p - c) / |p - c|,   s = +1 (inside), -1 (obstacle)
 
-    restitution, friction, inside : as for Circle.
+    restitution, friction, inside, stiffness, exponent, damping : as for Circle.
     """
 
     radius: float
@@ -218,6 +241,9 @@ class Sphere(_RoundWall):
     restitution: float | None = None
     friction: float = 0.0
     inside: bool = True
+    stiffness: float | None = None
+    exponent: float = 1.5
+    damping: str = "flores"
     kind = "sphere"
 
     def gap(self, p: np.ndarray) -> np.ndarray:
@@ -254,19 +280,23 @@ class Plane:
 
     g(p) = n . (p - point)
 
-    restitution, friction : as for Circle.
+    restitution, friction, stiffness, exponent, damping : as for Circle.
     """
 
     point: tuple
     normal_vector: tuple = (0.0, 1.0, 0.0)
     restitution: float | None = None
     friction: float = 0.0
+    stiffness: float | None = None
+    exponent: float = 1.5
+    damping: str = "flores"
     kind = "plane"
     obstacle = False
     #: A flat wall: figures clip it as a line or a polygon (the other kinds are drawn from section()).
     flat = True
 
-    def __init__(self, point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), restitution=None, friction=0.0):
+    def __init__(self, point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), restitution=None, friction=0.0,
+                 stiffness=None, exponent=1.5, damping="flores"):
         object.__setattr__(self, "point", _check_vector("Plane", "point", point, 3))
         nv = np.array(_check_vector("Plane", "normal", normal, 3))
         nn = np.linalg.norm(nv)
@@ -275,6 +305,7 @@ class Plane:
         object.__setattr__(self, "normal_vector", tuple(nv / nn))
         object.__setattr__(self, "restitution", _check_restitution("Plane", restitution))
         object.__setattr__(self, "friction", _check_friction("Plane", friction))
+        _set_compliance(self, "Plane", stiffness, exponent, damping)
 
     def gap(self, p: np.ndarray) -> np.ndarray:
         """g(p) for p (K, 3) [m] -> (K,) [m]."""
@@ -341,7 +372,9 @@ def has_obstacle(walls) -> bool:
 def describe(wall) -> str:
     """One-line description of a wall, for messages and summaries."""
     mu = f", friction {wall.friction:g}" if wall.friction else ""
-    return wall.describe() + mu
+    law = (f", compliant k={wall.stiffness:g} N/m^{wall.exponent:g} ({wall.damping})" if is_compliant(wall)
+           else "")
+    return wall.describe() + mu + law
 
 
 def tangent_basis(n: np.ndarray) -> np.ndarray:

@@ -88,6 +88,8 @@ def wall_to_dict(w) -> dict:
     d = {"type": w.kind, **w.parameters(), "restitution": w.restitution}
     if w.friction:
         d["friction"] = w.friction
+    if getattr(w, "stiffness", None) is not None:  # the compliant law (contact.compliant)
+        d.update(stiffness=w.stiffness, exponent=w.exponent, damping=w.damping)
     return d
 
 

@@ -9,9 +9,12 @@ Files (docs/case-format.md, "Output files"):
 * ``episodes.csv``: one row per collision episode (Result.episodes): its times, walls,
   contact points, impacts, impulse, energy lost, effective restitution, maximum force and
   penetration (io.episode_files).
-* ``contact_forces.csv`` (when some pair rested): one row per sample: t, phase, and the
-  normal force [N] of every (wall, contact point) pair in resting contact (0 elsewhere),
-  then (with friction on a wall) the friction force of each pair, world components.
+* ``contact_forces.csv`` (when some pair rested or pressed on a compliant wall): one row per sample:
+  t, phase, and the normal force [N] of every (wall, contact point) pair in resting contact (0
+  elsewhere), then (with friction on a wall) the friction force of each pair, world components,
+  then (with compliant walls) the compliant normal force Fc_w<wall>_<point>_N of every (wall,
+  contact column) pair: the joints, then the closest point of each flexible link ("link<i>"),
+  and where that closest point is in contact, Xc_w<wall>_link<i>_X<a>_m (NaN out of contact).
 * ``summary.json``: versions, settings, impacts, energies, status.
 * ``result.npz``: everything in a :class:`~gibbsimpact.results.Result`
   (trajectory, every field of every impact, status, settings, counters, the
@@ -44,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from ..dynamics.gibbs_appell import Energy
+from ..simulation.compliant import CompliantContact
 from ..simulation.results import ImpactRecord, Result
 from ..contact.walls import describe
 from .episode_files import EPISODE_COLUMNS, episode_rows, episode_cell
@@ -240,10 +244,25 @@ def contact_force_columns(result: Result) -> list[str]:
     return [f"F_w{w + 1}_{names[j]}_N" for w in range(len(result.walls)) for j in range(len(names))]
 
 
+def compliant_force_columns(result: Result) -> list[str]:
+    """Column names Fc_w<wall>_<column>_N of the compliant forces (Result.compliant_forces (K, W, C)): the joints,
+    then link<i> for the closest point of flexible link i (walls, points and links from 1)."""
+    from ..simulation.contacts import flexible_links
+
+    C = np.shape(result.compliant_forces)[2]
+    names = list(result.model.contact_point_names) + [f"link{i + 1}" for i in flexible_links(result.model)]
+    return [f"Fc_w{w + 1}_{names[c]}_N" for w in range(len(result.walls)) for c in range(C)]
+
+
+def has_contact_forces(result: Result) -> bool:
+    """Whether contact_forces.csv is written: some pair rested, or pressed on a compliant wall."""
+    return any(F is not None and np.any(F) for F in (result.contact_forces, result.compliant_forces))
+
+
 def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
     """Write t, phase and the resting-contact force of every (wall, contact point) pair, one row per sample
     (with ``every`` > 1 those of sample_rows); with friction on a wall also the friction force
-    Ft_w<wall>_<point>_X<a>_N (world components)."""
+    Ft_w<wall>_<point>_X<a>_N (world components); with compliant walls their normal forces Fc_w<wall>_<column>_N."""
     path = Path(path)
     r = sample_rows(len(result.t), every)
     K = len(result.t)
@@ -253,6 +272,16 @@ def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
     if result.friction_forces is not None:
         F = np.hstack((F, np.asarray(result.friction_forces).reshape(K, -1)))
         header += [c.replace("F_", "Ft_", 1)[:-2] + f"_X{a + 1}_N" for c in contact_force_columns(result) for a in range(3)]
+    if result.compliant_forces is not None:
+        F = np.hstack((F, np.asarray(result.compliant_forces).reshape(K, -1)))
+        header += compliant_force_columns(result)
+        # Where a link's closest point touches (a joint's position is in timeseries.csv): NaN out of contact.
+        P = result.model.n_joints
+        X = np.asarray(result.compliant_points)[:, :, P:]
+        if X.size:
+            F = np.hstack((F, X.reshape(K, -1)))
+            header += [c.replace("Fc_", "Xc_", 1)[:-2] + f"_X{a + 1}_m" for c in compliant_force_columns(result)
+                       if "_link" in c for a in range(3)]
     with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
@@ -289,7 +318,7 @@ def to_csv(result: Result, directory, every: int = 1) -> dict:
         "impacts": write_impacts_csv(result, d / "impacts.csv"),
         "episodes": write_episodes_csv(result, d / "episodes.csv"),
     }
-    if result.contact_forces is not None and np.any(result.contact_forces):
+    if has_contact_forces(result):
         out["contact_forces"] = write_contact_forces_csv(result, d / "contact_forces.csv", every)
     return out
 
@@ -549,6 +578,11 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         arrays["contact_forces"] = np.asarray(result.contact_forces, dtype=float)
     if result.friction_forces is not None:
         arrays["friction_forces"] = np.asarray(result.friction_forces, dtype=float)
+    if result.compliant_forces is not None:
+        arrays["compliant_forces"] = np.asarray(result.compliant_forces, dtype=float)
+        arrays["compliant_points"] = np.asarray(result.compliant_points, dtype=float)
+        arrays["compliant_integrals"] = np.asarray(result.compliant_integrals, dtype=float)
+        arrays["compliant_contacts"] = np.array(result.compliant_contacts, dtype=float).reshape(-1, 5)
     meta = {
         "format": "gibbsimpact.Result",
         "format_version": FORMAT_VERSION,
@@ -627,6 +661,10 @@ def load_result(path, with_metadata: bool = False):
         work=a.get("work"), contact_forces=a.get("contact_forces"), friction_forces=a.get("friction_forces"),
         resting_time=float(_untag(meta.get("resting_time", 0.0))),
         prescribed=tuple(meta.get("prescribed", ())), effort=a.get("effort"),
+        compliant_forces=a.get("compliant_forces"), compliant_points=a.get("compliant_points"),
+        compliant_integrals=a.get("compliant_integrals"),
+        compliant_contacts=[CompliantContact(int(r[0]), int(r[1]), *map(float, r[2:]))
+                            for r in a.get("compliant_contacts", np.zeros((0, 5)))],
     )
     if with_metadata:
         return res, _untag(meta.get("metadata", {}))

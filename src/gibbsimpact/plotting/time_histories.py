@@ -9,7 +9,7 @@ from ..model.shapes import link_deflection
 from .geometry import is_planar
 from .decimate import COLUMNS_PER_INCH, DENSE_TURNS, envelope, minmax_decimate, visible_turns
 from .impacts import _impact_lines, _impact_note, _number_impacts
-from .labels import _point_label, _status_box, _tex, _title, _wrap_note
+from .labels import _point_label, _point_name, _status_box, _tex, _title, _wrap_note
 from .style import _P_STYLES, _RANGE_STYLE, _STYLES, _figure, _given_axes, _joint_colour, _legend, _link_colour, _style
 
 
@@ -289,15 +289,17 @@ def plot_deflection(result, case_name=None, ax=None):
 
 def plot_contact_forces(result, case_name=None, ax=None):
     """Normal force [N] of every (wall, contact point) pair that was ever in resting contact
-    (Result.contact_forces), against time; None when no pair rested.
+    (Result.contact_forces) or pressed on a compliant wall (Result.compliant_forces: joints and closest
+    points of flexible links), against time; None when there was neither.
 
     ax : None (a new figure), one Axes (the normal forces) or two (and the friction forces |F_t|, with friction).
     """
-    F = result.contact_forces
-    if F is None or not np.any(F):
+    F, Fc = result.contact_forces, getattr(result, "compliant_forces", None)
+    rested = F is not None and np.any(F)
+    if not rested and (Fc is None or not np.any(Fc)):
         return None
     Ft = result.friction_forces
-    n_panels = 2 if Ft is not None and np.any(Ft) else 1
+    n_panels = 2 if rested and Ft is not None and np.any(Ft) else 1
     own = ax is None
     if own:
         fig = _figure((9.5, 4.2 if n_panels == 1 else 6.4))
@@ -307,8 +309,13 @@ def plot_contact_forces(result, case_name=None, ax=None):
         fig = axes[0].figure
     names = [_point_label(result.model, j + 1) for j in range(result.model.n_joints)]
     c = 0
-    for w, j in np.argwhere(np.any(F != 0.0, axis=0)):
+    for w, j in (np.argwhere(np.any(F != 0.0, axis=0)) if rested else ()):
         _curve(axes[0], result.t, F[:, w, j], label=f"{names[j]} on wall {w + 1}", **_style(c, _joint_colour(int(j))))
+        c += 1
+    for w, j in (np.argwhere(np.any(Fc != 0.0, axis=0)) if Fc is not None else ()):
+        point = names[j] if j < len(names) else _point_name(result.model, int(j) + 1)
+        label = f"{point} on wall {w + 1} (compliant)"
+        _curve(axes[0], result.t, Fc[:, w, j], label=label, **_style(c, _joint_colour(int(j))))
         c += 1
     axes[0].set_ylabel("contact force [N]")
     if n_panels == 2:
@@ -320,6 +327,8 @@ def plot_contact_forces(result, case_name=None, ax=None):
         axes[1].set_ylabel("friction force\n|F_t| [N]")
     _legend(axes[0], outside=own)
     what = "normal force of each wall on each contact point in resting contact (0 in flight; impacts are impulses)"
+    if Fc is not None and np.any(Fc):
+        what = what.replace("in resting contact", "in resting contact or on a compliant wall")
     if n_panels == 2:
         what += "; below: the friction force |F_t|"
     _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)

@@ -322,12 +322,13 @@ def contact_band(contact_tol: float, lipschitz: float, rtol: float, atol: float,
 
 
 def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink_pair, resting=None,
-                 prescribed=None):
+                 prescribed=None, compliant=None):
     """The impact at (t, q, qd), if there is one.
 
     resting : None or (W, J) bool, the pairs in resting contact: they take e = 0 (gibbsimpact.resting).
     prescribed : None or (n_p,) int, coordinates whose actuators hold their velocity (formulation §16): the
         impulse problem is solved on the free ones, the record carries the actuators' impulses.
+    compliant : None or (W,) bool, the walls of the compliant law: never candidates (simulation.compliant).
     Raises contact.impact.HeldContactError when a contact is moved by prescribed coordinates only.
     Returns (record or None, near (W, J) bool: the pairs in the contact band g <= band [m]).
     """
@@ -335,6 +336,8 @@ def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink
     # Candidates: every pair within the contact band (a pair caught by its "sink"
     # event sits just below its phase-start gap); a link column only with an interior point.
     near = g <= band
+    if compliant is not None:
+        near &= ~compliant[:, None]
     if not np.any(near & valid):
         return None, near
     pairs = np.argwhere(near & valid)  # (k, 2): wall, column

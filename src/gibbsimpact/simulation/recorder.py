@@ -24,6 +24,8 @@ class Chunk(NamedTuple):
     forces: np.ndarray | None = None  # (k, W, P) [N] resting-contact forces; None: all zero
     friction: np.ndarray | None = None  # (k, W, P, 3) [N] their tangential forces; None: all zero
     balance: float = 0.0  # [J] signed change of E - W from the sample before, counted in the whole-run error
+    compliant: tuple | None = None  # compliant normal forces (k, W, C) [N], their points (k, W, C, 3) [m] and
+    # integrals (k, 3 + N) (simulation.compliant); None: no compliant force on these samples
 
 
 def one_sample(E: Energy) -> Energy:
@@ -74,11 +76,13 @@ class Recorder:
                                   balance=jump))
         self.n_impacts += 1
 
-    def flight(self, T, Y, phase, forces=None, friction=None):
-        """Samples T (K,), Y (K, 2N [+ 2]) of a flight phase that started at the last stored sample.
+    def flight(self, T, Y, phase, forces=None, friction=None, compliant=None):
+        """Samples T (K,), Y (K, 2N [+ 2 [+ 3 + N]]) of a flight phase that started at the last stored sample.
 
         forces : None or (K, W, P) [N], the resting-contact forces at the samples;
-        friction : None or (K, W, P, 3) [N], their tangential (friction) forces.
+        friction : None or (K, W, P, 3) [N], their tangential (friction) forces;
+        compliant : None or ((K, W, C) [N], (K, W, C, 3) [m]), the compliant contacts' normal forces and points
+        (simulation.compliant), whose integrals are Y's last 3 + N columns.
         """
         N = self.model.n_dof
         last = self.chunks[-1]
@@ -90,8 +94,9 @@ class Recorder:
         E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
         balance = E.total - E_start.total - (W.sum(axis=1) - W_start)
         err = float(np.abs(balance).max() / scale) if T.size else 0.0
+        extra = None if compliant is None else (*compliant, Y[:, 2 * N + 2:])
         self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces,
-                                  friction, float(balance[-1]) if T.size else 0.0))
+                                  friction, float(balance[-1]) if T.size else 0.0, extra))
 
     def mode(self, t, q, qdot, phase, forces, friction):
         """After a contact-mode decision at t: its contact forces (W, P) and friction forces (W, P, 3) [N]
@@ -126,6 +131,25 @@ class Recorder:
     @property
     def impacts(self) -> list:
         return [c.impact for c in self.chunks if c.impact is not None]
+
+    def compliant_arrays(self, shape: tuple):
+        """Compliant normal forces (K, W, C) [N], their points (K, W, C, 3) [m] and integrals (K, 3 + N)
+        (simulation.compliant) at every sample; shape = (W, C). Samples of an impact or a mode change hold
+        no compliant force (points NaN) and the integrals of the sample before."""
+        F, X, I = [], [], []
+        last = np.zeros(3 + self.model.n_dof)
+        for c in self.chunks:
+            if c.compliant is None:
+                F.append(np.zeros((c.t.size,) + shape))
+                X.append(np.full((c.t.size,) + shape + (3,), np.nan))
+                I.append(np.tile(last, (c.t.size, 1)))
+            else:
+                F.append(c.compliant[0])
+                X.append(c.compliant[1])
+                I.append(c.compliant[2])
+                if c.t.size:
+                    last = c.compliant[2][-1]
+        return np.concatenate(F), np.concatenate(X), np.concatenate(I)
 
     def arrays(self):
         """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2 or 3), Energy of (K,) arrays,

@@ -120,6 +120,18 @@ class Result:
         O_(j+1) while the pair rests on a wall with friction (sticking or slipping); None when
         no wall has friction
     resting_time : float [s], the simulated time spent with at least one pair in resting contact
+    compliant_forces : (K, W, C) [N] or None: the normal force F_n of compliant wall w (a wall with a
+        stiffness: gibbsimpact.simulation.compliant) on contact column c (the joints O_1 .. O_P, then the
+        closest point of each flexible link, as ImpactRecord.joints numbers them) at every sample; None
+        for a run without compliant walls
+    compliant_points : (K, W, C, 3) [m] or None: where each pair's contact point is while the pair is in
+        compliant contact (for a link column: the link's material point closest to the wall, deflection
+        included), NaN elsewhere
+    compliant_integrals : (K, 3 + N) or None: since t_span[0], the work of the compliant contacts'
+        damping [J] and friction [J] (both <= 0), their normal impulse sum_j int F_n dt [N s], and their
+        generalised impulse int sum_j J_j^T (n F_n + F_t) dt (N,)
+    compliant_contacts : list of CompliantContact (gibbsimpact.simulation.compliant): every contact of a
+        pair on a compliant wall, its start and end events and approach speed v_0; [] without compliant walls
     episodes : list of Episode (property, computed from the above at its first use;
         gibbsimpact.simulation.episodes, docs/theory.md §14.7): the collision episodes, each the
         impacts and resting phases of one meeting of the chain with the walls. The chain is the body
@@ -156,6 +168,10 @@ class Result:
     resting_time: float = 0.0
     prescribed: tuple = ()
     effort: np.ndarray | None = None
+    compliant_forces: np.ndarray | None = None
+    compliant_points: np.ndarray | None = None
+    compliant_integrals: np.ndarray | None = None
+    compliant_contacts: list = field(default_factory=list)
     _energy_cache: Energy | None = field(default=None, repr=False)
     # Not an __init__ argument: dataclasses.replace (new samples or forces) must not carry it over.
     _episodes_cache: list | None = field(default=None, init=False, repr=False)

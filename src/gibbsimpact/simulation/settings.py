@@ -7,7 +7,7 @@ from numbers import Real
 
 import numpy as np
 
-from ..contact.walls import WALL_TYPES
+from ..contact.walls import WALL_TYPES, is_compliant
 from .flight import SOLVERS
 from .joint_limits import JOINT_LIMIT_MODES
 from .prescribed import prescription
@@ -102,6 +102,9 @@ class Settings:
         t0, t_end = _t_span(t_span)
         prescribed = None if prescribed is None else prescription(*state[:1], prescribed, (t0, t_end), *state[1:])
         walls = _walls(walls)
+        if prescribed is not None and any(map(is_compliant, walls)):
+            raise ValueError("simulate prescribed=... with a compliant wall (stiffness=...) is not supported yet: "
+                             "give the walls no stiffness (Newton's law) or drive the joints by inputs")
         restitution = _fraction("restitution", restitution)
         _choice("method", method, SOLVERS, f"a solve_ivp method; use one of {', '.join(SOLVERS)}")
         in_step_check = bool(positive.pop("in_step_check", True))

@@ -14,10 +14,11 @@ import numpy as np
 
 from ..contact.impact import HeldContactError
 from ..contact.resting import RestingContacts
-from ..contact.walls import describe
+from ..contact.walls import describe, is_compliant
 from ..dynamics.forces import CallbackError
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .accumulation import Accumulation
+from .compliant import COMPLIANT_EVENTS, CompliantContacts, compliant_event, compliant_gap_functions
 from .contacts import Contacts, contact_band, event_spec, gap_lipschitz, impact_stage as solve_impact, phase_events
 from .equations import Equations
 from .flight import integrate_phase
@@ -68,6 +69,7 @@ class Run:
     stalled: int = 0  # consecutive phases that made no progress in time
     newton_warned: bool = False  # the warning of validity.check_impact was issued (once per run)
     flown: object = None  # the last flight phase's outcome until its samples are recorded
+    compliant: CompliantContacts | None = None  # the compliant walls' pairs (simulation.compliant), or None
     counters: dict = field(default_factory=lambda: {"n_steps": 0, "n_examined": 0, "resting_time": 0.0,
                                                     "mode_events": 0})
 
@@ -124,13 +126,15 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     lipschitz = gap_lipschitz(model)
     band = contact_band(s.contact_tol, lipschitz, s.rtol, s.atol, q0)
     resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols)
-    equations = Equations(model, s, q0, qdot0, resting, clock)
+    compliant = (CompliantContacts(model, contacts, s.wall_restitution, lipschitz)
+                 if any(map(is_compliant, walls)) else None)
+    equations = Equations(model, s, q0, qdot0, resting, clock, compliant)
     return Run(
         model=model, settings=s, contacts=contacts, limits=limits, stops=stops, resting=resting,
         monitor=Accumulation((len(walls), contacts.n_cols), s.zeno_count, s.zeno_interval, band, contacts.names),
         recorder=Recorder(model, s.t0, q0, qdot0, len(walls), _index(s.prescribed)), equations=equations,
-        clock=clock, lipschitz=lipschitz, t=s.t0, y=np.concatenate((q0, qdot0, np.zeros(equations.n_work))),
-        band=band, near=np.zeros((len(walls), contacts.n_cols), dtype=bool),
+        clock=clock, lipschitz=lipschitz, t=s.t0, y=np.concatenate((q0, qdot0, np.zeros(equations.n_extra))),
+        band=band, near=np.zeros((len(walls), contacts.n_cols), dtype=bool), compliant=compliant,
     )
 
 
@@ -150,8 +154,11 @@ def _watched(limits, prescribed) -> tuple:
 
 
 def gap_functions(run):
-    """(gap matrix g(q) -> (R, J), batch g(qs) -> (K, R, J)) [m]: the walls' rows, and the joint limits' row."""
+    """(gap matrix g(q) -> (R, J), batch g(qs) -> (K, R, J)) [m]: the walls' rows (the active compliant pairs'
+    shifted: simulation.compliant), and the joint limits' row."""
     g, batch = run.contacts.gaps, run.contacts.gaps_batch
+    if run.compliant is not None:
+        g, batch = compliant_gap_functions(run.compliant, g, batch)
     if run.stops is None:
         return g, batch
     return run.stops.wrap(g), run.stops.wrap_batch(batch)
@@ -184,7 +191,8 @@ def impact(run) -> None:
         run.band = run.monitor.band = contact_band(s.contact_tol, run.lipschitz, s.rtol, s.atol, q)
         try:
             rec, run.near = solve_impact(run.model, run.contacts, s.wall_restitution, run.t, q, qd, run.band,
-                                         s.grazing_velocity, run.sink_pair, run.resting.active, _index(s.prescribed))
+                                         s.grazing_velocity, run.sink_pair, run.resting.active, _index(s.prescribed),
+                                         None if run.compliant is None else run.compliant.rows)
         except HeldContactError as exc:
             run.end("held_contact", t=run.t, error=exc)
             return
@@ -224,6 +232,8 @@ def mode(run) -> None:
     t, q, qd = run.t, run.y[:N], run.y[N:2 * N]
     g, nrm, Jac, _, _ = run.contacts.full(q)
     v = np.einsum("wjc,wjcn,n->wj", nrm, Jac, qd)
+    if run.compliant is not None:  # no resting mode on a compliant wall: its contact is a force
+        g = np.where(run.compliant.rows[:, None], np.inf, g)
     cand = resting.candidates(g, v, run.band, s.grazing_velocity, run.release, run.forced)
     if len(cand) or resting.any():
         applied = run.equations.applied
@@ -244,7 +254,13 @@ def _phase_events(run):
     s, N, resting = run.settings, run.N, run.resting
     g_start = run.contacts.gaps(run.y[:N])
     sink_depth = max(1e-6 * s.contact_tol, 64 * np.finfo(float).eps * (1.0 + float(np.abs(run.y[:3]).max())))
-    events, kinds = phase_events(run.near, g_start, run.band, sink_depth, skip=resting.active)
+    compliant = run.compliant
+    skip = resting.active if compliant is None else resting.active | compliant.rows[:, None]
+    events, kinds = phase_events(run.near, g_start, run.band, sink_depth, skip=skip)
+    if compliant is not None:
+        rows, compliant_kinds = compliant.events(g_start)
+        events = type(events)(*(np.concatenate((a, b)) for a, b in zip(events, event_spec(rows))))
+        kinds = kinds + compliant_kinds
     extra = None
     if resting.any():
         rows, drift_kinds = resting.drift_events()
@@ -278,7 +294,8 @@ def flight(run):
             run.equations, run.t, run.y, s.t_end, events, gap_matrix, method=s.method, rtol=s.rtol, atol=s.atol,
             max_step=s.max_step, output_dt=s.output_dt, t_origin=s.t0, lipschitz=run.lipschitz,
             slack=s.contact_tol, n_q=N, check_in_step=s.in_step_check, gap_batch=gap_batch, extra=extra,
-            gap_single=lambda q, w, c: run.contacts.gap_single(q, w, c, gap_matrix),
+            gap_single=lambda q, w, c: run.contacts.gap_single(q, w, c, gap_matrix) + (
+                0.0 if run.compliant is None else run.compliant.joint_shift(w, c)),
         )
     except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
         run.end("integration", t=run.t, error=exc)
@@ -290,7 +307,8 @@ def flight(run):
     run.counters["n_examined"] += out.n_examined
     if out.sample_t.size:
         forces = _contact_forces(run, out.sample_t, out.sample_y) if run.resting.any() else (None, None)
-        run.recorder.flight(out.sample_t, out.sample_y, run.phase, *forces)
+        compliant = None if run.compliant is None else run.compliant.sample_forces(out.sample_y)
+        run.recorder.flight(out.sample_t, out.sample_y, run.phase, *forces, compliant=compliant)
     run.flown = None
     if out.interrupted is not None:
         raise KeyboardInterrupt(out.interrupted)  # its samples are recorded: the driver stops the run
@@ -381,6 +399,8 @@ def dispatch(run, out, kinds) -> None:
     kind, w_i, j = kinds[out.event]
     if kind in MODE_EVENTS:
         _mode_event(run, kind, w_i, j)
+    elif kind in COMPLIANT_EVENTS:
+        compliant_event(run, kind, w_i, j)
     elif w_i == len(run.settings.walls):
         _limit_event(run, kind, j)
     else:
@@ -424,6 +444,10 @@ def finish(run, started: float) -> Result:
         _energy_cache=E_all, work=work_all if run.equations.driven else None, contact_forces=F_all,
         friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
         resting_time=run.counters["resting_time"], **_efforts(run, t_all, q_all, qdot_all),
+        **({} if run.compliant is None else dict(zip(
+            ("compliant_forces", "compliant_points", "compliant_integrals"),
+            run.recorder.compliant_arrays(run.compliant.active.shape)),
+            compliant_contacts=list(run.compliant.log))),
     )
 
 
