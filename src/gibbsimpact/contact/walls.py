@@ -99,6 +99,7 @@ class _RoundWall:
             raise ValueError(f"{name} inside={self.inside!r} must be True (the chain stays inside: a container) "
                              f"or False (the chain stays outside: an obstacle)")
         object.__setattr__(self, "inside", bool(self.inside))
+        _set_compliance(self, name, self.stiffness, self.exponent, self.damping)
 
     @property
     def side(self) -> float:
@@ -109,7 +110,6 @@ class _RoundWall:
     def obstacle(self) -> bool:
         """True when the chain stays outside (inside=False)."""
         return not self.inside
-        _set_compliance(self, name, self.stiffness, self.exponent, self.damping)
 
     def parameters(self) -> dict:
         """Its geometry as case files and result files name it (``inside`` only for an obstacle, so that

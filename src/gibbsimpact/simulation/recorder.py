@@ -77,7 +77,7 @@ class Recorder:
         self.n_impacts += 1
 
     def flight(self, T, Y, phase, forces=None, friction=None, compliant=None):
-        """Samples T (K,), Y (K, 2N [+ 2 [+ 3 + N]]) of a flight phase that started at the last stored sample.
+        """Samples T (K,), Y (K, 2N [+ 2 or 3 [+ 3 + N]]) of a flight phase that started at the last stored sample.
 
         forces : None or (K, W, P) [N], the resting-contact forces at the samples;
         friction : None or (K, W, P, 3) [N], their tangential (friction) forces;
@@ -88,13 +88,14 @@ class Recorder:
         last = self.chunks[-1]
         E_start = Energy(*(float(a[-1]) for a in last.energy))
         W_start = last.work[-1].sum()
-        W = Y[:, 2 * N:] if Y.shape[1] > 2 * N else np.zeros((T.size, last.work.shape[1]))
+        nw = last.work.shape[1]  # 2 work states, 3 with prescribed coordinates
+        W = Y[:, 2 * N:2 * N + nw] if Y.shape[1] > 2 * N else np.zeros((T.size, nw))
         scale = energy_scale(self.model, E_start, float(np.max(np.abs(W.sum(axis=1) - W_start), initial=0.0)))
         # All samples in one kernel call; the balance E(t) - E(start) - (W(t) - W(start)) per sample.
         E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
         balance = E.total - E_start.total - (W.sum(axis=1) - W_start)
         err = float(np.abs(balance).max() / scale) if T.size else 0.0
-        extra = None if compliant is None else (*compliant, Y[:, 2 * N + 2:])
+        extra = None if compliant is None else (*compliant, Y[:, 2 * N + nw:])
         self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces,
                                   friction, float(balance[-1]) if T.size else 0.0, extra))
 

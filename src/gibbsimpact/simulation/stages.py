@@ -218,7 +218,10 @@ def _record_impact(run, rec, q) -> None:
     run.phase += 1
     run.recorder.impact(rec, q, run.phase)
     # The work states go on from the recorded ones: the actuators' impulses did work (Recorder.impact).
-    run.y = np.concatenate((q, rec.qdot_after, run.recorder.chunks[-1].work[-1] if run.equations.driven else []))
+    # The compliant contacts' states (after the work states) go on unchanged.
+    N, nw = run.N, run.equations.n_work
+    run.y = np.concatenate((q, rec.qdot_after, run.recorder.chunks[-1].work[-1] if run.equations.driven else [],
+                            run.y[2 * N + nw:]))
     run.clock.n_impacts = run.recorder.n_impacts
 
 
