@@ -12,11 +12,12 @@ import math
 
 import scipy.linalg as sl
 
+from ..model.bodies import RigidBody
 from ..model.model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
 from ..model.modes import MODE_DIRECTIONS, MODE_KINDS, Mode, natural_frequency
 from .keypaths import join, key_path
 from .reader import _BAD, _MISSING, _build_each, _Reader
-from .schema import _BASE_KEYS, _JOINT_KEYS, _JOINT_TYPES, _LINK_KEYS, _MODE_KEYS, MAX_MODE_FREQUENCY
+from .schema import _BASE_KEYS, _BODY_KEYS, _JOINT_KEYS, _JOINT_TYPES, _LINK_KEYS, _MODE_KEYS, MAX_MODE_FREQUENCY
 from .text import fmt, type_name
 
 __all__ = ["read_chain"]
@@ -63,14 +64,18 @@ def _link(r: _Reader, tbl, path: str):
     j = _rotary_inertia(r, tbl, path, mu)
     modes = _modes(r, tbl, join(path, "modes"))
     elements, directions, zeta = _discretisation(r, tbl, path, modes)
-    if _BAD in (length, mu, ei, j, elements, directions, zeta) or modes is _BAD:
+    bodies = _bodies(r, tbl, join(path, "bodies"))
+    if _BAD in (length, mu, ei, j, elements, directions, zeta) or _BAD in (modes, bodies):
         return _BAD
     try:
         link = Link(length=length, mass_per_length=mu, EI=ei, modes=tuple(modes),
                     rotary_inertia=tuple(j) if j is not None else (0.0, 0.0, 0.0),
-                    elements=elements, element_directions=directions, damping=zeta)
-    except ValueError as exc:  # pragma: no cover - every check above mirrors Link's
-        r.add(path, str(exc))
+                    elements=elements, element_directions=directions, damping=zeta, bodies=tuple(bodies))
+    except ValueError as exc:
+        # Only the bodies' rules that involve the link (at <= l, on the axis of a bending link)
+        # reach here; every other check above mirrors Link's.
+        k = str(exc).partition("bodies[")[2].partition("]")[0]
+        r.add(join(join(path, "bodies"), int(k)) if k.isdigit() else path, str(exc))
         return _BAD
     return link if _mode_frequencies_ok(r, link, path) else _BAD
 
@@ -99,6 +104,40 @@ def _rotary_inertia(r: _Reader, tbl: dict, path: str, mu):
     if radius is _BAD or radius is None:
         return j if radius is None else _BAD
     return _BAD if mu is _BAD else [mu * radius**2 / 2.0, mu * radius**2 / 4.0, mu * radius**2 / 4.0]
+
+
+def _bodies(r: _Reader, tbl: dict, path: str):
+    """The [[links.bodies]] of a link (path links[i].bodies) as a list of RigidBody, _BAD on a problem.
+
+    inertia_kg_m2 are the diagonal (J_xx, J_yy, J_zz) and inertia_products_kg_m2 (J_xy, J_xz, J_yz)
+    the off-diagonal entries of J about the body's centre in link axes [kg m^2].
+    """
+    raw = tbl.get("bodies", [])
+    if not isinstance(raw, list):
+        r.add(path, f"expected [[links.bodies]] tables, got {type_name(raw)}")
+        return _BAD
+    bodies = []
+    for k, bt in enumerate(raw):
+        pb = join(path, k)
+        bt = r.table(bt, pb, _BODY_KEYS, "a [[links.bodies]] table")
+        if bt is None:
+            bodies = _BAD
+            continue
+        m = r.get(bt, pb, "mass_kg", "number", required=True, what=_BODY_KEYS["mass_kg"])
+        c = r.get(bt, pb, "center_m", "vector3", default=[0.0, 0.0, 0.0])
+        d = r.get(bt, pb, "inertia_kg_m2", "vector3", default=[0.0, 0.0, 0.0])
+        o = r.get(bt, pb, "inertia_products_kg_m2", "vector3", default=[0.0, 0.0, 0.0])
+        at = r.get(bt, pb, "at_m", "number", default=None)
+        if _BAD in (m, c, d, o, at) or bodies is _BAD:
+            bodies = _BAD
+            continue
+        J = [[d[0], o[0], o[1]], [o[0], d[1], o[2]], [o[1], o[2], d[2]]]
+        try:
+            bodies.append(RigidBody(m, center=tuple(c), inertia=J, at=at))
+        except ValueError as exc:  # the triangle inequality of the inertia: the one rule not a range
+            r.add(join(pb, "inertia_kg_m2"), str(exc))
+            bodies = _BAD
+    return bodies
 
 
 def _modes(r: _Reader, tbl: dict, path: str):
@@ -374,13 +413,19 @@ def _bends_in_plane(r: _Reader, links) -> bool:
 
 
 def _pb_rules(r: _Reader, links, joints, k: int) -> bool:
-    """Link k (0-based) behind a Pb guide: stretching elements (no modes), d_max at most its length."""
+    """Link k (0-based) behind a Pb guide: stretching elements (no modes), no attached bodies, d_max at most
+    its length."""
     ok, i, lk, hi = True, k + 1, links[k], joints[k].range[1]
     p = key_path("links", k, "joint")
     if lk.modes:
         r.add(key_path("links", k, "modes"), f"link {i} slides through a Pb guide ({p}): it is discretised by "
                                              "stretching finite elements; give it elements instead of modes (or "
                                              "neither: rigid)")
+        ok = False
+    if lk.bodies:
+        r.add(key_path("links", k, "bodies"), f"link {i} slides through a Pb guide ({p}): its material moves along "
+                                              "it with d, which attached bodies do not follow; attach them to a "
+                                              "link on an 'R' or 'Pa' joint")
         ok = False
     if hi > lk.length + 1e-12:
         r.add(join(p, "range_m"), f"d_max = {fmt(hi)} m is more than {key_path('links', k, 'length_m')} = "

@@ -57,6 +57,9 @@ def _inertia_matrix(value) -> tuple:
 class RigidBody:
     """A rigid body attached to a link: a payload, or a motor/hub inertia at the joint.
 
+    It adds to its link's tables (module docstring, docs/theory.md §6.8) the pseudo-inertia
+    P_b = m r_c r_c^T + [[Sigma, 0], [0, 0]], r_c = (x_a + c, 1), Sigma = tr(J)/2 I - J.
+
     Parameters
     ----------
     mass : float
@@ -71,9 +74,6 @@ class RigidBody:
     at : float or None
         x_a [m], the abscissa on the link in [0, l]: None (default) is the tip x_a = l,
         0 the joint (a hub).
-
-    The model it adds to the link (module docstring, docs/theory.md §6.8):
-    P_b = m r_c r_c^T + [[Sigma, 0], [0, 0]], r_c = (x_a + c, 1), Sigma = tr(J)/2 I - J.
     """
 
     mass: float
