@@ -89,3 +89,32 @@ def test_hub_inertia_adds_its_J_zz_to_the_joint_only(disc, rng):
         np.testing.assert_allclose(hubbed.mass_matrix(q) - M0, add, rtol=0, atol=1e-12 * np.abs(M0).max())
         np.testing.assert_allclose(hubbed.bias_forces(q, qd), bare.bias_forces(q, qd), rtol=0, atol=1e-12)
         np.testing.assert_allclose(hubbed.potential_forces(q), bare.potential_forces(q), rtol=0, atol=1e-12)
+
+
+def test_body_centres_and_the_kernel_centre_of_mass_agree(rng):
+    # Two routes to the centre of mass: the kernel's from the link tables (m_r0, m_psi), and the
+    # mass-weighted mean of the link's material points (a fine Gauss rule) and the body centres.
+    from gibbsimpact.dynamics.link_points import body_centers, material_points
+
+    payload = gi.RigidBody(0.7, center=(0.1, 0.0, 0.0), inertia=(0.004, 0.03, 0.032), at=0.6)
+    links = [gi.Link(1.0, 1.5, 40.0, elements=2, bodies=[payload]),
+             gi.Link(0.6, 0.8, 1.0, bodies=[gi.RigidBody(2.0, at=0.0), BODY])]
+    model = gi.Model(gi.Chain(links, base=gi.FixedBase((0.2, -0.1), 0.3)))
+    xg, wg = np.polynomial.legendre.leggauss(8)
+    for _ in range(3):
+        q = np.concatenate([rng.uniform(-3, 3, 2), rng.uniform(-0.1, 0.1, 4)])
+        P, owner = body_centers(model, q)
+        first = sum(b.mass * p for p, (_, b) in zip(P, owner))
+        for i, lk in enumerate(links):
+            for e in range(2):  # two pieces: the element nodes of link 1 (exact for its cubics)
+                x = lk.length * (e + 0.5 * (xg + 1)) / 2
+                first = first + lk.mass_per_length * lk.length / 4 * wg @ material_points(model, q, i, x)
+        np.testing.assert_allclose(model.center_of_mass(q), first / model.total_mass, rtol=0, atol=1e-13)
+    # A rigid link: the payload centre is O_2 + R(phi_2) (l_2 + c_x, c_y) (+ c_z along X3).
+    q = np.array([0.4, -1.1, 0.0, 0.0, 0.0, 0.0])
+    phi = 0.3 + q[0] + q[1]
+    O2 = model.joint_positions(q)[1]
+    X, Y = 0.6 + CX, CY
+    np.testing.assert_allclose(body_centers(model, q)[0][2],
+                               O2 + [X * np.cos(phi) - Y * np.sin(phi), X * np.sin(phi) + Y * np.cos(phi), 0.02],
+                               atol=1e-14)

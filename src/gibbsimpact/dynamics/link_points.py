@@ -36,6 +36,37 @@ def link_points(model, q, n_points: int = 41) -> np.ndarray:
                      for i, lk in enumerate(model.chain.links)]) if model.n_links else np.zeros((0, n_points, 3))
 
 
+def body_centers(model, q) -> tuple[np.ndarray, tuple]:
+    """World positions of the centres of the rigid bodies attached to the links (docs/theory.md §6.8).
+
+    The centre of a body at abscissa x_a with offset c, in its link's frame T_i:
+    r = (x_a + c_x, v(x_a) + c_x v'(x_a) + c_y, w(x_a) + c_x w'(x_a) + c_z, 1), p = (T_i r)[:3].
+
+    Parameters
+    ----------
+    model : Model
+    q : (N,) coordinates
+
+    Returns
+    -------
+    p : (B, 3) [m], one row per body, link by link in the order of ``Link.bodies``
+    owner : tuple of B pairs (i, body): the link index (0-based) and the RigidBody
+    """
+    q = np.asarray(q, dtype=float)
+    owner = tuple((i, b) for i, lk in enumerate(model.chain.links) for b in lk.bodies)
+    if not owner:
+        return np.zeros((0, 3)), owner
+    T = transforms(model, q)
+    p = []
+    for i, b in owner:
+        (v,), (w,) = link_deflection(model, q, i, [b.at])
+        (dv,), (dw,) = link_deflection(model, q, i, [b.at], derivative=1)
+        c = b.center
+        r = np.array([b.at + c[0], v + c[0] * dv + c[1], w + c[0] * dw + c[2], 1.0])
+        p.append((T[i] @ r)[:3])
+    return np.array(p), owner
+
+
 def _check_link(model, i):
     if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < model.n_links:
         raise ValueError(f"link index i={i!r} must be an integer in [0, {model.n_links - 1}] (0-based)")
