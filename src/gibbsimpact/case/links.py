@@ -106,20 +106,29 @@ def _rotary_inertia(r: _Reader, tbl: dict, path: str, mu):
     return _BAD if mu is _BAD else [mu * radius**2 / 2.0, mu * radius**2 / 4.0, mu * radius**2 / 4.0]
 
 
+def _sub_tables(r: _Reader, tbl: dict, path: str, allowed: dict):
+    """The entries of the array of tables at ``path`` (links[i].modes, links[i].bodies) as a list of
+    (their key path, the table or None when it is no table; its unknown keys reported), _BAD when the
+    key holds no array."""
+    key = path.rpartition(".")[2]
+    raw = tbl.get(key, [])
+    if not isinstance(raw, list):
+        r.add(path, f"expected [[links.{key}]] tables, got {type_name(raw)}")
+        return _BAD
+    return [(join(path, k), r.table(t, join(path, k), allowed, f"a [[links.{key}]] table")) for k, t in enumerate(raw)]
+
+
 def _bodies(r: _Reader, tbl: dict, path: str):
     """The [[links.bodies]] of a link (path links[i].bodies) as a list of RigidBody, _BAD on a problem.
 
     inertia_kg_m2 are the diagonal (J_xx, J_yy, J_zz) and inertia_products_kg_m2 (J_xy, J_xz, J_yz)
     the off-diagonal entries of J about the body's centre in link axes [kg m^2].
     """
-    raw = tbl.get("bodies", [])
-    if not isinstance(raw, list):
-        r.add(path, f"expected [[links.bodies]] tables, got {type_name(raw)}")
+    entries = _sub_tables(r, tbl, path, _BODY_KEYS)
+    if entries is _BAD:
         return _BAD
     bodies = []
-    for k, bt in enumerate(raw):
-        pb = join(path, k)
-        bt = r.table(bt, pb, _BODY_KEYS, "a [[links.bodies]] table")
+    for pb, bt in entries:
         if bt is None:
             bodies = _BAD
             continue
@@ -142,14 +151,11 @@ def _bodies(r: _Reader, tbl: dict, path: str):
 
 def _modes(r: _Reader, tbl: dict, path: str):
     """The [[links.modes]] of a link (path links[i].modes) as a list of Mode, _BAD on a problem."""
-    raw = tbl.get("modes", [])
-    if not isinstance(raw, list):
-        r.add(path, f"expected [[links.modes]] tables, got {type_name(raw)}")
+    entries = _sub_tables(r, tbl, path, _MODE_KEYS)
+    if entries is _BAD:
         return _BAD
     modes = []
-    for k, md in enumerate(raw):
-        pm = join(path, k)
-        mt = r.table(md, pm, _MODE_KEYS, "a [[links.modes]] table")
+    for k, (pm, mt) in enumerate(entries):
         if mt is None:
             modes = _BAD
             continue
