@@ -74,3 +74,11 @@ def test_attached_bodies_are_drawn_at_their_centres():
         np.testing.assert_allclose(marks["s"], P[1, :2], atol=1e-12)
         labels = ax.get_legend_handles_labels()[1]
         assert "hub (body at a joint)" in labels and "payload (attached body)" in labels
+    # The animation's frame puts the same markers at the same places.
+    from gibbsimpact.plotting.animation import _actors, _pose, _stage
+
+    fig, ax, floor = _stage(res, np.arange(len(res.t)), 5, True)
+    actors = _actors(ax, model, res.q[0], True)
+    _pose(actors, res, res.q[-1], float(res.t[-1]), 0.0, 5, floor, True)
+    np.testing.assert_allclose([np.ravel(a.get_xydata()) for a in actors["bodies"]], P[:, :2], atol=1e-12)
+    assert [a.get_marker() for a in actors["bodies"]] == ["o", "s"]

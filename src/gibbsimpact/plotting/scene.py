@@ -52,12 +52,18 @@ def _draw_bodies(plot, model, q, label=True, colour=None, **kw):
     P, owner = body_centers(model, q)
     seen = set()
     for p, (i, b) in zip(P, owner):
-        kind = "hub" if b.at == 0.0 and not any(b.center) else "payload"
-        text, style = _BODY_STYLE[kind]
-        c = colour or _link_colour(i)
-        style = dict(style, color=c, mfc="none" if kind == "hub" else c)
-        plot(p[None, :], label=text if label and kind not in seen else None, **{**style, **kw})
-        seen.add(kind)
+        text, style = _body_style(i, b, colour)
+        plot(p[None, :], label=text if label and text not in seen else None, **{**style, **kw})
+        seen.add(text)
+
+
+def _body_style(i: int, body, colour=None) -> tuple[str, dict]:
+    """(legend text, marker style) of a body on link i (0-based): a hub (at = 0, no offset) an open disc,
+    any other body a filled square, in the link's colour (style._BODY_STYLE)."""
+    kind = "hub" if body.at == 0.0 and not any(body.center) else "payload"
+    text, style = _BODY_STYLE[kind]
+    c = colour or _link_colour(i)
+    return text, dict(style, color=c, mfc="none" if kind == "hub" else c)
 
 
 def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, arrow=0.25, stops=()):
