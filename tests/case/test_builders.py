@@ -351,3 +351,20 @@ def test_a_link_that_cannot_be_built_blames_no_correct_key(path):
         assert any(p == key for p, _ in problems), (key, problems)
         blamed += [(key, p, m) for p, m in problems if not within(p, key)]
     assert not blamed, "\n".join(f"{key} wrong, blamed {p}: {m}" for key, p, m in blamed[:10])
+
+
+def test_obstacle_walls_in_a_case_file_round_trip_through_a_result_file(tmp_path):
+    """[[walls]] with inside = false builds an obstacle (Circle/Sphere inside=False), inside = true or no key
+    a container; the run's result file stores the obstacle and reads it back equal; a non-boolean is
+    refused at its key."""
+    text = GOOD + ('\n[[walls]]\ntype = "circle"\nradius_m = 0.1\ncenter_m = [0.3, 0.4]\ninside = false\n'
+                   '\n[[walls]]\ntype = "sphere"\nradius_m = 0.2\ncenter_m = [-0.3, 0.5, 0.0]\ninside = false\n'
+                   'friction = 0.3\n\n[[walls]]\ntype = "sphere"\nradius_m = 2.0\ninside = true\n')
+    case = gi.load_case(write(tmp_path, text))
+    assert case.walls == (gi.Circle(1.5), gi.Circle(0.1, (0.3, 0.4), inside=False),
+                          gi.Sphere(0.2, (-0.3, 0.5, 0.0), friction=0.3, inside=False), gi.Sphere(2.0))
+    res = case.simulate(t_end=0.01)
+    back = gi.load_result(res.save(tmp_path / "r.npz"))
+    assert back.walls == case.walls
+    err = problems_of(tmp_path, text.replace("inside = false", 'inside = "no"', 1))
+    assert [p for p, _ in err.problems] == ["walls[2].inside"]

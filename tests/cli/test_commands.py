@@ -631,3 +631,17 @@ def test_run_reports_the_whole_run_and_the_per_phase_energy_error(tmp_path, caps
     # One term per phase and per impact, each rounding within a few eps |E0|.
     tol = 4 * np.finfo(float).eps * 4.905 * (2 * s["n_impacts"] + 2)
     assert s["energy_error_whole_run_J"] == pytest.approx(E, abs=tol)
+
+
+def test_show_describes_an_obstacle_and_its_gaps(tmp_path, capsys):
+    """show on case 1 plus an obstacle post of R = 0.1 m at (0, -1.2): the wall is named an obstacle, and the
+    gaps are |p - c| - R: 0.6 m for O2 at (0, -0.5), sqrt(0.75 + 1.44) - 0.1 m for O1 and O3 at (-+0.866, 0)."""
+    case = tmp_path / "post.toml"
+    case.write_text((CASES / "circle_two_link.toml").read_text()
+                    + '\n[[walls]]\ntype = "circle"\nradius_m = 0.1\ncenter_m = [0.0, -1.2]\ninside = false\n')
+    code, out, err = run_main(["show", case], capsys)
+    assert code == 0
+    assert "walls[2]: circle R=0.1 m centre (0, -1.2) (obstacle: the chain stays outside)" in out
+    gaps = [ln.split()[-1] for ln in out.splitlines() if ln.strip().startswith("O")]
+    assert [float(g) for g in gaps] == pytest.approx([math.sqrt(0.75 + 1.44) - 0.1, 0.6, math.sqrt(0.75 + 1.44) - 0.1],
+                                                     abs=1e-5)

@@ -108,6 +108,18 @@ RANGES = {
         "damping_N_m_s_per_rad": Range(0, 1e12, "N m s/rad"),
         "damping_N_s_per_m": Range(0, 1e12, "N s/m"),
     }.items()},
+    **{f"prescribed.{key}": rng for key, rng in {
+        "Omega_rad_per_s": Range(-1e6, 1e6, "rad/s"),
+        "Omega_m_per_s": Range(-1e6, 1e6, "m/s"),
+        "T_s": Range(1e-9, 1e9, "s", why="a nanosecond to about 30 years"),
+        "q0_rad": Range(-1e4, 1e4, "rad"), "q0_m": Range(-1e6, 1e6, "m"),
+        "v_rad_per_s": Range(-1e6, 1e6, "rad/s"), "v_m_per_s": Range(-1e6, 1e6, "m/s"),
+        "q_a_rad": Range(-1e4, 1e4, "rad"), "q_a_m": Range(-1e6, 1e6, "m"),
+        "q_b_rad": Range(-1e4, 1e4, "rad"), "q_b_m": Range(-1e6, 1e6, "m"),
+        "t_a_s": Range(-1e9, 1e9, "s", why="about 30 years"), "t_b_s": Range(-1e9, 1e9, "s", why="about 30 years"),
+        "t_s": Range(-1e9, 1e9, "s", why="about 30 years"),
+        "q_rad": Range(-1e4, 1e4, "rad"), "q_m": Range(-1e6, 1e6, "m"),
+    }.items()},
     "initial.center_of_mass_m": Range(-1e6, 1e6, "m"),
     "initial.center_of_mass_velocity_m_per_s": Range(-1e6, 1e6, "m/s"),
     "initial.coordinates.*_m": Range(-1e6, 1e6, "m"),
@@ -198,6 +210,7 @@ _TOP_KEYS = {
     "base": "[base] table: a fixed or free-flying base",
     "walls": "[[walls]] tables",
     "inputs": "[[inputs]] tables: applied torques and forces",
+    "prescribed": "[[prescribed]] tables: joint coordinates that follow a given motion",
     "initial": "[initial] table: initial state",
     "time": "[time] table: t_start_s, t_end_s",
     "solver": "[solver] table: integration settings",
@@ -285,6 +298,29 @@ _BODY_KEYS = {
     "inertia_products_kg_m2": "products of inertia [J_xy, J_xz, J_yz] in kg m^2 (default 0)",
     "at_m": "abscissa x_a on the link in m (default: the tip; 0: the joint, a hub)",
 }
+#: [[prescribed]] keys of each profile kind -> (parameter of gibbsimpact.profiles, required, default);
+#: ``{Q}`` is rad on an angle coordinate and m on a length; t_s and q_{Q} of "samples" are arrays.
+_PRESCRIBED_KEYS = {
+    "spin_up": {"Omega_{Q}_per_s": ("Omega_s", True, None), "T_s": ("T_s", True, None),
+                "q0_{Q}": ("q0", False, 0.0)},
+    "constant_speed": {"q0_{Q}": ("q0", False, 0.0), "v_{Q}_per_s": ("v", True, None)},
+    "point_to_point": {"q_a_{Q}": ("q_a", True, None), "q_b_{Q}": ("q_b", True, None), "t_a_s": ("t_a", True, None),
+                       "t_b_s": ("t_b", True, None)},
+    "samples": {"t_s": ("t", True, None), "q_{Q}": ("q", True, None)},
+}
+
+
+def _prescribed_keys(kind: str, angle: bool) -> dict:
+    """The [[prescribed]] keys of profile ``kind`` on an angle (True) or length (False) coordinate."""
+    return {k.format(Q="rad" if angle else "m"): v for k, v in _PRESCRIBED_KEYS[kind].items()}
+
+
+_PRESCRIBED_TABLE_KEYS = {
+    "coordinate": "joint coordinate that follows the profile, e.g. 'theta_1' or 'd_2'",
+    "profile": f"one of {', '.join(_PRESCRIBED_KEYS)}",
+    **{key: f"{kind} profile parameter" for kind in _PRESCRIBED_KEYS for angle in (True, False)
+       for key in _prescribed_keys(kind, angle)},
+}
 _MODE_KEYS = {
     "kind": f"boundary conditions, one of {', '.join(MODE_KINDS)}",
     "direction": "deflection direction, 'y' (in-plane v) or 'z' (out-of-plane w)",
@@ -295,6 +331,7 @@ _WALL_KEYS = {
         "type": "wall type",
         "radius_m": "radius R in m",
         "center_m": "centre (c1, c2) in m",
+        "inside": "true: the chain stays inside (a container, the default); false: outside (an obstacle)",
         "restitution": "coefficient of restitution of this wall",
         "friction": "Coulomb friction coefficient of this wall (impacts and resting contact; default 0)",
     },
@@ -302,6 +339,7 @@ _WALL_KEYS = {
         "type": "wall type",
         "radius_m": "radius R in m",
         "center_m": "centre (c1, c2, c3) in m",
+        "inside": "true: the chain stays inside (a container, the default); false: outside (an obstacle)",
         "restitution": "coefficient of restitution of this wall",
         "friction": "Coulomb friction coefficient of this wall (impacts and resting contact; default 0)",
     },

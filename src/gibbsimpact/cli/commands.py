@@ -153,7 +153,7 @@ def describe_case(case) -> str:
     lines.append(f"initial energy: kinetic {E.kinetic:.9g} J, gravitational {E.gravity:.9g} J, "
                  f"strain {E.strain:.9g} J, total {E.total:.9g} J")
     if case.walls:
-        lines.append("initial gaps g (distance inside the wall, m):")
+        lines.append("initial gaps g (distance on the free side of the wall, m):")
         G = case.initial_gaps()
         P = m.joint_positions(case.q0)
         header = "  joint   position [m]                      " + "".join(f"  walls[{k + 1}]" for k in range(len(case.walls)))

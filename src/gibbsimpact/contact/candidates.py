@@ -19,8 +19,9 @@ Functions, all pure f(model, q, ...):
 
 Search interval. x* minimises g_w(p(x)) over [a_i, b_i] = [0, l_i]; for a Pb link over the
 protruding part [l_i - d_i, l_i] (the part behind the guide is straight along the guide
-axis, so its gap is linear (plane) or concave (circle, sphere) along it: its minimum is at
-an end, the rear end O_i or the guide, which are candidates already).
+axis, so its gap is linear (plane) or concave (circle, sphere confining the chain) along it:
+its minimum is at an end, the rear end O_i or the guide, which are candidates already; on an
+obstacle, whose gap is convex along a line, that part is not searched: docs/theory.md §10.3).
 
 Contact candidate rule (for the event loop). The ends of the search interval are joint
 candidates already (:func:`end_joints` gives their index in
@@ -29,7 +30,7 @@ than ``end_tol`` (default 1e-6 l_i) from both ends of [a_i, b_i] (:func:`interio
 
 * event functions: one per (wall, flexible link), g*_wi(q) = gap[w, i] (continuous in q,
   never above the gaps of the link's end joints); rigid links need none (their minimum is
-  a joint);
+  a joint) unless a wall is an obstacle (simulation.contacts.link_columns);
 * impact stage: a link candidate enters the impulse problem only when it is interior;
   otherwise its end joint (end_joints) stands for it. The joint's gap exceeds g* by at most
   1/2 max|g''| end_tol^2 (about 5e-13 m for |g''| = 1 /m, l = 1 m), far below the contact band

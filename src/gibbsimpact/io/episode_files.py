@@ -27,7 +27,7 @@ def _point_name(result, c: int) -> str:
     """'O2', 'link 1' or 'body 1' for the 1-based gap-matrix column c (Contacts.names)."""
     from ..simulation.contact_points import contact_points
 
-    points = contact_points(result.model, bool(result.settings.get("link_contacts", True)))
+    points = contact_points(result.model, bool(result.settings.get("link_contacts", True)), result.walls)
     return points[c - 1].name if 0 < c <= len(points) else f"point {c}"
 
 

@@ -135,6 +135,12 @@ def velocity_columns(model) -> list[str]:
     return [f"{c}_dot_{u}_per_s" for c, u in zip(model.coordinate_names, model.coordinate_units)]
 
 
+def effort_columns(result) -> list[str]:
+    """Column names of the actuators' efforts (Result.effort): ``effort_theta_1_N_m``, ``effort_d_2_N``."""
+    units = dict(zip(result.model.coordinate_names, result.model.coordinate_units))
+    return [f"effort_{c}_{'N_m' if units[c] == 'rad' else 'N'}" for c in result.prescribed]
+
+
 def _fmt(x) -> str:
     """Shortest text that reads back to the same double (Python's repr)."""
     return repr(float(x))
@@ -164,12 +170,15 @@ def write_timeseries_csv(result: Result, path, every: int = 1) -> Path:
     header += [f"O{j + 1}_X{a + 1}_m" for j in range(P.shape[1]) for a in range(3)]
     header += ["kinetic_J", "gravity_J", "strain_J", "total_J"]
     if result.work is not None:
-        header += ["work_inputs_J", "work_damping_J"]
+        header += ["work_inputs_J", "work_damping_J"] + (["work_actuators_J"] if result.work.shape[1] > 2 else [])
+    header += effort_columns(result)
     K = len(r)
     cols = [result.q[r], result.qdot[r], P.reshape(K, 3 * P.shape[1]),
             np.column_stack((E.kinetic, E.gravity, E.strain, E.total))[r]]
     if result.work is not None:
-        cols.append(result.work[r, :2])
+        cols.append(result.work[r])
+    if result.effort is not None:
+        cols.append(result.effort[r])
     # One (K, C) table of Python floats, formatted by _fmt row by row (case 1's 1014 rows: 55 ms
     # against 68 ms when indexing numpy scalars one by one; repr of the floats is most of it).
     rows = np.column_stack(cols).tolist()
@@ -204,9 +213,11 @@ def _friction_columns(rec, c) -> np.ndarray:
 def write_impacts_csv(result: Result, path) -> Path:
     """One row per contact: impact number, time, joint, wall, normal, impulse, normal velocities, energies."""
     path = Path(path)
+    # With prescribed coordinates each impact's actuator impulses (Lambda_p), repeated on its contacts' rows.
+    held = [c.replace("effort_", "actuator_impulse_", 1) + "_s" for c in effort_columns(result)]
     with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(IMPACT_COLUMNS)
+        w.writerow(IMPACT_COLUMNS + held)
         for i, rec in enumerate(result.impacts, start=1):
             for c, (joint, wall) in enumerate(zip(rec.joints, rec.wall)):
                 w.writerow(
@@ -218,6 +229,7 @@ def write_impacts_csv(result: Result, path) -> Path:
                     + [_fmt(v) for v in rec.energy_after]
                     + [_fmt(v) for v in (np.asarray(rec.points)[c] if rec.points is not None else [math.nan] * 3)]
                     + [_fmt(v) for v in _friction_columns(rec, c)]
+                    + ([_fmt(v) for v in rec.actuator_impulses] if held else [])
                 )
     return path
 
@@ -414,6 +426,11 @@ def summary(result: Result, case=None) -> dict:
     d["n_steps_examined_for_dips"] = int(result.n_examined)
     if result.work is not None:
         d["work_final_J"] = {"inputs": float(result.work[-1, 0]), "damping": float(result.work[-1, 1])}
+        if result.work.shape[1] > 2:
+            d["work_final_J"]["actuators"] = float(result.work[-1, 2])
+    if result.prescribed:
+        d["prescribed_coordinates"] = list(result.prescribed)
+        d["effort_final"] = dict(zip(effort_columns(result), (float(v) for v in result.effort[-1])))
     d["n_samples"] = int(len(result.t))
     return _json_safe(d)
 
@@ -524,6 +541,10 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
     }
     if result.work is not None:
         arrays["work"] = np.asarray(result.work, dtype=float)
+    if result.effort is not None:
+        arrays["effort"] = np.asarray(result.effort, dtype=float)
+        arrays["impact_actuator_impulses"] = np.array([r.actuator_impulses for r in imps], dtype=float).reshape(
+            len(imps), len(result.prescribed))
     if result.contact_forces is not None:
         arrays["contact_forces"] = np.asarray(result.contact_forces, dtype=float)
     if result.friction_forces is not None:
@@ -544,6 +565,7 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         "energy_error": _tag(float(result.energy_error)),
         "energy_error_whole_run_J": _tag(float(result.energy_error_whole_run_J)),
         "resting_time": _tag(float(result.resting_time)),
+        "prescribed": list(result.prescribed),
         "metadata": _tag(metadata or {}),
     }
     arrays["meta"] = np.array(json.dumps(meta))
@@ -594,6 +616,7 @@ def load_result(path, with_metadata: bool = False):
             **({"friction_impulses": a["contact_friction"][s, 0:3], "slip_before": a["contact_friction"][s, 3:6],
                 "slip_after": a["contact_friction"][s, 6:9]}
                if "impact_frictional" in a and a["impact_frictional"][i] else {}),
+            **({"actuator_impulses": a["impact_actuator_impulses"][i]} if "impact_actuator_impulses" in a else {}),
         ))
     res = Result(
         model=model, walls=walls, t=a["t"], q=a["q"], qdot=a["qdot"], phase=a["phase"], impacts=impacts,
@@ -603,6 +626,7 @@ def load_result(path, with_metadata: bool = False):
         energy_error_whole_run_J=float(_untag(meta.get("energy_error_whole_run_J", float("nan")))),
         work=a.get("work"), contact_forces=a.get("contact_forces"), friction_forces=a.get("friction_forces"),
         resting_time=float(_untag(meta.get("resting_time", 0.0))),
+        prescribed=tuple(meta.get("prescribed", ())), effort=a.get("effort"),
     )
     if with_metadata:
         return res, _untag(meta.get("metadata", {}))

@@ -385,7 +385,7 @@ def plot_energy(result, case_name=None, ax=None):
         # A work that stays zero (no inputs, or no damped link) is left out of the legend and the plot.
         dissipation = ("work of damping and friction" if any(getattr(w, "friction", 0.0) > 0 for w in result.walls)
                        else "work of damping")
-        for c, text in enumerate(("work of inputs", dissipation)):
+        for c, text in enumerate(("work of inputs", dissipation, "work of actuators")[:result.work.shape[1]]):
             if np.any(result.work[:, c] != 0.0) or not np.any(result.work != 0.0) and c == 0:
                 _curve(axes[0], result.t, result.work[:, c], label=text, **_style(3 + c))
         balance = balance - result.work.sum(axis=1)
@@ -404,4 +404,29 @@ def plot_energy(result, case_name=None, ax=None):
                            f"{result.energy_error_whole_run:.1e}, max per flight phase {result.energy_error:.1e})",
                    case_name)
     _finish_time_figure(fig, axes, result, title, own)
+    return fig
+
+
+def plot_effort(result, case_name=None, ax=None):
+    """The effort Q_p of each prescribed coordinate's actuator [N m on an angle, N on a length] (Result.effort),
+    one panel each, against time; None for a run without prescribed coordinates.
+
+    ax : None (a new figure), or one Axes per prescribed coordinate.
+    """
+    if not result.prescribed or result.effort is None:
+        return None
+    n = len(result.prescribed)
+    own = ax is None
+    if own:
+        fig = _figure((9.5, 2.3 * n + 1.2))
+        axes = list(fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0])
+    else:
+        axes = _given_axes(ax, n, "plot_effort")
+        fig = axes[0].figure
+    units = dict(zip(result.model.coordinate_names, result.model.coordinate_units))
+    for c, (a, name) in enumerate(zip(axes, result.prescribed)):
+        _curve(a, result.t, result.effort[:, c], label=name, **_style(c))
+        a.set_ylabel(f"effort on {name}\n[{'N m' if units[name] == 'rad' else 'N'}]")
+    what = "generalised force each actuator applies to follow its prescribed motion (impulses at impacts not shown)"
+    _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
     return fig

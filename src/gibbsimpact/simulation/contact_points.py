@@ -25,7 +25,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..contact.candidates import body_candidates
-from .contacts import flexible_links
+from .contacts import link_columns
 
 __all__ = ["ContactPoint", "contact_points", "describe_point", "rebound_period"]
 
@@ -104,17 +104,18 @@ def _joint_point(model, j: int) -> ContactPoint:
     return ContactPoint(name, text, host if _end_moves(model, host) else None, False)
 
 
-def contact_points(model, link_contacts: bool = True) -> list[ContactPoint]:
-    """The ContactPoint of every gap-matrix column: O_1 ... O_P, then (link_contacts) one per flexible
-    link (Contacts.flex), then one per body candidate (Contacts.bodies: "body k", held by its own mass),
-    as in simulation.contacts.Contacts with walls."""
+def contact_points(model, link_contacts: bool = True, walls=()) -> list[ContactPoint]:
+    """The ContactPoint of every gap-matrix column: O_1 ... O_P, then (link_contacts) one per link with a
+    link column (Contacts.flex: contacts.link_columns of ``walls``), then one per body candidate
+    (Contacts.bodies: "body k", held by its own mass), as in simulation.contacts.Contacts."""
     points = [_joint_point(model, j) for j in range(1, model.n_joints + 1)]
     if link_contacts:
-        points += [ContactPoint(f"link {i + 1}", f"span of link {i + 1}", i, True) for i in flexible_links(model)]
+        # A rigid link's span point (obstacles) moves with the frame only: Newton's law is well posed there.
+        points += [ContactPoint(f"link {i + 1}", f"span of link {i + 1}", i if model.delta_index[i].size else None,
+                                True) for i in link_columns(model, walls)]
     for k, (i, b) in enumerate(body_candidates(model), start=1):
-        where = "tip" if b.at == model.chain.links[i].length else f"x = {b.at:g} m"
-        points.append(ContactPoint(f"body {k}", f"centre of a body on link {i + 1} at its {where}"
-                                   if where == "tip" else f"centre of a body on link {i + 1} at {where}",
+        where = "its tip" if b.at == model.chain.links[i].length else f"x = {b.at:g} m"
+        points.append(ContactPoint(f"body {k}", f"centre of a body on link {i + 1} at {where}",
                                    i if model.delta_index[i].size else None, False))
     return points
 

@@ -130,11 +130,11 @@ def _run_settings(result) -> tuple[float, float, float, bool]:
     return float(s["contact_tol"]), float(s["rtol"]), float(s["atol"]), bool(s.get("link_contacts", True))
 
 
-def dwell_times(model, link_contacts: bool = True) -> np.ndarray:
+def dwell_times(model, link_contacts: bool = True, walls=()) -> np.ndarray:
     """The dwell [s] of every gap-matrix column (C,): rebound_period of the link whose shape functions
     move the point, 0 where none does (contact_points.ContactPoint.link)."""
     return np.array([0.0 if p.link is None else rebound_period(model, p.link)
-                     for p in contact_points(model, link_contacts)])
+                     for p in contact_points(model, link_contacts, walls)])
 
 
 class _Samples(NamedTuple):
@@ -304,7 +304,7 @@ def episodes(result, dwell: float | None = None) -> list[Episode]:
         return []
     s = _samples(result)
     C = s.gap.shape[2]
-    times = dwell_times(result.model, _run_settings(result)[3]) if dwell is None else np.full(C, float(dwell))
+    times = dwell_times(result.model, _run_settings(result)[3], result.walls) if dwell is None else np.full(C, float(dwell))
     groups = _group(result.t, _engagements(result, s), times)
     energy = result.energy().total
     return [_episode(result, s, g, energy) for g in groups]

@@ -8,6 +8,10 @@ gibbsimpact.dynamics.forces):
 
 In a contact phase (pairs resting on walls) qddot comes from the constrained equations of
 gibbsimpact.contact.resting, and the power of friction joins the damping's.
+
+With prescribed coordinates q_p (gibbsimpact.simulation.prescribed) y has a third work state, the
+actuator's: W_act' = qdot_p . Q_p, Q_p the effort of gibbsimpact.dynamics.prescribed, and qddot
+comes from the free rows M_ff qddot_f = Q_f - h_f - dV/dq_f - M_fp qddot_p (:meth:`Equations.partitioned`).
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import numpy as np
 
 from ..dynamics.forces import CallbackError, damping_depends_on_q, damping_matrix, generalized_force
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics
+from ..dynamics.prescribed import partitioned_dynamics
 from .budget import Budget
 
 
@@ -35,7 +40,10 @@ class Equations:
         self.C_damp = damping_matrix(model, q0)
         self.damped = bool(np.any(self.C_damp))
         # Friction in resting contact does work too: a frictional wall makes the run keep its work.
-        self.driven = self.Q_in is not None or self.damped or any(w.friction > 0 for w in settings.walls)
+        self.prescribed = settings.prescribed  # None, or the Prescribed coordinates (their work is the third state)
+        self.driven = self.Q_in is not None or self.damped or any(w.friction > 0 for w in settings.walls) \
+            or self.prescribed is not None
+        self.n_work = 0 if not self.driven else 2 if self.prescribed is None else 3  # work states after (q, qdot)
         self.zeros = np.zeros(N)
         self.nfev = 0
         self.budget = Budget(settings.max_rhs_calls, settings.max_cpu_time)
@@ -58,6 +66,22 @@ class Equations:
         f = self.forces(t, q, qd)
         return None if f is None else f[0] + f[1]
 
+    def partitioned(self, t, q, qd):
+        """The prescribed run's dynamics at t: (qdot (N,) with the prescribed entries from f(t), qddot (N,),
+        Q_in, Q_damp (N,), effort Q_p (n_p,) [N m or N], qdot_p (n_p,)); q, qd (N,) are not modified."""
+        P = self.prescribed
+        q_p, qd_p, qdd_p = P.at(t)
+        q, qd = q.copy(), qd.copy()
+        q[P.index], qd[P.index] = q_p, qd_p
+        Qi, Qd = self.forces(t, q, qd)
+        qdd, effort = partitioned_dynamics(self.model, q, qd, P.index, qdd_p, Qi + Qd)
+        return qd, qdd, Qi, Qd, effort, qd_p
+
+    def efforts(self, T, Q, Qdot) -> np.ndarray:
+        """The actuators' efforts Q_p (K, n_p) [N m or N] at the samples T (K,), Q, Qdot (K, N)."""
+        return np.array([self.partitioned(t, q, qd)[4] for t, q, qd in zip(T, Q, Qdot)]).reshape(
+            len(T), len(self.prescribed.index))
+
     def __call__(self, t, y):
         """y' (y.shape) at (t, y); NaN where M is singular, so that the solver rejects the step.
         Raises BudgetExceeded (the call not made) once the run has used up a limit."""
@@ -74,6 +98,9 @@ class Equations:
                 return np.concatenate((qd, qdd) if f is None else (qd, qdd, [qd @ f[0], qd @ f[1] + power.sum()]))
             if not self.driven:
                 return np.concatenate((qd, forward_dynamics(self.model, q, qd)))
+            if self.prescribed is not None:
+                qd, qdd, Qi, Qd, effort, qd_p = self.partitioned(t, q, qd)
+                return np.concatenate((qd, qdd, [qd @ Qi, qd @ Qd, qd_p @ effort]))
             Qi, Qd = self.forces(t, q, qd)
             qdd = forward_dynamics(self.model, q, qd, Qi + Qd)
             return np.concatenate((qd, qdd, [qd @ Qi, qd @ Qd]))

@@ -21,7 +21,7 @@ import numpy as np
 from ..contact.candidates import body_candidates, closest_points, interior
 from ..dynamics.kinematics import joint_positions
 from ..dynamics.link_points import body_centers, material_points
-from .contacts import flexible_links
+from .contacts import link_columns
 
 __all__ = ["Outside", "outside_walls", "point_name"]
 
@@ -51,7 +51,7 @@ class Outside:
 def outside_walls(model, q, walls, tol: float, link_contacts: bool = True) -> list[Outside]:
     """Every contact point of the state q (N,) with gap g < -tol [m] to one of ``walls``: the joints
     first, wall by wall, then the centres of the body candidates, then (with ``link_contacts``) the
-    interior closest points of flexible links."""
+    interior closest points of links (contacts.link_columns)."""
     walls = tuple(walls)
     p = joint_positions(model, q)
     pb = body_centers(model, q, body_candidates(model))[0]
@@ -62,7 +62,7 @@ def outside_walls(model, q, walls, tol: float, link_contacts: bool = True) -> li
                 for j in np.nonzero(g < -tol)[0]]
         gb = w.gap(pb)
         out += [Outside(k, float(-gb[b]), tuple(float(c) for c in pb[b]), body=int(b)) for b in np.nonzero(gb < -tol)[0]]
-    flex = flexible_links(model) if link_contacts else []
+    flex = link_columns(model, walls) if link_contacts else []
     if not (flex and walls):
         return out
     cp = closest_points(model, q, walls)

@@ -17,7 +17,7 @@ class Chunk(NamedTuple):
     q: np.ndarray  # (k, N)
     qdot: np.ndarray  # (k, N)
     phase: np.ndarray  # (k,) int
-    work: np.ndarray  # (k, 2) [J]
+    work: np.ndarray  # (k, 2) [J], (k, 3) with prescribed coordinates (their actuators' work)
     energy: Energy  # each field (k,) [J]
     error: float  # energy balance error of these samples (relative)
     impact: ImpactRecord | None
@@ -35,9 +35,10 @@ class Recorder:
     """Stored samples (t, q, qdot, phase, work), their energies, the impacts, and the flight-phase energy balance.
 
     work : (K, 2) [J] the work of the inputs and of the damping since t0 (zeros
-    for an undriven, undamped run). In a flight phase E(t) - E(start) equals
-    W(t) - W(start) up to the integration error, which is what energy_error measures per
-    phase; balance_J adds up those errors, signed, with the energy jumps of the impacts that
+    for an undriven, undamped run), and with prescribed coordinates a third column, the work of
+    their actuators: int qdot_p . Q_p dt, plus Lambda_p . qdot_p at each impact (qdot_p does not
+    jump). In a flight phase E(t) - E(start) equals W(t) - W(start) up to the integration error,
+    which is what energy_error measures per phase; balance_J adds up those errors, signed, with the energy jumps of the impacts that
     should conserve E (e = 1, no friction impulse) into the error of the whole run.
 
     Everything is kept as a list of Chunk, each added by one ``list.append``:
@@ -46,24 +47,30 @@ class Recorder:
     every impact with the sample after it).
     """
 
-    def __init__(self, model, t0, q0, qdot0, n_walls=0):
+    def __init__(self, model, t0, q0, qdot0, n_walls=0, prescribed=None):
         self.model = model
+        self.prescribed = prescribed  # (n_p,) indices of the prescribed coordinates, or None
+        n_work = 2 if prescribed is None else 3
         self.force_shape = (n_walls, model.n_joints)
         # Energy of every stored sample: needed for the flight-phase drift, then handed
         # to the Result so res.energy() does not evaluate M at every sample again.
-        self.chunks = [Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, 2)),
+        self.chunks = [Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, n_work)),
                               one_sample(energy(model, q0, qdot0)), 0.0, None)]
         self.n_impacts = 0
 
     def impact(self, rec, q, phase):
         last = self.chunks[-1]
+        work = last.work[-1:].copy()
+        if rec.actuator_impulses is not None:  # the actuators' impulses work at the (unchanged) qdot_p
+            work[0, 2] += float(rec.actuator_impulses @ rec.qdot_after[self.prescribed])
         # An impact with e = 1 and no friction impulse should keep E: its jump is an error of the run.
         # Others dissipate by design (Newton's law with e < 1, Coulomb friction), and do not count.
         conserving = np.all(np.asarray(rec.restitution) == 1.0) and (
             rec.friction_impulses is None or not np.any(rec.friction_impulses))
-        jump = float(rec.energy_after.total - last.energy.total[-1]) if conserving else 0.0
+        jump = float(rec.energy_after.total - last.energy.total[-1] - (work[0].sum() - last.work[-1].sum())) \
+            if conserving else 0.0
         self.chunks.append(Chunk(np.array([rec.time]), q[None, :].copy(), rec.qdot_after[None, :].copy(),
-                                  np.array([phase]), last.work[-1:].copy(), one_sample(rec.energy_after), 0.0, rec,
+                                  np.array([phase]), work, one_sample(rec.energy_after), 0.0, rec,
                                   balance=jump))
         self.n_impacts += 1
 
@@ -77,7 +84,7 @@ class Recorder:
         last = self.chunks[-1]
         E_start = Energy(*(float(a[-1]) for a in last.energy))
         W_start = last.work[-1].sum()
-        W = Y[:, 2 * N:2 * N + 2] if Y.shape[1] > 2 * N else np.zeros((T.size, 2))
+        W = Y[:, 2 * N:] if Y.shape[1] > 2 * N else np.zeros((T.size, last.work.shape[1]))
         scale = energy_scale(self.model, E_start, float(np.max(np.abs(W.sum(axis=1) - W_start), initial=0.0)))
         # All samples in one kernel call; the balance E(t) - E(start) - (W(t) - W(start)) per sample.
         E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
@@ -121,7 +128,7 @@ class Recorder:
         return [c.impact for c in self.chunks if c.impact is not None]
 
     def arrays(self):
-        """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2), Energy of (K,) arrays,
+        """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2 or 3), Energy of (K,) arrays,
         contact forces (K, W, P) [N], friction forces (K, W, P, 3) [N]."""
         cs = self.chunks
         cat = np.concatenate

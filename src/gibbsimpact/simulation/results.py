@@ -50,6 +50,8 @@ class ImpactRecord(NamedTuple):
     friction_impulses, slip_before, slip_after : (k, 3) or None: with friction on a wall
         (gibbsimpact.friction), the tangential impulse of each contact [N s] and its tangential
         velocity before and after [m/s], world vectors; None for a frictionless impact
+    actuator_impulses : (n_p,) or None: with prescribed coordinates (Result.prescribed), the impulse each
+        actuator takes to hold its qdot_p, Lambda_p = M_pf (qdot_f+ - qdot_f-) - W_p Lambda [N m s or N s]
     rounds : int, rounds of Newton's law the impact took (gibbsimpact.impact): 1
         when every contact carrying an impulse approached; more when an impulse
         pushed a contact that was moving away back into the wall
@@ -72,6 +74,7 @@ class ImpactRecord(NamedTuple):
     friction_impulses: np.ndarray | None = None
     slip_before: np.ndarray | None = None
     slip_after: np.ndarray | None = None
+    actuator_impulses: np.ndarray | None = None
 
 
 @dataclass(eq=False)
@@ -106,7 +109,11 @@ class Result:
         no friction count (they should conserve E). Equal to E(end) - E(t0) - (W(end) - W(t0)) when
         every impact has e = 1 and no pair rests. NaN for results of files written before it existed.
     work : (K, 2) [J] or None: work of the inputs and of the structural damping
-        since t_span[0] at every sample (None for an undriven, undamped run)
+        since t_span[0] at every sample (None for an undriven, undamped run); (K, 3) with prescribed
+        coordinates, the third column their actuators' work (int qdot_p . Q_p dt and Lambda_p . qdot_p at impacts)
+    prescribed : tuple of str, the prescribed coordinates (simulate's ``prescribed``; () for none)
+    effort : (K, n_p) or None: the generalised force Q_p each prescribed coordinate's actuator applies at
+        every sample [N m on an angle, N on a length] (formulation §16), columns in ``prescribed``'s order
     contact_forces : (K, W, P) [N] or None: the normal force of wall w on contact point
         O_(j+1) at every sample while the pair is in resting contact (gibbsimpact.resting),
         0 elsewhere (impulses of impacts are in ``impacts``); None for results of older files
@@ -148,6 +155,8 @@ class Result:
     contact_forces: np.ndarray | None = None
     friction_forces: np.ndarray | None = None
     resting_time: float = 0.0
+    prescribed: tuple = ()
+    effort: np.ndarray | None = None
     _energy_cache: Energy | None = field(default=None, repr=False)
     # Not an __init__ argument: dataclasses.replace (new samples or forces) must not carry it over.
     _episodes_cache: list | None = field(default=None, init=False, repr=False)

@@ -12,8 +12,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..contact.impact import HeldContactError
 from ..contact.resting import RestingContacts
 from ..contact.walls import describe
+from ..dynamics.forces import CallbackError
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .accumulation import Accumulation
 from .contacts import Contacts, contact_band, event_spec, gap_lipschitz, impact_stage as solve_impact, phase_events
@@ -89,12 +91,14 @@ def _check_inside(model, q, walls, contact_tol, link_contacts=True):
     lines = []
     for o in bad:
         w, at = f"wall {o.wall + 1} ({describe(walls[o.wall])})", np.round(o.point, 6).tolist()
+        how = "passes" if walls[o.wall].obstacle else "bends"   # through an obstacle a straight link can pass
         lines.append(f"{point_name(model, o)} at {at} m is {o.depth:.3g} m outside {w}" if o.link is None else
-                     f"link {o.link + 1} bends {o.depth:.3g} m beyond {w} between its joints: its point at "
+                     f"link {o.link + 1} {how} {o.depth:.3g} m beyond {w} between its joints: its point at "
                      f"x = {o.x:.6g} m (of {model.chain.links[o.link].length:.6g} m) is at {at} m")
     kinds = {"a link" if o.link is not None else ("an attached body" if o.body is not None else "a joint") for o in bad}
     what = " and ".join(sorted(kinds))
-    raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(lines) + ". Move the chain inside.")
+    fix = "out of the obstacle" if any(walls[o.wall].obstacle for o in bad) else "inside"
+    raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(lines) + f". Move the chain {fix}.")
 
 
 def _check_start(model, q0, qdot0, settings, limits):
@@ -114,6 +118,7 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     s, walls = settings, settings.walls
     limits = joint_limits(model)
     _check_start(model, q0, qdot0, s, limits)
+    limits = _watched(limits, s.prescribed)
     contacts = Contacts(model, walls, s.link_contacts)
     stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
     lipschitz = gap_lipschitz(model)
@@ -123,10 +128,25 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     return Run(
         model=model, settings=s, contacts=contacts, limits=limits, stops=stops, resting=resting,
         monitor=Accumulation((len(walls), contacts.n_cols), s.zeno_count, s.zeno_interval, band, contacts.names),
-        recorder=Recorder(model, s.t0, q0, qdot0, len(walls)), equations=equations, clock=clock,
-        lipschitz=lipschitz, t=s.t0, y=np.concatenate((q0, qdot0, np.zeros(2 if equations.driven else 0))),
+        recorder=Recorder(model, s.t0, q0, qdot0, len(walls), _index(s.prescribed)), equations=equations,
+        clock=clock, lipschitz=lipschitz, t=s.t0, y=np.concatenate((q0, qdot0, np.zeros(equations.n_work))),
         band=band, near=np.zeros((len(walls), contacts.n_cols), dtype=bool),
     )
+
+
+def _index(prescribed):
+    """(n_p,) indices of the prescribed coordinates, or None."""
+    return None if prescribed is None else prescribed.index
+
+
+def _watched(limits, prescribed) -> tuple:
+    """The joint limits the run watches: all, less those of a prescribed coordinate alone (its profile is the
+    user's; checked at t0 by _check_start). A limit that moves free coordinates too is kept."""
+    if prescribed is None or not limits:
+        return limits
+    free = np.ones(limits[0].n.size, dtype=bool)
+    free[prescribed.index] = False
+    return tuple(lim for lim in limits if np.any(lim.n[free]))
 
 
 def gap_functions(run):
@@ -144,6 +164,7 @@ def _accumulation(run, accumulation) -> None:
     rest = run.settings.accumulation == "rest" and bool(run.settings.walls)
     run.forced = run.monitor.recent_pairs() & run.resting.can_rest
     why = ("accumulation='stop'" if not rest else
+           "resting contact is not modelled with prescribed coordinates" if run.settings.prescribed is not None else
            "resting contact is modelled for joints only, not for a link's span, the "
            "tip of a prismatic host or a body's centre" if not run.forced.any() else
            "resting contact did not resolve it" if run.settled_at == run.t else None)
@@ -161,8 +182,12 @@ def impact(run) -> None:
         q, qd = run.y[:N], run.y[N:2 * N]
         in_band_before = run.near
         run.band = run.monitor.band = contact_band(s.contact_tol, run.lipschitz, s.rtol, s.atol, q)
-        rec, run.near = solve_impact(run.model, run.contacts, s.wall_restitution, run.t, q, qd, run.band,
-                                     s.grazing_velocity, run.sink_pair, run.resting.active)
+        try:
+            rec, run.near = solve_impact(run.model, run.contacts, s.wall_restitution, run.t, q, qd, run.band,
+                                         s.grazing_velocity, run.sink_pair, run.resting.active, _index(s.prescribed))
+        except HeldContactError as exc:
+            run.end("held_contact", t=run.t, error=exc)
+            return
         if rec is not None:
             _record_impact(run, rec, q)
             if not run.newton_warned:
@@ -176,16 +201,16 @@ def impact(run) -> None:
             if run.recorder.n_impacts >= s.max_impacts:
                 run.end("max_impacts", max_impacts=s.max_impacts, t=run.t)
                 return
-        run.pending_mode = s.accumulation == "rest" and bool(s.walls)
+        run.pending_mode = s.accumulation == "rest" and bool(s.walls) and s.prescribed is None
     run.pending_impact = False
 
 
 def _record_impact(run, rec, q) -> None:
     """The state after an impact (the record's qdot_after), recorded as the start of a new phase."""
-    N = run.N
-    run.y = np.concatenate((q, rec.qdot_after, run.y[2 * N:]))
     run.phase += 1
     run.recorder.impact(rec, q, run.phase)
+    # The work states go on from the recorded ones: the actuators' impulses did work (Recorder.impact).
+    run.y = np.concatenate((q, rec.qdot_after, run.recorder.chunks[-1].work[-1] if run.equations.driven else []))
     run.clock.n_impacts = run.recorder.n_impacts
 
 
@@ -258,6 +283,9 @@ def flight(run):
     except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
         run.end("integration", t=run.t, error=exc)
         return None
+    if s.prescribed is not None:  # the prescribed slots rode along as quadratures of f: reset them to f(t)
+        s.prescribed.fill(out.sample_t, out.sample_y, N)
+        s.prescribed.fill(np.array([out.t]), out.y[None, :], N)
     run.counters["n_steps"] += out.n_steps
     run.counters["n_examined"] += out.n_examined
     if out.sample_t.size:
@@ -331,8 +359,12 @@ def _limit_event(run, kind, j) -> None:
     elif s.joint_limit == "stop":
         run.end("joint_limit", joint=run.limits[j].joint, limit=run.limits[j].name, t=run.t)
     else:
-        rec = stops.impact(run.model, run.t, run.y[:N], run.y[N:2 * N], j, s.joint_restitution,
-                           s.grazing_velocity, kind == "sink")
+        try:
+            rec = stops.impact(run.model, run.t, run.y[:N], run.y[N:2 * N], j, s.joint_restitution,
+                               s.grazing_velocity, kind == "sink", _index(s.prescribed))
+        except HeldContactError as exc:
+            run.end("held_contact", t=run.t, error=exc)
+            return
         if rec is not None:
             _record_impact(run, rec, run.y[:N])
             accumulation = stops.accumulation(rec.time, j, s.zeno_count, s.zeno_interval)
@@ -391,5 +423,25 @@ def finish(run, started: float) -> Result:
         energy_error_whole_run_J=run.recorder.balance_J,
         _energy_cache=E_all, work=work_all if run.equations.driven else None, contact_forces=F_all,
         friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
-        resting_time=run.counters["resting_time"],
+        resting_time=run.counters["resting_time"], **_efforts(run, t_all, q_all, qdot_all),
     )
+
+
+def _efforts(run, t, q, qdot) -> dict:
+    """Result's prescribed (names) and effort (K, n_p) [N m or N] at every sample ({} without prescribed
+    coordinates)."""
+    P = run.settings.prescribed
+    if P is None:
+        return {}
+    try:
+        effort = run.equations.efforts(t, q, qdot)
+    except (SingularMassMatrixError, CallbackError):  # a run that stopped on such a state: NaN there
+        effort = np.array([_effort_or_nan(run, *a) for a in zip(t, q, qdot)]).reshape(len(t), len(P.index))
+    return dict(prescribed=P.names, effort=effort)
+
+
+def _effort_or_nan(run, t, q, qd) -> np.ndarray:
+    try:
+        return run.equations.partitioned(t, q, qd)[4]
+    except (SingularMassMatrixError, CallbackError):
+        return np.full(len(run.settings.prescribed.index), np.nan)

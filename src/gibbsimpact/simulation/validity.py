@@ -198,7 +198,7 @@ def check_impact(model, rec, walls, link_contacts: bool = True) -> list[str]:
     There 1 / (n^T J M^-1 J^T n) tends to 0 as the link is refined: the impulse has no limit (with finite
     elements it halves with every doubling of elements), and the micro-impacts that follow have none either.
     """
-    points = contact_points(model, link_contacts and bool(walls))
+    points = contact_points(model, link_contacts and bool(walls), walls)
     for c, w, lam in zip(rec.joints, rec.wall, rec.impulses):
         point = points[int(c) - 1] if 0 < int(c) <= len(points) else None
         if w < 0 or not lam > 0.0 or point is None or not point.newton_ill_posed:
