@@ -87,19 +87,20 @@ def test_tip_determinant_is_the_published_tip_mass_equation():
                                                                             rel=1e-12)
 
 
-def _tip_link(m_t, J_t, **disc):
-    # An axial rod at the tip: inertia (0, J_t, J_t) about its centre, all of it in Sigma_xx = J_t,
-    # which the section rotation carries (docs/theory.md §6.8).
-    return gi.Link(L, MU, EI, bodies=[gi.RigidBody(m_t, inertia=(0.0, J_t, J_t))], **disc)
+def _tip_link(m_t, J_t, J_x=0.0, **disc):
+    # A body symmetric about the link axis at the tip: J = (J_x, J_t, J_t) about its centre, whose
+    # bending inertia J_t turns with the section (docs/theory.md §6.8); J_x (its spin) does not enter.
+    return gi.Link(L, MU, EI, bodies=[gi.RigidBody(m_t, inertia=(J_x, J_t, J_t))], **disc)
 
 
-@pytest.mark.parametrize("J_t", [0.0, 0.1 * MU * L ** 3])
-def test_fe_cantilever_with_tip_body_converges_at_fourth_order(J_t):
+@pytest.mark.parametrize("J_t, J_x", [(0.0, 0.0), (0.1 * MU * L ** 3, 0.0), (0.1 * MU * L ** 3, 0.1 * MU * L ** 3)],
+                         ids=["mass", "axial rod", "sphere"])
+def test_fe_cantilever_with_tip_body_converges_at_fourth_order(J_t, J_x):
     # Hermite cubics: omega error ~ C h^4; n_e = 8 -> 16 divides it by 2^4 = 16 (measured 16.0 and
     # 16.0), and the Richardson value omega_16 + (omega_16 - omega_8)/15 is exact to O(h^6) ~ 1e-10.
     m_t = 0.5 * MU * L
     exact = _exact_first_frequency(m_t, J_t)
-    w8, w16 = (link_integrals(_tip_link(m_t, J_t, elements=n)).first_frequency for n in (8, 16))
+    w8, w16 = (link_integrals(_tip_link(m_t, J_t, J_x, elements=n)).first_frequency for n in (8, 16))
     e8, e16 = w8 / exact - 1, w16 / exact - 1
     assert 0 < e16 < e8 and 15.0 < e8 / e16 < 17.0
     assert e16 < 2e-8
@@ -120,7 +121,7 @@ def test_modal_cantilever_with_tip_mass_converges():
 def test_kernel_mass_matrix_carries_the_tip_body():
     # The kernel's elastic block of M at q = 0 (clamped arm, theta fixed) equals the tables' M_dd,
     # and its stiffness (dV/ddelta, no gravity, linear in delta) K: the same frequency.
-    lk = _tip_link(0.5 * MU * L, 0.1 * MU * L ** 3, elements=4)
+    lk = _tip_link(0.5 * MU * L, 0.1 * MU * L ** 3, 0.05 * MU * L ** 3, elements=4)
     model = gi.Model(gi.Chain([lk], base=gi.FixedBase()), gravity=(0.0, 0.0, 0.0))
     idx = model.delta_index[0]
     M = model.mass_matrix(np.zeros(model.n_dof))[np.ix_(idx, idx)]

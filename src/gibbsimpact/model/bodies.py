@@ -1,20 +1,22 @@
 """Rigid bodies attached to links: payloads at a tip, motor/hub inertias at a joint (docs/theory.md §6.8).
 
-A :class:`RigidBody` sits at the abscissa ``at`` of its link. Its material points, in the link
-frame, with c its centre offset and rho a point relative to its centre,
+A :class:`RigidBody` sits at the abscissa ``at`` of its link, with its centre at the offset c from
+the centreline point. It moves with the deflected centreline point at x_a and turns with the
+section's linearised rotation phi = (0, -w'(x_a), v'(x_a)) (the tip-body model of the beam
+literature), in the form that the link tables hold exactly (every material point linear in delta,
+each elastic coordinate moving it along one axis):
 
-    r(rho) = (x_a + c_x + rho_x,  v(x_a) + (c_x + rho_x) v'(x_a) + c_y + rho_y,
-              w(x_a) + (c_x + rho_x) w'(x_a) + c_z + rho_z,  1)
+* its mass m and the part s = min(J_yy, J_zz) of its bending inertia are two points of mass m/2 on
+  the link axis, at the levers lambda = c_x +- sqrt(s/m) from the section, moved by
+  e_(a_k) (psi_k(x_a) + lambda psi_k'(x_a)): they turn with the section;
+* the rest, the rotary inertia J - s (I - e_x e_x^T) (positive semidefinite) and the lateral
+  offset (c_y, c_z), keeps the link frame's orientation, like the links' own rotary inertia.
 
-are linear in the elastic coordinates delta: the body moves with the centreline point at x_a
-and the section's rotation phi = (0, -w'(x_a), v'(x_a)) acts on each point's axial lever
-c_x + rho_x (the transverse displacement phi x lever e_x). The axial displacement that phi
-would give a point off the axis (-(c_y + rho_y) v', -(c_z + rho_z) w') is not modelled, as for
-the links' own cross-sections; on a flexible link the body must therefore sit on the link axis
-(c_y = c_z = 0) with the link axis a principal axis (J_xy = J_xz = 0), which is exact for a
-point mass, an axial rod, and any body symmetric about the link axis except for the rotary
-inertia of its transverse spread (Sigma_yy, Sigma_zz, which then keeps the link frame's
-orientation). On a rigid link every body is exact.
+So the body's bending inertia turns with the section exactly when J_yy = J_zz (any body symmetric
+about the link axis: a sphere, a cylinder or disc on the axis, an axial rod) and, for in-plane
+bending, whenever J_yy >= J_zz. On a flexible link the body must sit on the link axis
+(c_y = c_z = 0) with the link axis a principal axis (J_xy = J_xz = 0); on a rigid link any body
+is exact.
 """
 
 from __future__ import annotations
@@ -92,6 +94,12 @@ class RigidBody:
         if a is not None and (isinstance(a, bool) or not isinstance(a, Real) or not np.isfinite(a) or a < 0):
             raise ValueError(f"RigidBody at={a!r} must be None (the tip) or an abscissa >= 0 in metres on the link")
         object.__setattr__(self, "at", None if a is None else float(a))
+
+    @property
+    def section_inertia(self) -> float:
+        """s = min(J_yy, J_zz) [kg m^2], the part of the bending inertia that turns with the section
+        (module docstring): two axial points of mass m/2 at +-sqrt(s/m) from the centre carry it."""
+        return float(min(self.inertia[1][1], self.inertia[2][2]))
 
     @property
     def second_moments(self) -> np.ndarray:

@@ -156,10 +156,11 @@ def mass_points(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE):
     and moves with the section at x: its displacement per delta_k is
     e_(a_k) (psi_k(x) + s psi_k'(x)) (docs/theory.md §6.8). The line's points (the quadrature
     of :func:`line_quadrature`, weights w mu(x)) have s = 0. Each attached body (B of them)
-    adds two points of mass m/2 at its section x_a with levers c_x +- a, a = sqrt(Sigma_xx / m):
-    they carry its mass, first moment and axial second moment Sigma_xx exactly; the rest of
-    its pseudo-inertia is :func:`body_remainder`. Every link table that integrates over the
-    mass (P0, C, D, m_r0, m_psi) sums over these points.
+    adds two points of mass m/2 at its section x_a with levers c_x +- a, a = sqrt(s_b / m),
+    s_b = RigidBody.section_inertia: they carry its mass, its first moment along the axis and the
+    bending inertia s_b that turns with the section; the rest of its pseudo-inertia is
+    :func:`body_remainder`. Every link table that integrates over the mass (P0, C, D, m_r0,
+    m_psi) sums over these points.
     """
     x, w = line_quadrature(link, quadrature)
     mu = np.asarray(_as_function(link.mass_per_length)(x), dtype=float) * np.ones_like(x)
@@ -167,7 +168,7 @@ def mass_points(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE):
         raise ValueError("Link mass_per_length(x) must be positive and finite on [0, length]")
     xs, ms, levers = [x], [w * mu], [np.zeros_like(x)]
     for b in link.bodies:
-        a = np.sqrt(max(b.second_moments[0, 0], 0.0) / b.mass)
+        a = np.sqrt(b.section_inertia / b.mass)
         xs.append(np.full(2, b.at))
         ms.append(np.full(2, 0.5 * b.mass))
         levers.append(b.center[0] + np.array([a, -a]))
@@ -179,8 +180,9 @@ def body_remainder(link: Link) -> tuple[np.ndarray, np.ndarray]:
     their points in :func:`mass_points`: with c = (c_x, c_y, c_z), X = x_a + c_x,
     Sigma = tr(J)/2 I - J, the body's pseudo-inertia about the link frame is
     P_b = m (X, c_y, c_z, 1)(X, c_y, c_z, 1)^T + [[Sigma, 0], [0, 0]]; its points carry
-    m (X, 0, 0, 1)(X, 0, 0, 1)^T + Sigma_xx e_x e_x^T. Constant in delta (on a flexible link
-    c_y = c_z = Sigma_xy = Sigma_xz = 0, so these entries never meet a bending shape).
+    m (X, 0, 0, 1)(X, 0, 0, 1)^T + s_b e_x e_x^T (mass_points). The rest is constant in delta: the
+    lateral offset (on a flexible link c_y = c_z = 0) and Sigma - s_b e_x e_x^T, the pseudo-inertia
+    of the rotary inertia J - s_b (I - e_x e_x^T) that keeps the link frame's orientation.
     """
     P, m_r = np.zeros((4, 4)), np.zeros(4)
     for b in link.bodies:
@@ -188,7 +190,7 @@ def body_remainder(link: Link) -> tuple[np.ndarray, np.ndarray]:
         on_axis = rc * np.array([1.0, 0.0, 0.0, 1.0])
         P += b.mass * (np.outer(rc, rc) - np.outer(on_axis, on_axis))
         S = b.second_moments
-        S[0, 0] = 0.0
+        S[0, 0] -= b.section_inertia
         P[:3, :3] += S
         m_r += b.mass * (rc - on_axis)
     return P, m_r
