@@ -56,7 +56,14 @@ def _body_local(model, q, i: int, body) -> tuple[np.ndarray, np.ndarray]:
     return r, dr
 
 
-def body_centers(model, q, owner=None) -> tuple[np.ndarray, tuple]:
+def body_tables(model, owner) -> list:
+    """(r(0) (4,), dr/dq (N, 4)) of the centre of every (i, body) in ``owner`` (_body_local at q = 0): the centre
+    is r(q) = r(0) + q dr/dq in its link's frame, linear in q (only the link's deltas move it)."""
+    zero = np.zeros(model.n_dof)
+    return [_body_local(model, zero, i, b) for i, b in owner]
+
+
+def body_centers(model, q, owner=None, tables=None) -> tuple[np.ndarray, tuple]:
     """World positions of the centres of the rigid bodies attached to the links (docs/theory.md §6.8).
 
     The centre of a body at abscissa x_a with offset c, in its link's frame T_i:
@@ -67,6 +74,8 @@ def body_centers(model, q, owner=None) -> tuple[np.ndarray, tuple]:
     model : Model
     q : (N,) coordinates, or (K, N) states
     owner : pairs (i, body) to place, or None for every body, link by link in the order of ``Link.bodies``
+    tables : body_tables(model, owner), or None to compute them (a caller that places the same bodies
+        at many states computes them once)
 
     Returns
     -------
@@ -77,11 +86,14 @@ def body_centers(model, q, owner=None) -> tuple[np.ndarray, tuple]:
     if owner is None:
         owner = tuple((i, b) for i, lk in enumerate(model.chain.links) for b in lk.bodies)
     qs = q.reshape(-1, model.n_dof)
-    p = np.zeros((len(qs), len(owner), 3))
-    for k, qk in enumerate(qs):
-        T = transforms(model, qk) if owner else None
-        for m, (i, b) in enumerate(owner):
-            p[k, m] = (T[i] @ _body_local(model, qk, i, b)[0])[:3]
+    K, n = len(qs), model.n_links
+    p = np.zeros((K, len(owner), 3))
+    if owner:
+        # r(q) = r(0) + q dr/dq (body_tables); the frames of all the states in one kernel call.
+        job = _k.JOB_FRAMES
+        T = section(model, run_kernel(model, states(qs), job), K, job, "frames").reshape(K, n + 1, 3, 4, 4)[:, :, 0]
+        for m, ((i, _), (r0, dr)) in enumerate(zip(owner, tables or body_tables(model, owner))):
+            p[:, m] = np.einsum("kab,kb->ka", T[:, i, :3], r0 + qs @ dr)
     return (p if q.ndim == 2 else p[0]), tuple(owner)
 
 

@@ -17,7 +17,7 @@ from ..dynamics.kinematics import joint_positions, joint_positions_and_jacobians
 from .results import ImpactRecord
 from ..contact.walls import has_obstacle, packed_walls, tangent_basis
 from ..contact.candidates import body_candidates
-from ..dynamics.link_points import body_centers, body_jacobian
+from ..dynamics.link_points import body_centers, body_jacobian, body_tables
 
 
 def flexible_links(model) -> list:
@@ -122,6 +122,7 @@ class Contacts:
         self.N, self.n_joints = model.n_dof, model.n_joints
         self.flex = link_columns(model, walls) if (walls and link_contacts) else []
         self.bodies = body_candidates(model) if walls else ()
+        self._body_tables = body_tables(model, self.bodies)
         self.n_cols = self.n_joints + len(self.flex) + len(self.bodies)
         # Link minima farther than this from a wall are not refined (a sample's gap: sign exact).
         self.refine_below = 0.01 * (1.0 + sum(ld.length for ld in model.link_data))
@@ -290,7 +291,7 @@ class Contacts:
         else:
             g[:, :, P:P + F] = NOT_INTERIOR
         if self.bodies:
-            pb = body_centers(self.model, qs, self.bodies)[0]  # (K, B, 3)
+            pb = body_centers(self.model, qs, self.bodies, self._body_tables)[0]  # (K, B, 3)
             g[:, :, P + F:] = np.stack([w.gap(pb) for w in self.walls], axis=1)
         return g
 
