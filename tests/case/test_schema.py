@@ -64,6 +64,8 @@ def with_key(range_key, value):
         table[key] = value
         d["inputs"] = [table]
         return d, f"inputs[1].{key}"
+    if section == "links.bodies":
+        return d, _with_body_key(link, key, value)
     if section == "links.modes":
         link["modes"][0][key] = value
         return d, f"links[1].modes[1].{key}"
@@ -123,6 +125,20 @@ def with_key(range_key, value):
     assert section == "output", range_key
     d["output"] = {key: value}
     return d, f"output.{key}"
+
+
+def _with_body_key(link: dict, key: str, value) -> str:
+    """A [[links.bodies]] table with ``key`` = value on the rigid link ``link`` in free flight; its key path."""
+    # A heavy body keeps M regular under the largest inertia: J / (m l^2) ~ 1e3.
+    heavy = key == "inertia_products_kg_m2" or (key == "inertia_kg_m2" and value > 1.0)
+    body = {"mass_kg": 1e12 if heavy else 1.0, "inertia_kg_m2": [1e15 if heavy else 0.1] * 3}
+    if key == "at_m":
+        link["length_m"] = max(value, 1e-6)
+        link["rotary_inertia_kg_m"] = [(0.3 * link["length_m"]) ** 2] * 3
+    body[key] = ([value] * 3 if key == "inertia_kg_m2" else [value, 0.0, 0.0]
+                 if key in ("center_m", "inertia_products_kg_m2") else value)
+    link["bodies"] = [body]
+    return f"links[1].bodies[1].{key}"
 
 
 def _prescribed_key(d, link, coords, key, value):

@@ -67,6 +67,12 @@ RANGES = {
     "links.elements": Range(0, MAX_ELEMENTS, integer=True,
                             why="the explicit solvers' step shrinks as 1/elements^2"),
     "links.damping_ratio": Range(0, 10, why="of the link's first elastic mode; 1 = critical"),
+    "links.bodies.mass_kg": Range(1e-12, 1e12, "kg"),
+    "links.bodies.center_m": Range(-1e6, 1e6, "m"),
+    "links.bodies.inertia_kg_m2": Range(0, 1e15, "kg m^2"),
+    "links.bodies.inertia_products_kg_m2": Range(-5e14, 5e14, "kg m^2",
+                                                 why="|J_xy| <= J_xx/2 with J_xx <= 1e15 (triangle inequality)"),
+    "links.bodies.at_m": Range(0, 1e6, "m"),
     "links.joint.angle_deg": Range(-1e4 * _DEG, 1e4 * _DEG, "deg", why="1e4 rad"),
     "links.joint.angle_rad": Range(-1e4, 1e4, "rad"),
     "links.joint.half_length_m": Range(0, 1e6, "m"),
@@ -223,6 +229,7 @@ _LINK_KEYS = {
     "element_directions": "bending directions of the elements, ['y'] or ['y', 'z']",
     "damping_ratio": "structural damping ratio of the link's first elastic mode",
     "joint": "[links.joint] table: the joint that carries this link (default: revolute)",
+    "bodies": "[[links.bodies]] tables: rigid bodies attached to the link (payloads, a hub)",
 }
 #: Joint types of [links.joint] (gi.Revolute, gi.SlidingPrismatic, gi.FixedPrismatic) -> what each is.
 _JOINT_TYPES = {
@@ -285,6 +292,13 @@ _INPUT_TABLE_KEYS = {
     "kind": f"one of {', '.join(INPUT_KINDS)}",
     **{key: f"{kind} input parameter" for kind in INPUT_KINDS for angle in (True, False)
        for key in _input_keys(kind, angle)},
+}
+_BODY_KEYS = {
+    "mass_kg": "mass m of the body in kg",
+    "center_m": "offset [c_x, c_y, c_z] of its centre of mass from the centreline point, link axes, in m",
+    "inertia_kg_m2": "inertia about its centre [J_xx, J_yy, J_zz] in kg m^2 (link axes)",
+    "inertia_products_kg_m2": "products of inertia [J_xy, J_xz, J_yz] in kg m^2 (default 0)",
+    "at_m": "abscissa x_a on the link in m (default: the tip; 0: the joint, a hub)",
 }
 #: [[prescribed]] keys of each profile kind -> (parameter of gibbsimpact.profiles, required, default);
 #: ``{Q}`` is rad on an angle coordinate and m on a length; t_s and q_{Q} of "samples" are arrays.

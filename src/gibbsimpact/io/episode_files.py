@@ -25,7 +25,7 @@ EPISODE_COLUMNS = [
 
 
 def _point_name(result, c: int) -> str:
-    """'O2' or 'link 1' for the 1-based gap-matrix column c (Contacts.names)."""
+    """'O2', 'link 1' or 'body 1' for the 1-based gap-matrix column c (Contacts.names)."""
     from ..simulation.contact_points import contact_points
 
     points = contact_points(result.model, bool(result.settings.get("link_contacts", True)), result.walls)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..dynamics.kinematics import transforms
-from ..dynamics.link_points import link_points, points_on_link
+from ..dynamics.link_points import body_centers, link_points, points_on_link
 
 
 _PLANAR_TOL = 1e-9  # m or rad: out-of-plane motion below this counts as planar
@@ -100,8 +100,9 @@ def _prismatic_marks(model, q) -> list:
 
 
 def _scene_points(model, q, n_points: int = 41) -> np.ndarray:
-    """Every point a configuration drawing shows (links and prismatic joint symbols), (m, 3) [m]."""
-    pts = [link_points(model, q, n_points).reshape(-1, 3)] + [P for _, _, P in _prismatic_marks(model, q)]
+    """Every point a configuration drawing shows (links, prismatic joint symbols, attached bodies), (m, 3) [m]."""
+    pts = [link_points(model, q, n_points).reshape(-1, 3), body_centers(model, q)[0]] + \
+        [P for _, _, P in _prismatic_marks(model, q)]
     return np.concatenate(pts)
 
 

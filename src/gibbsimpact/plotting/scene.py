@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..dynamics.kinematics import joint_positions, transforms
-from ..dynamics.link_points import link_points
+from ..dynamics.link_points import body_centers, link_points
 from .geometry import _link_parts, _plane_polygon_3d, _prismatic_marks, _stop_point, _to3, _wall_curves_2d
-from .style import _MARK_STYLE, _SHADOW_STYLE, _STOP_MARKER, _link_colour
+from .style import _BODY_STYLE, _MARK_STYLE, _SHADOW_STYLE, _STOP_MARKER, _link_colour
 
 
 def _draw_walls_2d(ax, walls, extent):
@@ -50,9 +50,30 @@ def _draw_links(plot, model, q, n_points, lw=2.4, colour=None, label=True, **kw)
         seen.add(kind)
 
 
+def _draw_bodies(plot, model, q, label=True, colour=None, **kw):
+    """Draw the attached rigid bodies through ``plot(points (1, 3), **style)``: a hub as an open disc
+    on its joint, a payload as a square at its centre (style._BODY_STYLE), in its link's colour."""
+    P, owner = body_centers(model, q)
+    seen = set()
+    for p, (i, b) in zip(P, owner):
+        text, style = _body_style(i, b, colour)
+        plot(p[None, :], label=text if label and text not in seen else None, **{**style, **kw})
+        seen.add(text)
+
+
+def _body_style(i: int, body, colour=None) -> tuple[str, dict]:
+    """(legend text, marker style) of a body on link i (0-based): a hub (at = 0, no offset) an open disc,
+    any other body a filled square, in the link's colour (style._BODY_STYLE)."""
+    kind = "hub" if body.at == 0.0 and not any(body.center) else "payload"
+    text, style = _BODY_STYLE[kind]
+    c = colour or _link_colour(i)
+    return text, dict(style, color=c, mfc="none" if kind == "hub" else c)
+
+
 def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, arrow=0.25, stops=()):
     _draw_links(lambda P, **st: ax.plot(P[:, 0], P[:, 1], solid_capstyle="round", **st), model, q, n_points,
                 zorder=3)
+    _draw_bodies(lambda P, **st: ax.plot(P[:, 0], P[:, 1], **st), model, q, label=labels, zorder=4.5)
     T = transforms(model, np.asarray(q, dtype=float))
     # Contact points: the frame origins, then the tips of hosts of prismatic joints (Model.n_joints).
     O = np.vstack((T[:, :3, 3], joint_positions(model, np.asarray(q, dtype=float))[T.shape[0]:]))
@@ -154,6 +175,7 @@ def _draw_shadow(ax, model, q, n_points, floor: float, label: bool = False):
 
 def _draw_chain_3d(ax, model, q, n_points, hit=(), normals=None, labels=True, floor=None, arrow=0.25, stops=()):
     _draw_links(lambda P, **st: ax.plot(*_to3(P), **st), model, q, n_points)
+    _draw_bodies(lambda P, **st: ax.plot(*_to3(P), **st), model, q, label=labels)
     if floor is not None:
         _draw_shadow(ax, model, q, n_points, floor, label=labels)
     T = transforms(model, np.asarray(q, dtype=float))

@@ -16,6 +16,8 @@ from ..contact.impact import actuator_impulses, held_impulses, solve_impulses
 from ..dynamics.kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
 from .results import ImpactRecord
 from ..contact.walls import has_obstacle, packed_walls, tangent_basis
+from ..contact.candidates import body_candidates
+from ..dynamics.link_points import body_centers, body_jacobian, body_tables
 
 
 def flexible_links(model) -> list:
@@ -47,7 +49,11 @@ class Contacts:
     unless a wall is an obstacle (else their closest point is always an end). Link columns
     cannot rest (resting.py).
 
-    link_contacts=False: joints only (C = P), the model of the published case studies.
+    Then one column per attached body with a centre offset (contact.candidates.body_candidates,
+    ``bodies``): the gap of its centre, a point candidate like a joint (docs/theory.md §6.8); it
+    cannot rest either.
+
+    link_contacts=False: joints (and bodies) only (C = P + B), the model of the published case studies.
 
     Cost: a link is searched (gibbsimpact.linkpoints.closest_points) only where its column can
     hold a gap <= refine_below; elsewhere it gets NOT_INTERIOR without a search (skip rule
@@ -115,7 +121,9 @@ class Contacts:
         self.model, self.walls = model, walls
         self.N, self.n_joints = model.n_dof, model.n_joints
         self.flex = link_columns(model, walls) if (walls and link_contacts) else []
-        self.n_cols = self.n_joints + len(self.flex)
+        self.bodies = body_candidates(model) if walls else ()
+        self._body_tables = body_tables(model, self.bodies)
+        self.n_cols = self.n_joints + len(self.flex) + len(self.bodies)
         # Link minima farther than this from a wall are not refined (a sample's gap: sign exact).
         self.refine_below = 0.01 * (1.0 + sum(ld.length for ld in model.link_data))
         self._key, self._g = None, None
@@ -252,8 +260,10 @@ class Contacts:
 
     @property
     def names(self) -> list:
-        """Names of the C columns: the joint points, then "link i" for the closest point of link i."""
-        return [f"O{j + 1}" for j in range(self.n_joints)] + [f"link {i + 1}" for i in self.flex]
+        """Names of the C columns: the joint points, "link i" for the closest point of link i, then
+        "body k" for the k-th body candidate (contact_points.body_name)."""
+        return [f"O{j + 1}" for j in range(self.n_joints)] + [f"link {i + 1}" for i in self.flex] + \
+            [f"body {k + 1}" for k in range(len(self.bodies))]
 
     def gaps(self, q: np.ndarray) -> np.ndarray:
         """g (W, C) [m]; cached per q (every event function of a step sees the same q)."""
@@ -269,17 +279,20 @@ class Contacts:
         if not self.walls:
             return np.zeros((len(qs), 0, self.n_cols))
         pts = joint_positions_batch(self.model, qs)  # (K, P, 3)
-        P = self.n_joints
+        P, F = self.n_joints, len(self.flex)
         g_joints, rest = self._event_gaps(qs, pts)
-        if not self.flex:
+        if not (self.flex or self.bodies):
             return g_joints
         g = np.empty((len(qs), len(self.walls), self.n_cols))
         g[:, :, :P] = g_joints
         search = rest[len(qs) * len(self._rules):] != 0.0  # (K,) states that need a link search
-        if search.any():
-            self._link_gaps(qs, search, out=g[:, :, P:])
+        if F and search.any():
+            self._link_gaps(qs, search, out=g[:, :, P:P + F])
         else:
-            g[:, :, P:] = NOT_INTERIOR
+            g[:, :, P:P + F] = NOT_INTERIOR
+        if self.bodies:
+            pb = body_centers(self.model, qs, self.bodies, self._body_tables)[0]  # (K, B, 3)
+            g[:, :, P + F:] = np.stack([w.gap(pb) for w in self.walls], axis=1)
         return g
 
     def full(self, q: np.ndarray):
@@ -304,6 +317,14 @@ class Contacts:
             g, nrm = np.concatenate((g, gl), axis=1), np.concatenate((nrm, nl), axis=1)
             J, pts = np.concatenate((J, Jl), axis=1), np.concatenate((pts, pl), axis=1)
             valid = np.concatenate((valid, inside), axis=1)
+        if self.bodies:
+            pb, Jb = zip(*(body_jacobian(self.model, q, i, b) for i, b in self.bodies))
+            pb, Jb = np.array(pb), np.array(Jb)  # (B, 3), (B, 3, N)
+            g = np.concatenate((g, np.array([w.gap(pb) for w in self.walls])), axis=1)
+            nrm = np.concatenate((nrm, np.array([w.normal(pb) for w in self.walls])), axis=1)
+            J = np.concatenate((J, np.broadcast_to(Jb, (W,) + Jb.shape)), axis=1)
+            pts = np.concatenate((pts, np.broadcast_to(pb, (W,) + pb.shape)), axis=1)
+            valid = np.concatenate((valid, np.ones((W, len(pb)), dtype=bool)), axis=1)
         return g, nrm, J, pts, valid
 
 

@@ -36,7 +36,8 @@ class ImpactRecord(NamedTuple):
 
     time : float [s]
     joints : tuple of int, length k, 1-based contact numbers: O_1 ... O_P (model.contact_point_names),
-        then P + 1 + f for the closest point of the f-th flexible link (contacts.Contacts.names)
+        then P + 1 + f for the closest point of the f-th flexible link, then the centres of the attached
+        bodies with a centre offset (contacts.Contacts.names)
     wall : tuple of int, length k, index of each contact's wall in Result.walls;
         -1 for an end-stop impact of a prismatic joint (joints then holds the joint number i)
     normals : (k, 3) unit wall normals into the free region

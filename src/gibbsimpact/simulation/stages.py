@@ -97,7 +97,7 @@ def _check_inside(model, q, walls, contact_tol, link_contacts=True):
         lines.append(f"{point_name(model, o)} at {at} m is {o.depth:.3g} m outside {w}" if o.link is None else
                      f"link {o.link + 1} {how} {o.depth:.3g} m beyond {w} between its joints: its point at "
                      f"x = {o.x:.6g} m (of {model.chain.links[o.link].length:.6g} m) is at {at} m")
-    kinds = {"a joint" if o.link is None else "a link" for o in bad}
+    kinds = {"a link" if o.link is not None else ("an attached body" if o.body is not None else "a joint") for o in bad}
     what = " and ".join(sorted(kinds))
     fix = "out of the obstacle" if any(walls[o.wall].obstacle for o in bad) else "inside"
     raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(lines) + f". Move the chain {fix}.")
@@ -172,8 +172,8 @@ def _accumulation(run, accumulation) -> None:
     run.forced = run.monitor.recent_pairs() & run.resting.can_rest
     why = ("accumulation='stop'" if not rest else
            "resting contact is not modelled with prescribed coordinates" if run.settings.prescribed is not None else
-           "resting contact is modelled for joints only, not for a link's span or the "
-           "tip of a prismatic host" if not run.forced.any() else
+           "resting contact is modelled for joints only, not for a link's span, the "
+           "tip of a prismatic host or a body's centre" if not run.forced.any() else
            "resting contact did not resolve it" if run.settled_at == run.t else None)
     if why is not None:
         run.end("zeno", accumulation=accumulation, why=why)
