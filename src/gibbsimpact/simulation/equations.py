@@ -17,6 +17,7 @@ import numpy as np
 from ..dynamics.forces import CallbackError, damping_depends_on_q, damping_matrix, generalized_force
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics
 from .budget import Budget
+from .implicit import rhs_jacobian
 
 
 class Equations:
@@ -57,6 +58,11 @@ class Equations:
         """Q = Q_in + Q_damp (N,) of the equations of motion, or None (gibbsimpact.contact.resting)."""
         f = self.forces(t, q, qd)
         return None if f is None else f[0] + f[1]
+
+    def jacobian(self, t, y):
+        """df/dy (y.size, y.size) of a flight phase's f at (t, y), for an implicit method
+        (gibbsimpact.simulation.implicit.rhs_jacobian)."""
+        return rhs_jacobian(self, t, y)
 
     def __call__(self, t, y):
         """y' (y.shape) at (t, y); NaN where M is singular, so that the solver rejects the step.

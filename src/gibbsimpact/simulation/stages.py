@@ -19,6 +19,7 @@ from .accumulation import Accumulation
 from .contacts import Contacts, contact_band, event_spec, gap_lipschitz, impact_stage as solve_impact, phase_events
 from .equations import Equations
 from .flight import integrate_phase
+from .implicit import IMPLICIT
 from .joint_limits import EndStops, check_initial, joint_limits
 from .outside import outside_walls, point_name
 from .recorder import Recorder
@@ -254,6 +255,7 @@ def flight(run):
             max_step=s.max_step, output_dt=s.output_dt, t_origin=s.t0, lipschitz=run.lipschitz,
             slack=s.contact_tol, n_q=N, check_in_step=s.in_step_check, gap_batch=gap_batch, extra=extra,
             gap_single=lambda q, w, c: run.contacts.gap_single(q, w, c, gap_matrix),
+            jac=run.equations.jacobian if s.method in IMPLICIT and not run.equations.resting_phase else None,
         )
     except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
         run.end("integration", t=run.t, error=exc)
