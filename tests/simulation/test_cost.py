@@ -13,8 +13,9 @@ import scipy.linalg as sl
 import gibbsimpact as gi
 from gibbsimpact.case import case_from_dict
 from gibbsimpact.model.modes import Mode, natural_frequency
-from gibbsimpact.simulation.cost import (error_estimate, estimate_cost, linearised_eigenvalues, stability_function,
-                                         stability_radius)
+from gibbsimpact.simulation.cost import estimate_cost
+from gibbsimpact.simulation.stability import (error_estimate, linearised_eigenvalues, stability_function,
+                                              stability_radius)
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 

@@ -8,7 +8,7 @@ from numbers import Real
 import numpy as np
 
 from ..contact.walls import WALL_TYPES
-from .flight import SOLVERS
+from .auto import METHODS
 from .joint_limits import JOINT_LIMIT_MODES
 
 ACCUMULATION_MODES = ("rest", "stop")
@@ -88,6 +88,7 @@ class Settings:
     in_step_check: bool
     max_cpu_time: float | None = None  # [s] of CPU; None: no limit
     max_rhs_calls: int | None = None  # right-hand sides; None: no limit
+    method_choice: str = ""  # why method="auto" chose ``method`` (gibbsimpact.simulation.auto); "" if not auto
 
     @classmethod
     def from_arguments(cls, t_span, walls, restitution, method, output_dt, progress, inputs, zeno_count,
@@ -96,7 +97,7 @@ class Settings:
         t0, t_end = _t_span(t_span)
         walls = _walls(walls)
         restitution = _fraction("restitution", restitution)
-        _choice("method", method, SOLVERS, f"a solve_ivp method; use one of {', '.join(SOLVERS)}")
+        _choice("method", method, METHODS, f"a solve_ivp method or 'auto'; use one of {', '.join(METHODS)}")
         in_step_check = bool(positive.pop("in_step_check", True))
         max_cpu_time = _limit("max_cpu_time", positive.pop("max_cpu_time", None), _positive)
         max_rhs_calls = _limit("max_rhs_calls", positive.pop("max_rhs_calls", None), _count)
@@ -129,7 +130,8 @@ class Settings:
     def record(self) -> dict:
         """The options as Result.settings stores them (plain values; inputs and progress are not kept)."""
         return dict(
-            method=self.method, rtol=self.rtol, atol=self.atol, restitution=self.restitution,
+            method=self.method, method_choice=self.method_choice, rtol=self.rtol, atol=self.atol,
+            restitution=self.restitution,
             wall_restitution=[w.restitution for w in self.walls], output_dt=self.output_dt, max_step=self.max_step,
             contact_tol=self.contact_tol, grazing_velocity=self.grazing_velocity,
             penetration_tol=self.penetration_tol, zeno_interval=self.zeno_interval, zeno_count=self.zeno_count,
