@@ -429,7 +429,7 @@ def test_equations_prints_counts_and_writes_latex_and_python(tmp_path, capsys):
 # -- --method, several case files, exit codes in --help, signal handlers -----------------------------
 
 def test_method_option(tmp_path, capsys):
-    from gibbsimpact.simulation.flight import SOLVERS
+    from gibbsimpact.simulation.auto import METHODS as SOLVERS  # scipy's solvers and "auto"
 
     code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--method", "RK45", "--t-end", "0.02",
                                "--no-plots", "-q", "--out", tmp_path / "o"], capsys)
