@@ -60,6 +60,7 @@ def rr_pb_arm():
     src["initial"]["coordinates"] = {"theta_1_deg": -90.0, "theta_2_deg": 0.0, "d_3_m": 0.45}
     src["walls"] = [{"type": "plane", "point_m": [0.0, -1.8, 0.0], "normal": [0.0, 1.0, 0.0]}]
     src["time"]["t_end_s"] = 1.5
+    src["name"] = "R_R_Pb_servo_arm"
     return case_from_dict(src, name="R_R_Pb_servo_arm")
 
 

@@ -18,8 +18,8 @@ STIFF_STEPS is where stability alone costs the explicit method ~1e4 steps (~5 s 
 where the explicit step is set by accuracy (the stiff mode itself is excited above the tolerance:
 after an impact on a stiff link, or tight tolerances on the bundled prismatic arms) Radau must
 follow that mode too, with smaller steps than DOP853's (its error estimate is of order 3):
-measured on fixed_base_R_Pb_arm (n_stab = 366 over 1 s) Radau costs 2.6x DOP853 at rtol 1e-8 and
-4.5x at rtol 1e-4; on case 1 with EI = 1e9 on link 1 (n_stab = 1.8e5) it takes 5 steps to the first
+measured on fixed_base_R_Pb_arm (n_stab = 366 over 1 s) Radau costs ~12x DOP853's CPU at rtol 1e-8
+and 4.8x at rtol 1e-4; on case 1 with EI = 1e9 on link 1 (n_stab = 1.8e5) it takes 5 steps to the first
 impact where DOP853 takes 2.6e5 (docs/benchmarks.md, benchmarks/bench_stiff.py).
 """
 

@@ -12,8 +12,9 @@ For a flight phase, y = (q, qdot) (2N,) or (q, qdot, W_in, W_damp) (2N + 2,) for
              [qdot^T dQ_damp/dq,           Q_damp + qdot^T dQ_damp/dqdot,   0]]
 
 A = d qddot/d q, D = d qddot/d qdot at fixed Q, and M^-1 come from the compiled kernel
-(gibbsimpact.dynamics.jacobian); dQ/dq, dQ/dqdot are central differences of the applied forces,
-user callbacks evaluated in Python (2N calls of each, steps as the kernel's: 6e-6 (1 + |x|)).
+(gibbsimpact.dynamics.jacobian); dQ/dq, dQ/dqdot are forward differences of the applied forces,
+user callbacks evaluated in Python (forward differences: 2N calls, the cost of scipy's own
+differences of the right-hand side, which the kernel's part replaces).
 The work rows are first-order in the small quantities and never stiff; the W columns are zero
 because nothing depends on the work.
 
@@ -27,27 +28,28 @@ from __future__ import annotations
 import numpy as np
 
 from ..dynamics.jacobian import acceleration_jacobian
-from ..kernel.jacobian import STEP
 
 #: The methods that use a Jacobian (scipy's implicit solvers; LSODA in its stiff mode).
 IMPLICIT = ("Radau", "BDF", "LSODA")
+#: Relative step of the applied forces' forward differences: sqrt(eps) balances truncation and round-off.
+FORCE_STEP = 1.4901161193847656e-08
 
 
-def _force_derivatives(forces, t, q, qd):
-    """(dQ_in/dq, dQ_in/dqdot, dQ_damp/dq, dQ_damp/dqdot), each (N, N), by central differences of
-    forces(t, q, qd) -> (Q_in, Q_damp) (N,) each."""
+def _force_derivatives(forces, t, q, qd, f0):
+    """(dQ_in/dq, dQ_in/dqdot, dQ_damp/dq, dQ_damp/dqdot), each (N, N), by forward differences of
+    forces(t, q, qd) -> (Q_in, Q_damp) (N,) each, f0 = forces(t, q, qd): 2N calls of the callbacks
+    (steps FORCE_STEP (1 + |x_j|), error ~ FORCE_STEP |d^2 Q| ~ 1e-8 relative for forces smooth on the
+    scale of the state)."""
     N = q.size
     out = np.zeros((4, N, N))
     for which, x in ((0, q), (1, qd)):
         for j in range(N):
-            e = STEP * (1.0 + abs(x[j]))
-            xp, xm = x.copy(), x.copy()
+            e = FORCE_STEP * (1.0 + abs(x[j]))
+            xp = x.copy()
             xp[j] += e
-            xm[j] -= e
             fp = forces(t, xp, qd) if which == 0 else forces(t, q, xp)
-            fm = forces(t, xm, qd) if which == 0 else forces(t, q, xm)
-            out[which, :, j] = (fp[0] - fm[0]) / (2.0 * e)
-            out[2 + which, :, j] = (fp[1] - fm[1]) / (2.0 * e)
+            out[which, :, j] = (fp[0] - f0[0]) / e
+            out[2 + which, :, j] = (fp[1] - f0[1]) / e
     return out
 
 
@@ -70,7 +72,7 @@ def rhs_jacobian(equations, t: float, y: np.ndarray) -> np.ndarray:
         return J
     Qi, Qd = forces
     jac = acceleration_jacobian(equations.model, q, qd, Qi + Qd)
-    dQi_q, dQi_qd, dQd_q, dQd_qd = _force_derivatives(equations.forces, t, q, qd)
+    dQi_q, dQi_qd, dQd_q, dQd_qd = _force_derivatives(equations.forces, t, q, qd, forces)
     J[N:2 * N, :N] = jac.A + jac.M_inv @ (dQi_q + dQd_q)
     J[N:2 * N, N:2 * N] = jac.D + jac.M_inv @ (dQi_qd + dQd_qd)
     if y.size == 2 * N + 2:
