@@ -38,8 +38,15 @@ def acceleration_jacobian(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray 
     q, qdot : (N,) state [m, rad; m/s, rad/s]
     Q : (N,) applied generalised forces [N, N m] (held fixed), default zero
 
-    Raises SingularMassMatrixError where M is not positive definite (or its pivots spread beyond 1e7)
-    at the state or one of its perturbations (relative 6e-6), as forward_dynamics does.
+    Returns
+    -------
+    AccelerationJacobian (qddot, A, D, M_inv)
+
+    Raises
+    ------
+    SingularMassMatrixError
+        Where M is not positive definite (or its pivots spread beyond 1e7) at the state or at one of
+        its perturbations (relative 1e-3), as forward_dynamics does.
     """
     _, fdat, idat, zeros, v0, v1, _ = model.kernel_call
     N = zeros.size
@@ -55,6 +62,6 @@ def acceleration_jacobian(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray 
     if status != 0.0:
         _singular(model, q, qdot, Q)  # raises when the state itself is singular ...
         raise SingularMassMatrixError(  # ... else a perturbation of it (relative 6e-6) is
-            f"mass matrix is singular within a relative 6e-6 of the state: {diagnose_singular(model, q)}")
+            f"mass matrix is singular within a relative 1e-3 of the state: {diagnose_singular(model, q)}")
     blocks = out[1 + N:].reshape(3, N, N)
     return AccelerationJacobian(out[1:1 + N].copy(), blocks[0].copy(), blocks[1].copy(), blocks[2].copy())
