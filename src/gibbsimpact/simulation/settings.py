@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from numbers import Real
 
 import numpy as np
 
 from ..contact.walls import WALL_TYPES
-from .auto import METHODS
+from .auto import AUTO, METHODS, choose_method
 from .joint_limits import JOINT_LIMIT_MODES
 
 ACCUMULATION_MODES = ("rest", "stop")
@@ -121,6 +122,15 @@ class Settings:
                    joint_restitution=joint_restitution, accumulation=accumulation,
                    link_contacts=bool(link_contacts), in_step_check=in_step_check, max_cpu_time=max_cpu_time,
                    max_rhs_calls=max_rhs_calls, **values)
+
+    def resolve_auto(self, model, q0) -> Settings:
+        """These settings with method="auto" replaced by the method it chooses for model from q0 (N,)
+        [m, rad] and the reason in method_choice (gibbsimpact.simulation.auto.choose_method); unchanged
+        for any other method."""
+        if self.method != AUTO:
+            return self
+        method, why = choose_method(model, q0, (self.t0, self.t_end), self.max_step)
+        return dataclasses.replace(self, method=method, method_choice=why)
 
     @property
     def wall_restitution(self) -> np.ndarray:

@@ -90,13 +90,11 @@ Event-loop rules (each one has a test in tests/test_simulate.py):
 
 from __future__ import annotations
 
-import dataclasses
 import time
 
 import numpy as np
 
 from ..dynamics.forces import CallbackError
-from .auto import AUTO, choose_method
 from .budget import BudgetExceeded
 from .progress import Clock, progress_reporter
 from .results import Result
@@ -119,9 +117,8 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
     model : Model; q0, qdot0 : (N,) initial coordinates and velocities (order: model.coordinate_names)
     t_span : (t0, t_end) [s]; walls : sequence of Circle, Sphere, Plane
     restitution : e in [0, 1] of the walls whose own ``restitution`` is None
-    rtol, atol, method : the solver's tolerances and method (solve_ivp's meaning; "DOP853" recommended
-        for non-stiff chains), or method="auto": DOP853 or Radau from the highest frequency
-        (gibbsimpact.simulation.auto; Result.settings["method"] is the one used, ["method_choice"] why)
+    rtol, atol, method : the solver's tolerances and method (solve_ivp's meaning), or "auto": DOP853 or Radau
+        from the highest frequency (simulation.auto; Result.settings["method"], ["method_choice"] why)
     output_dt : [s] or None: None stores every accepted step, a float uniform samples from the
         dense output (plus both sides of every impact); max_step : [s] the solver's largest step
     contact_tol : [m] gaps within the contact band max(2 contact_tol, L_q (atol + rtol max|q|)),
@@ -162,9 +159,6 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
         contact_tol=contact_tol, grazing_velocity=grazing_velocity, penetration_tol=penetration_tol,
         zeno_interval=zeno_interval, in_step_check=_in_step_check, max_cpu_time=max_cpu_time,
         max_rhs_calls=max_rhs_calls)
-    if settings.method == AUTO:
-        chosen, why = choose_method(model, q0, (settings.t0, settings.t_end), settings.max_step)
-        settings = dataclasses.replace(settings, method=chosen, method_choice=why)
     with progress_reporter(settings.progress, settings.t0, settings.t_end) as report:
         run = start(model, q0, qdot0, settings, Clock(report))
         try:

@@ -111,8 +111,9 @@ def _check_start(model, q0, qdot0, settings, limits):
 
 
 def start(model, q0, qdot0, settings, clock) -> Run:
-    """Check the initial state and build the run's parts; the loop starts with an impact stage."""
-    s, walls = settings, settings.walls
+    """Check the initial state and build the run's parts (method="auto" resolved); the loop starts with an
+    impact stage."""
+    s, walls = settings.resolve_auto(model, q0), settings.walls
     limits = joint_limits(model)
     _check_start(model, q0, qdot0, s, limits)
     contacts = Contacts(model, walls, s.link_contacts)
