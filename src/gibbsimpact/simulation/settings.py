@@ -8,9 +8,10 @@ from numbers import Real
 
 import numpy as np
 
-from ..contact.walls import WALL_TYPES
+from ..contact.walls import WALL_TYPES, is_compliant
 from .auto import AUTO, METHODS, choose_method
 from .joint_limits import JOINT_LIMIT_MODES
+from .prescribed import prescription
 
 ACCUMULATION_MODES = ("rest", "stop")
 
@@ -90,13 +91,22 @@ class Settings:
     max_cpu_time: float | None = None  # [s] of CPU; None: no limit
     max_rhs_calls: int | None = None  # right-hand sides; None: no limit
     method_choice: str = ""  # why method="auto" chose ``method`` (gibbsimpact.simulation.auto); "" if not auto
+    prescribed: object = None  # simulation.prescribed.Prescribed, or None: every coordinate free
 
     @classmethod
     def from_arguments(cls, t_span, walls, restitution, method, output_dt, progress, inputs, zeno_count,
-                       max_impacts, joint_limit, joint_restitution, accumulation, link_contacts, **positive) -> Settings:
-        """Validate simulate's options (each error names the argument and what it must be)."""
+                       max_impacts, joint_limit, joint_restitution, accumulation, link_contacts, prescribed=None,
+                       state=None, **positive) -> Settings:
+        """Validate simulate's options (each error names the argument and what it must be).
+
+        prescribed : simulate's ``prescribed``, checked against state = (model, q0, qdot0)
+        (simulation.prescribed)."""
         t0, t_end = _t_span(t_span)
+        prescribed = None if prescribed is None else prescription(*state[:1], prescribed, (t0, t_end), *state[1:])
         walls = _walls(walls)
+        if prescribed is not None and any(map(is_compliant, walls)):
+            raise ValueError("simulate prescribed=... with a compliant wall (stiffness=...) is not supported yet: "
+                             "give the walls no stiffness (Newton's law) or drive the joints by inputs")
         restitution = _fraction("restitution", restitution)
         _choice("method", method, METHODS, f"a solve_ivp method or 'auto'; use one of {', '.join(METHODS)}")
         in_step_check = bool(positive.pop("in_step_check", True))
@@ -121,7 +131,7 @@ class Settings:
                    progress=progress, inputs=inputs, zeno_count=zeno_count, max_impacts=max_impacts, joint_limit=joint_limit,
                    joint_restitution=joint_restitution, accumulation=accumulation,
                    link_contacts=bool(link_contacts), in_step_check=in_step_check, max_cpu_time=max_cpu_time,
-                   max_rhs_calls=max_rhs_calls, **values)
+                   max_rhs_calls=max_rhs_calls, prescribed=prescribed, **values)
 
     def resolve_auto(self, model, q0) -> Settings:
         """These settings with method="auto" replaced by the method it chooses for model from q0 (N,)
@@ -139,6 +149,7 @@ class Settings:
 
     def record(self) -> dict:
         """The options as Result.settings stores them (plain values; inputs and progress are not kept)."""
+        extra = {} if self.prescribed is None else {"prescribed": list(self.prescribed.names)}
         return dict(
             method=self.method, method_choice=self.method_choice, rtol=self.rtol, atol=self.atol,
             restitution=self.restitution,
@@ -148,4 +159,5 @@ class Settings:
             max_impacts=self.max_impacts, t_span=[self.t0, self.t_end], joint_limit=self.joint_limit,
             joint_restitution=self.joint_restitution, accumulation=self.accumulation,
             link_contacts=self.link_contacts, max_cpu_time=self.max_cpu_time, max_rhs_calls=self.max_rhs_calls,
+            **extra,
         )
