@@ -121,3 +121,26 @@ def test_implicit_method_through_impacts_and_resting_contact_with_friction():
     scale = abs(b["inputs"]) + abs(b["impacts"])
     for key in ("inputs", "impacts"):
         assert abs(a[key] - b[key]) <= 1e-6 * scale
+
+
+def test_prescribed_motion_keeps_the_solvers_own_differences(monkeypatch):
+    """A prescribed run's right-hand side is the partitioned one (simulation.equations), which the kernel's
+    Jacobian does not model: Radau must not be handed it (Equations.phase_jacobian), and with its own
+    differences agrees with DOP853 on the free coordinates to 10 (rtol max|q| + atol)."""
+    from gibbsimpact.simulation.equations import Equations
+
+    link = gi.Link(1.0, 1.0, 50.0, modes=[gi.Mode("clamped-free", "y")])
+    model = gi.Model(gi.Chain([link, link], base=gi.FixedBase((0.0, 0.0))), gravity=(0.0, -9.81, 0.0))
+    q0 = model.state(theta_1=-np.pi / 2, theta_2=1.2)
+    spin = gi.profiles.constant_speed(-np.pi / 2, 2.0)
+    kw = dict(prescribed={"theta_1": spin}, rtol=1e-8, atol=1e-10, output_dt=0.01)
+    qd0 = model.state(theta_1=2.0)
+    dop = gi.simulate(model, q0, qd0, (0.0, 0.3), method="DOP853", **kw)
+
+    def refuse(self, t, y):
+        raise AssertionError("the kernel's Jacobian was used for a prescribed run")
+
+    monkeypatch.setattr(Equations, "jacobian", refuse)
+    radau = gi.simulate(model, q0, qd0, (0.0, 0.3), method="Radau", **kw)
+    assert radau.status == dop.status == "finished"
+    assert np.abs(radau.q - dop.q).max() <= 10 * (1e-8 * np.abs(dop.q).max() + 1e-10)
