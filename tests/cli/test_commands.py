@@ -431,7 +431,7 @@ def test_equations_prints_counts_and_writes_latex_and_python(tmp_path, capsys):
 # -- --method, several case files, exit codes in --help, signal handlers -----------------------------
 
 def test_method_option(tmp_path, capsys):
-    from gibbsimpact.simulation.flight import SOLVERS
+    from gibbsimpact.simulation.auto import METHODS as SOLVERS  # scipy's solvers and "auto"
 
     code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--method", "RK45", "--t-end", "0.02",
                                "--no-plots", "-q", "--out", tmp_path / "o"], capsys)
@@ -632,6 +632,21 @@ def test_run_reports_the_whole_run_and_the_per_phase_energy_error(tmp_path, caps
     tol = 4 * np.finfo(float).eps * 4.905 * (2 * s["n_impacts"] + 2)
     assert s["energy_error_whole_run_J"] == pytest.approx(E, abs=tol)
 
+
+def test_run_says_what_method_auto_chose_and_where_the_energy_went(tmp_path, capsys):
+    """issue 27: with --method auto the cost line at the start of run says which method and why (case 1:
+    DOP853, 26 stability steps a second), summary.json keeps it, and the report splits the energy balance."""
+    code, out, err = run_main(["run", CASES / "circle_two_link.toml", "--method", "auto", "--t-end", "0.02",
+                               "--no-plots", "--out", tmp_path / "o"], capsys)
+    assert code == 0
+    # n_stab = 0.02 s x 156.6 rad/s / 5.96 (DOP853's stability radius on the imaginary axis) = 0.53
+    assert "  auto: DOP853, DOP853 needs 0.52" in out
+    assert "steps over 0.02 s for stability alone on the mode at 156.6 rad/s (< 1e+04)" in out
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["settings"]["method"] == "DOP853" and s["settings"]["method_choice"].startswith("auto: DOP853")
+    audit = s["energy_audit_J"]
+    assert audit["inputs"] == audit["damping_and_friction"] == audit["impacts"] == 0.0
+    assert f"energy audit [J]: inputs 0, damping and friction 0, impacts 0, numerical {audit['numerical']:.3g}" in out
 
 def test_show_describes_an_obstacle_and_its_gaps(tmp_path, capsys):
     """show on case 1 plus an obstacle post of R = 0.1 m at (0, -1.2): the wall is named an obstacle, and the

@@ -13,8 +13,9 @@ import scipy.linalg as sl
 import gibbsimpact as gi
 from gibbsimpact.case import case_from_dict
 from gibbsimpact.model.modes import Mode, natural_frequency
-from gibbsimpact.simulation.cost import (error_estimate, estimate_cost, linearised_eigenvalues, stability_function,
-                                         stability_radius)
+from gibbsimpact.simulation.cost import estimate_cost
+from gibbsimpact.simulation.stability import (error_estimate, linearised_eigenvalues, stability_function,
+                                              stability_radius)
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
@@ -142,3 +143,14 @@ def test_estimate_cost_takes_simulates_keywords_only():
         estimate_cost(**kw, rtoll=1e-6)
     with pytest.raises(ValueError, match="estimate_cost method='RK4'"):
         estimate_cost(**{**kw, "method": "RK4"})
+
+
+def test_stability_limit_of_an_undamped_mode_whose_eigenvalue_has_a_round_off_real_part():
+    """Case 1 with EI = 1e9 on link 1: eig gives its highest (undamped) mode at 1.07e6 rad/s a real part of
+    +3.7e-11 (round-off). Its stability limit still binds: h_stability = r(pi/2) / omega_max with
+    r(pi/2) = 5.96 for DOP853 (it was 0.039 s, the limit of the next mode, when that mode was skipped)."""
+    case = gi.load_case(CASES / "circle_two_link.toml")
+    data = copy.deepcopy(case.source)
+    data["links"][0]["EI_N_m2"] = 1e9
+    est = case_from_dict(data, name="stiff").estimate_cost(t_end=1.0)
+    assert est.h_stability == pytest.approx(stability_radius("DOP853", np.pi / 2) / est.omega_max, rel=1e-6)

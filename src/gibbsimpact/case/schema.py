@@ -15,7 +15,7 @@ from ..contact.walls import MAX_FRICTION
 from ..dynamics.inputs import INPUT_KINDS
 from ..model.elements import MAX_ELEMENTS
 from ..model.modes import MODE_KINDS
-from ..simulation.flight import SOLVERS
+from ..simulation.auto import METHODS
 from .keypaths import schema_key
 from .text import fmt
 
@@ -190,7 +190,7 @@ _SOLVER_CHOICES = {
 OVERRIDE_KEYS = {"t_end": "time.t_end_s", **{kw: f"solver.{key}" for key, (kw, _, _) in SOLVER_KEYS.items()}}
 #: Keyword of a [solver] key -> its kind ("str", "bool", "number").
 _SOLVER_KINDS = {kw: kind for kw, kind, _ in SOLVER_KEYS.values()}
-_METHODS = tuple(SOLVERS)  # the one solver list: simulation.flight.SOLVERS
+_METHODS = METHODS  # the one solver list: simulation.flight.SOLVERS and "auto"
 
 #: Output options with their defaults.
 OUTPUT_DEFAULTS = {

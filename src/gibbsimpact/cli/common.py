@@ -57,11 +57,12 @@ def add_rtol_option(parser) -> None:
 
 
 def add_method_option(parser) -> None:
-    """``--method`` of ``run`` and ``sweep``: a name of simulation.flight.SOLVERS (checked once the case is loaded)."""
-    from ..simulation.flight import SOLVERS
+    """``--method`` of ``run`` and ``sweep``: a name of simulation.auto.METHODS (checked once the case is loaded)."""
+    from ..simulation.auto import METHODS
 
     parser.add_argument("--method", metavar="METHOD",
-                        help="scipy ODE solver (overrides [solver] method): " + ", ".join(SOLVERS))
+                        help="scipy ODE solver, or auto (DOP853 or Radau from the highest frequency) (overrides "
+                             "[solver] method): " + ", ".join(METHODS))
 
 
 def add_limit_options(parser, what: str = "the run") -> None:

@@ -437,6 +437,7 @@ def summary(result: Result, case=None) -> dict:
     d["energy_error_whole_run_J"] = _json_safe(result.energy_error_whole_run_J)
     d["energy_scale_J"] = _json_safe(result.energy_scale)
     d["relative_energy_error_max_per_phase"] = _json_safe(result.energy_error)
+    d["energy_audit_J"] = {k: _json_safe(v) for k, v in result.energy_audit().items()}
     # Per phase, under its first name (kept for existing readers).
     d["max_relative_energy_error"] = _json_safe(result.energy_error)
     d["resting_time_s"] = float(result.resting_time)

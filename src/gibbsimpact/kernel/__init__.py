@@ -18,6 +18,7 @@ Each module holds one stage and the items of the derivation it implements:
     linalg.py       solve: Cholesky; least-squares symmetric and SVD solves
     observables.py  observables: energies, momenta, extra contact points
     entry.py        the one entry point ``kernel``, a dispatcher over the stages
+    jacobian.py     d qddot/d q, d qddot/d qdot by compiled central differences (implicit methods)
     contact.py      wall gaps, event gaps, contact terms, friction solve (entry points of their own)
     compile.py      signatures, variants, lazy groups, numba's cache, notices
 
@@ -30,8 +31,8 @@ names with ``from gibbsimpact.kernel.layout import ...``.
 
 from __future__ import annotations
 
-from .compile import (NOTICE_AFTER_S, PRISMATIC, REVOLUTE, RIGID_ENDS, compiled, ensure_compiled, jit_disabled, lazy,
-                      output, run, variant)
+from .compile import (NOTICE_AFTER_S, PRISMATIC, REVOLUTE, RIGID_ENDS, compiled, ensure_compiled, jacobian_entry,
+                      jit_disabled, lazy, output, run, variant)
 from .contact import contact_terms, event_gaps, friction_solve
 from .entry import kernel
 from .frames import chain_frames
@@ -39,6 +40,7 @@ from .layout import (BASE_FIXED, BASE_FREE, BASE_PLANAR, END_GENERAL, END_RIGID,
                      JOB_JACOBIANS, JOB_M, JOB_MOMENTUM, JOB_POINTS, JOB_QDDOT, JOB_SOLVE, JOINT_PA, JOINT_PB, JOINT_R,
                      KIND_MODE, KIND_PA, KIND_PB, KIND_ROTATION, KIND_TRANSLATION, SECTIONS, WALL_CIRCLE, WALL_PLANE,
                      WALL_SPHERE, contact_layout, layout)
+from .jacobian import jacobian_size, state_jacobian
 from .linalg import _svd_solve, sym_solve
 from .mat4 import rodrigues_coefficients, rodrigues_directional
 
@@ -48,7 +50,7 @@ __all__ = [
     "JOINT_R", "KIND_MODE", "KIND_PA", "KIND_PB", "KIND_ROTATION", "KIND_TRANSLATION", "NOTICE_AFTER_S",
     "PRISMATIC", "REVOLUTE", "RIGID_ENDS", "SECTIONS", "WALL_CIRCLE", "WALL_PLANE", "WALL_SPHERE", "chain_frames",
     "compiled", "contact_layout", "contact_terms", "ensure_compiled", "event_gaps", "friction_solve",
-    "jit_disabled", "kernel", "layout", "lazy", "output", "rodrigues_coefficients", "rodrigues_directional", "run",
-    "sym_solve", "variant",
+    "jacobian_entry", "jacobian_size", "jit_disabled", "kernel", "layout", "lazy", "output", "rodrigues_coefficients", "rodrigues_directional", "run",
+    "state_jacobian", "sym_solve", "variant",
     "_svd_solve",  # tests/contact checks it against numpy's lstsq
 ]

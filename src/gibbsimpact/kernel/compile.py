@@ -43,13 +43,15 @@ import numpy as np
 from .contact import contact_terms, event_gaps, friction_solve
 from .entry import kernel
 from .frames import chain_frames
+from .jacobian import state_jacobian
 from .layout import layout
 from .linalg import sym_solve
 
 #: The kernel's folder: every .py file in it goes into the cache key (source_key).
 KERNEL_DIR = Path(__file__).resolve().parent
 #: The kernel's stage modules, whose functions numba compiles.
-_STAGES = ("layout", "mat4", "frames", "moments", "assemble", "linalg", "observables", "entry", "contact")
+_STAGES = ("layout", "mat4", "frames", "moments", "assemble", "linalg", "observables", "entry", "contact",
+           "jacobian")
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
@@ -62,6 +64,8 @@ _VARIANT_NAME = {RIGID_ENDS: "revolute joints and rigid link ends", REVOLUTE: "r
                  PRISMATIC: "prismatic joints"}
 _VARIANT_COST = {RIGID_ENDS: "about 15-20 s", REVOLUTE: "about 20-25 s", PRISMATIC: "about 30 s"}
 _ENTRY_SIG = f"float64({_A1}, {_I1}, {_R1}, {_R1}, {_R1}, int64, {{}}, {{}}, {_A1})"
+#: The Jacobian entry point (jacobian.state_jacobian), per variant as the kernel; compiled on first use.
+_JACOBIAN_SIG = f"float64({_A1}, {_I1}, {_R1}, {_R1}, {_R1}, {{}}, {{}}, {_A1})"
 #: Entry points apart from the kernel, compiled on first use: their signatures ...
 _LAZY = {"contact_terms": f"{_A1}({_A1}, {_I1}, {_A1}, int64[:, ::1], {_I1}, {_A2}, int64)",
          "sym_solve": f"{_A1}({_A2}, {_A1})",
@@ -86,7 +90,8 @@ _state = {"ready": set(), "cached": None, "seconds": {}, "kernel": None, "jitted
           "dispatchers": {}}
 #: The plain-Python functions that get dispatchers of their own (the entry points and _SHARED).
 _PY_FUNCTIONS = {"kernel": kernel, "chain_frames": chain_frames, "contact_terms": contact_terms,
-                 "sym_solve": sym_solve, "event_gaps": event_gaps, "friction_solve": friction_solve}
+                 "sym_solve": sym_solve, "event_gaps": event_gaps, "friction_solve": friction_solve,
+                 "state_jacobian": state_jacobian}
 _PY_KERNEL = kernel  # the plain-Python entry point (the kernel modules' ``kernel`` becomes the compiled one)
 _lock = threading.Lock()
 NOTICE_AFTER_S = 1.0
@@ -198,7 +203,7 @@ def _jit_helpers():
         else:
             numba.extending.register_jitable(f)
     dispatchers["kernel"] = jit(kernel)
-    for name in _LAZY:  # their own dispatchers: compiled on first use (lazy)
+    for name in (*_LAZY, "state_jacobian"):  # their own dispatchers: compiled on first use (lazy)
         dispatchers[name] = jit(_PY_FUNCTIONS[name])
     for name, d in dispatchers.items():
         _rebind(_PY_FUNCTIONS[name], d)
@@ -301,6 +306,44 @@ def lazy(name):
             if shown:
                 print(f"gibbsimpact: {what} ready in {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
     return _state["lazy"][name]
+
+
+def jacobian_entry(v):
+    """The entry point ``state_jacobian`` (kernel/jacobian.py) with variant ``v`` compiled (or loaded
+    from numba's cache) on first use: only implicit runs need it (10-20 s of CPU, one notice on stderr).
+
+    Call it as ``jacobian_entry(v)(fdat, idat, q, qd, Q, *v, out)`` with out of
+    ``jacobian.jacobian_size(N)`` float64 entries.
+    """
+    ready = _state["lazy"].get(("state_jacobian", v))
+    if ready is not None:
+        return ready
+    ensure_compiled(v)  # the shared helpers and dispatchers exist from here on
+    with _lock:
+        d = _state["dispatchers"].get("state_jacobian", state_jacobian)
+        if hasattr(d, "disable_compile"):
+            t0 = time.perf_counter()
+            if not _jacobian_cached(d, v):
+                print("gibbsimpact: compiling the Jacobian of the dynamics (first implicit run; 10-20 s of CPU) ...",
+                      file=sys.stderr, flush=True)
+            d.disable_compile(False)
+            try:
+                d.compile(_JACOBIAN_SIG.format(*_signature_args(v)))
+            finally:
+                d.disable_compile()
+            _state["seconds"][("state_jacobian", v)] = time.perf_counter() - t0
+        _state["lazy"][("state_jacobian", v)] = d
+    return d
+
+
+def _jacobian_cached(d, v) -> bool:
+    """True if numba's on-disk cache holds state_jacobian's signature of variant v (no notice then)."""
+    try:
+        index = d._cache._cache_file._load_index()
+        want = _JACOBIAN_SIG.format(*_signature_args(v)).replace(" ", "")
+        return any(str(key[0]).replace(" ", "") == want for key in index)
+    except Exception:  # no cache, numba internals changed
+        return False
 
 
 def _cache_is_warm(v):

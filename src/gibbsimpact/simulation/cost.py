@@ -23,12 +23,13 @@ imaginary axis (undamped oscillations) r = 5.96 for scipy's DOP853, 1.73 = sqrt(
 (the textbook interval of a 3-stage third-order method, a check of this computation) and 1.0
 for RK45 (scipy's Dormand-Prince 5(4) with local extrapolation; |R(iy)| - 1 is only 1e-4 at
 y = 1.1 and 3e-3 at 1.5, so its practical limit is soft); on the negative real axis 6.39,
-2.51 and 3.31. These numbers are computed from the tableaux (:func:`stability_radius`).
+2.51 and 3.31. These numbers are computed from the tableaux
+(:func:`gibbsimpact.simulation.stability.stability_radius`).
 
 **Accuracy.** The step controller keeps the embedded error estimate of each step below
 atol + rtol |y| per component; for a mode it is |E(h lambda)| times the mode's amplitude, with
 E(z) the error estimator's polynomial (for DOP853 scipy's blend of its 5th- and 3rd-order
-estimates, :func:`error_estimate`). A mode is taken to be excited at the start (a load
+estimates, stability.error_estimate). A mode is taken to be excited at the start (a load
 switched on at t0) with velocity amplitude v_k = a / |lambda_k|, a [m/s^2] the larger of |g|
 and the largest acceleration of a joint at t0, so that the step must keep
 
@@ -61,104 +62,20 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import DOP853, RK23, RK45
 
-from ..dynamics.forces import damping_matrix, generalized_force
-from ..dynamics.gibbs_appell import forward_dynamics, mass_matrix, potential_forces
+from ..dynamics.forces import generalized_force
+from ..dynamics.gibbs_appell import forward_dynamics
 from ..dynamics.kinematics import joint_jacobians
+from .auto import AUTO, choose_method
 from .flight import SOLVERS
+# The linearised modes and the methods' stability and accuracy radii are in stability.py, so that
+# method="auto" reads them without this module's tie to simulate's defaults.
+from .stability import EXPLICIT, accuracy_radius, linearised_eigenvalues, stability_radius
 
-#: The explicit methods whose steps are estimated: (scipy class, new right-hand sides per step
-#: (FSAL: the last stage is the next step's first), extra right-hand sides of a dense output).
-EXPLICIT = {"DOP853": (DOP853, 12, 3), "RK45": (RK45, 6, 0), "RK23": (RK23, 3, 0)}
 #: CPU time of one accepted step of a run besides its right-hand sides (scipy's step, the event checks,
 #: the recorder), in units of one bare scipy step of the same method on a linear system of the same
 #: size (:func:`step_seconds`): 4 - 8 on the bundled cases and variants (docs/benchmarks.md).
 STEP_OVERHEAD = 5.0
-_R_MAX = 20.0  # beyond every radius of these methods [|z|]
-
-
-def _tableau(method: str):
-    """(A (s+1, s+1), b (s,)) of an explicit method: the s stages and the FSAL stage f(t + h, y_new)."""
-    cls = EXPLICIT[method][0]
-    s = cls.n_stages
-    A0 = np.asarray(cls.A, dtype=float)
-    A = np.zeros((s + 1, s + 1))
-    A[:s, :min(A0.shape[1], s)] = A0[:s, :s]
-    A[s, :s] = cls.B
-    return A, np.asarray(cls.B, dtype=float)
-
-
-def _stages(method: str, z: complex) -> np.ndarray:
-    """h K_j / y (s+1,) of every stage for y' = lambda y, z = h lambda: hK = z (I - z A)^-1 1."""
-    A, _ = _tableau(method)
-    return z * np.linalg.solve(np.eye(len(A)) - z * A, np.ones(len(A)))
-
-
-def stability_function(method: str, z: complex) -> complex:
-    """R(z) = y_1 / y_0 of one step of ``method`` on y' = lambda y, z = h lambda."""
-    _, b = _tableau(method)
-    return complex(1.0 + b @ _stages(method, z)[:len(b)])
-
-
-def error_estimate(method: str, z: complex) -> float:
-    """|error estimate| / |y| of one step on y' = lambda y, as scipy's controller computes it for one component."""
-    hK = _stages(method, z)
-    cls = EXPLICIT[method][0]
-    if method == "DOP853":
-        e5, e3 = abs(hK @ cls.E5), abs(hK @ cls.E3)
-        return 0.0 if e5 == 0.0 else e5 * e5 / math.sqrt(e5 * e5 + 0.01 * e3 * e3)
-    return float(abs(hK @ cls.E))
-
-
-def _first_radius(f, phi: float, level: float) -> float:
-    """The smallest r > 0 with f(r e^{i phi}) > level (scan of 400 points, then bisection), or _R_MAX."""
-    d = complex(math.cos(phi), math.sin(phi))
-    rs = np.linspace(_R_MAX / 400, _R_MAX, 400)
-    above = [f(r * d) > level for r in rs]
-    if not any(above):
-        return _R_MAX
-    k = above.index(True)
-    lo, hi = (rs[k - 1] if k else 0.0), rs[k]
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (lo, mid) if f(mid * d) > level else (mid, hi)
-    return lo
-
-
-def stability_radius(method: str, phi: float) -> float:
-    """r(phi) [|z|]: the step h lambda of ``method`` along the ray of angle phi [rad] stays stable up to r.
-
-    |R| <= 1 + 1e-9 counts as stable (RK45's imaginary axis: |R(iy)| - 1 < 5e-10 up to y = 0.997).
-    """
-    return _first_radius(lambda z: abs(stability_function(method, z)), phi, 1.0 + 1e-9)
-
-
-def accuracy_radius(method: str, phi: float, tol: float) -> float:
-    """The largest |h lambda| along the ray of angle phi [rad] whose error estimate stays below tol (relative)."""
-    return _first_radius(lambda z: error_estimate(method, z), phi, tol)
-
-
-def linearised_eigenvalues(model, q0: np.ndarray) -> np.ndarray:
-    """Eigenvalues lambda (2N,) [1/s] of A = [[0, I], [-M^-1 K, -M^-1 C]] at q0 (module docstring).
-
-    K (N, N) is the Hessian of V: central differences of dV/dq with steps 1e-6 max(1, |q_k|)
-    (V is quadratic in the elastic coordinates, so these columns are exact to round-off).
-    """
-    N = model.n_dof
-    q0 = np.asarray(q0, dtype=float)
-    K = np.empty((N, N))
-    for k in range(N):
-        dq = np.zeros(N)
-        dq[k] = 1e-6 * max(1.0, abs(q0[k]))
-        K[:, k] = (potential_forces(model, q0 + dq) - potential_forces(model, q0 - dq)) / (2.0 * dq[k])
-    K = 0.5 * (K + K.T)
-    M = mass_matrix(model, q0)
-    A = np.zeros((2 * N, 2 * N))
-    A[:N, N:] = np.eye(N)
-    A[N:, :N] = -np.linalg.solve(M, K)
-    A[N:, N:] = -np.linalg.solve(M, damping_matrix(model, q0))
-    return np.linalg.eigvals(A)
 
 
 def acceleration_scale(model, q0, qdot0, Q0=None) -> float:
@@ -204,6 +121,7 @@ class CostEstimate:
     binding : what sets the step ("stability ..." or "accuracy ..."), or why nothing is estimated
     rhs_seconds : [s] CPU of one right-hand side at q0, measured
     cpu_seconds : [s] n_rhs rhs_seconds + n_steps STEP_OVERHEAD step_seconds, or None
+    choice : for method="auto", the sentence of gibbsimpact.simulation.auto.choose_method; else ""
     """
 
     omega_max: float
@@ -215,10 +133,13 @@ class CostEstimate:
     binding: str
     rhs_seconds: float
     cpu_seconds: float | None
+    choice: str = ""  # method="auto": which method it chose and why (gibbsimpact.simulation.auto)
 
     def describe(self) -> str:
         """One line: omega_max, and the steps, right-hand sides and CPU time of the method over the span."""
         head = f"highest frequency {self.omega_max:.4g} rad/s (period {_period(self.omega_max)})"
+        if self.choice:
+            head = f"{self.choice}; {head}"
         if self.n_steps is None:
             return f"{head}; {self.method}: steps not estimated ({self.binding})"
         return (f"{head}; {self.method} over {self.span:g} s: about {_count(self.n_steps)} steps, "
@@ -246,7 +167,9 @@ def _steps(method, lam, span, a, rtol, atol, max_step) -> tuple[float, float, st
     """(h_stability [s], n_steps, binding) of an explicit method over the modes lambda (module docstring)."""
     modes = lam[(np.abs(lam) > 1e-9 * max(1.0, np.abs(lam).max(initial=0.0))) & (lam.imag >= 0)]
     h_stab, binding = min(max_step, span), "max_step" if max_step < span else "the time span"
-    for lk in modes[modes.real <= 0]:
+    # Undamped modes come out of eig with real parts of round-off (+3.7e-11 at 1.07e6 rad/s on case 1
+    # with EI = 1e9): a real part below 1e-9 |lambda| is zero, else the stiffest mode's limit was skipped.
+    for lk in modes[modes.real <= 1e-9 * np.abs(modes)]:
         h = stability_radius(method, float(np.angle(lk))) / abs(lk)
         if h < h_stab:
             h_stab, binding = h, f"stability limit of the mode at {abs(lk):.4g} rad/s"
@@ -285,7 +208,9 @@ def estimate_cost(model, q0, qdot0, t_span, **options) -> CostEstimate:
         raise ValueError(f"estimate_cost {', '.join(unknown)}: not a keyword of simulate; give simulate's keywords "
                          f"({', '.join(defaults)})")
     o = {**defaults, **options}
-    method = o["method"]
+    method, choice = o["method"], ""
+    if method == AUTO:
+        method, choice = choose_method(model, q0, t_span, o["max_step"])
     if method not in SOLVERS:
         raise ValueError(f"estimate_cost method={method!r} must be a solve_ivp method; use one of {', '.join(SOLVERS)}")
     q0, qdot0 = model.check_state(q0, qdot0, "q0", "qdot0")
@@ -298,11 +223,11 @@ def estimate_cost(model, q0, qdot0, t_span, **options) -> CostEstimate:
     if method not in EXPLICIT:
         why = "LSODA switches between explicit and implicit steps" if method == "LSODA" else \
             f"{method} is implicit: no stability limit, its steps follow the accuracy of the motion"
-        return CostEstimate(omega_max, method, span, None, None, None, why, seconds, None)
+        return CostEstimate(omega_max, method, span, None, None, None, why, seconds, None, choice)
     a = acceleration_scale(model, q0, qdot0, None if Q_in is None else Q_in(t0, q0, qdot0))
     h_stab, n_steps, binding = _steps(method, lam, span, a, o["rtol"], o["atol"], o["max_step"])
     _, per_step, dense = EXPLICIT[method]
     n_samples = 0.0 if o["output_dt"] is None else span / o["output_dt"]
     n_rhs = n_steps * per_step + min(n_steps, n_samples) * dense
     cpu = n_rhs * seconds + n_steps * STEP_OVERHEAD * step_seconds(method, 2 * model.n_dof)
-    return CostEstimate(omega_max, method, span, h_stab, n_steps, n_rhs, binding, seconds, cpu)
+    return CostEstimate(omega_max, method, span, h_stab, n_steps, n_rhs, binding, seconds, cpu, choice)

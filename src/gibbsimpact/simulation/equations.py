@@ -24,6 +24,7 @@ from ..dynamics.forces import CallbackError, damping_depends_on_q, damping_matri
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics
 from ..dynamics.prescribed import partitioned_dynamics
 from .budget import Budget
+from .implicit import IMPLICIT, rhs_jacobian
 
 
 class Equations:
@@ -80,6 +81,18 @@ class Equations:
         """Q = Q_in + Q_damp (N,) of the equations of motion, or None (gibbsimpact.contact.resting)."""
         f = self.forces(t, q, qd)
         return None if f is None else f[0] + f[1]
+
+    def jacobian(self, t, y):
+        """df/dy (y.size, y.size) of a flight phase's f at (t, y), for an implicit method
+        (gibbsimpact.simulation.implicit.rhs_jacobian)."""
+        return rhs_jacobian(self, t, y)
+
+    def phase_jacobian(self, method):
+        """The solver's jac for the phase under way: ``jacobian`` for an implicit method in a phase of the plain
+        flight equations; None (the solver's own differences) for an explicit method and for the right-hand
+        sides rhs_jacobian does not model: resting pairs, prescribed motion, compliant contacts."""
+        plain = not self.resting_phase and self.prescribed is None and self.compliant is None
+        return self.jacobian if method in IMPLICIT and plain else None
 
     def partitioned(self, t, q, qd):
         """The prescribed run's dynamics at t: (qdot (N,) with the prescribed entries from f(t), qddot (N,),

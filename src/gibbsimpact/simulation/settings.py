@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from numbers import Real
 
 import numpy as np
 
 from ..contact.walls import WALL_TYPES, is_compliant
-from .flight import SOLVERS
+from .auto import AUTO, METHODS, choose_method
 from .joint_limits import JOINT_LIMIT_MODES
 from .prescribed import prescription
 
@@ -89,6 +90,7 @@ class Settings:
     in_step_check: bool
     max_cpu_time: float | None = None  # [s] of CPU; None: no limit
     max_rhs_calls: int | None = None  # right-hand sides; None: no limit
+    method_choice: str = ""  # why method="auto" chose ``method`` (gibbsimpact.simulation.auto); "" if not auto
     prescribed: object = None  # simulation.prescribed.Prescribed, or None: every coordinate free
 
     @classmethod
@@ -106,7 +108,7 @@ class Settings:
             raise ValueError("simulate prescribed=... with a compliant wall (stiffness=...) is not supported yet: "
                              "give the walls no stiffness (Newton's law) or drive the joints by inputs")
         restitution = _fraction("restitution", restitution)
-        _choice("method", method, SOLVERS, f"a solve_ivp method; use one of {', '.join(SOLVERS)}")
+        _choice("method", method, METHODS, f"a solve_ivp method or 'auto'; use one of {', '.join(METHODS)}")
         in_step_check = bool(positive.pop("in_step_check", True))
         max_cpu_time = _limit("max_cpu_time", positive.pop("max_cpu_time", None), _positive)
         max_rhs_calls = _limit("max_rhs_calls", positive.pop("max_rhs_calls", None), _count)
@@ -131,6 +133,15 @@ class Settings:
                    link_contacts=bool(link_contacts), in_step_check=in_step_check, max_cpu_time=max_cpu_time,
                    max_rhs_calls=max_rhs_calls, prescribed=prescribed, **values)
 
+    def resolve_auto(self, model, q0) -> Settings:
+        """These settings with method="auto" replaced by the method it chooses for model from q0 (N,)
+        [m, rad] and the reason in method_choice (gibbsimpact.simulation.auto.choose_method); unchanged
+        for any other method."""
+        if self.method != AUTO:
+            return self
+        method, why = choose_method(model, q0, (self.t0, self.t_end), self.max_step)
+        return dataclasses.replace(self, method=method, method_choice=why)
+
     @property
     def wall_restitution(self) -> np.ndarray:
         """e of every wall (W,): its own ``restitution``, else the run's."""
@@ -140,7 +151,8 @@ class Settings:
         """The options as Result.settings stores them (plain values; inputs and progress are not kept)."""
         extra = {} if self.prescribed is None else {"prescribed": list(self.prescribed.names)}
         return dict(
-            method=self.method, rtol=self.rtol, atol=self.atol, restitution=self.restitution,
+            method=self.method, method_choice=self.method_choice, rtol=self.rtol, atol=self.atol,
+            restitution=self.restitution,
             wall_restitution=[w.restitution for w in self.walls], output_dt=self.output_dt, max_step=self.max_step,
             contact_tol=self.contact_tol, grazing_velocity=self.grazing_velocity,
             penetration_tol=self.penetration_tol, zeno_interval=self.zeno_interval, zeno_count=self.zeno_count,

@@ -117,7 +117,8 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
     model : Model; q0, qdot0 : (N,) initial coordinates and velocities (order: model.coordinate_names)
     t_span : (t0, t_end) [s]; walls : sequence of Circle, Sphere, Plane
     restitution : e in [0, 1] of the walls whose own ``restitution`` is None
-    rtol, atol, method : the solver's tolerances and method (solve_ivp's meaning; "DOP853" recommended)
+    rtol, atol, method : the solver's tolerances and method (solve_ivp's meaning), or "auto": DOP853 or Radau
+        from the highest frequency (simulation.auto; Result.settings["method"], ["method_choice"] why)
     output_dt : [s] or None: None stores every accepted step, a float uniform samples from the
         dense output (plus both sides of every impact); max_step : [s] the solver's largest step
     contact_tol : [m] gaps within the contact band max(2 contact_tol, L_q (atol + rtol max|q|)),

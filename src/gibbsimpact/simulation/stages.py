@@ -116,8 +116,9 @@ def _check_start(model, q0, qdot0, settings, limits):
 
 
 def start(model, q0, qdot0, settings, clock) -> Run:
-    """Check the initial state and build the run's parts; the loop starts with an impact stage."""
-    s, walls = settings, settings.walls
+    """Check the initial state and build the run's parts (method="auto" resolved); the loop starts with an
+    impact stage."""
+    s, walls = settings.resolve_auto(model, q0), settings.walls
     limits = joint_limits(model)
     _check_start(model, q0, qdot0, s, limits)
     limits = _watched(limits, s.prescribed)
@@ -299,6 +300,7 @@ def flight(run):
             slack=s.contact_tol, n_q=N, check_in_step=s.in_step_check, gap_batch=gap_batch, extra=extra,
             gap_single=lambda q, w, c: run.contacts.gap_single(q, w, c, gap_matrix) + (
                 0.0 if run.compliant is None else run.compliant.joint_shift(w, c)),
+            jac=run.equations.phase_jacobian(s.method),
         )
     except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
         run.end("integration", t=run.t, error=exc)

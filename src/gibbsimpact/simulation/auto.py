@@ -1,0 +1,60 @@
+"""method="auto": the explicit or the implicit solver, chosen from the chain's highest frequency.
+
+An explicit Runge-Kutta method is stable on a mode lambda only for |h lambda| <= r(arg lambda)
+(gibbsimpact.simulation.stability: r = 5.96 on the imaginary axis for DOP853), so over a span T it takes
+at least
+
+    n_stab = T |lambda_max| / r(arg lambda_max)
+
+steps however slowly the chain moves. An L-stable implicit method (Radau IIA, order 5) has no such
+bound: its steps follow the accuracy of the motion, at ~1.3 times an explicit step's CPU (Newton
+iterations, LU factors; measured on the R-Pb arm: 650 us against 480 us a step). The rule:
+
+    Radau     if n_stab >= STIFF_STEPS (= 1e4) and max_step does not bind first (max_step > T / n_stab)
+    DOP853    otherwise
+
+STIFF_STEPS is where stability alone costs the explicit method ~1e4 steps (~5 s of CPU on a
+12-coordinate arm). Below it an explicit run is cheap whatever the implicit one would save, and
+where the explicit step is set by accuracy (the stiff mode itself is excited above the tolerance:
+after an impact on a stiff link, or tight tolerances on the bundled prismatic arms) Radau must
+follow that mode too, with smaller steps than DOP853's (its error estimate is of order 3):
+measured on fixed_base_R_Pb_arm (n_stab = 366 over 1 s) Radau costs ~12x DOP853's CPU at rtol 1e-8
+and 4.8x at rtol 1e-4; on case 1 with EI = 1e9 on link 1 (n_stab = 1.8e5) it takes 5 steps to the first
+impact where DOP853 takes 2.6e5 (docs/benchmarks.md, benchmarks/bench_stiff.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .flight import SOLVERS
+from .stability import linearised_eigenvalues, stability_radius
+
+AUTO = "auto"
+#: Every value of simulate's ``method``: scipy's solvers and "auto".
+METHODS = (*SOLVERS, AUTO)
+EXPLICIT_METHOD, IMPLICIT_METHOD = "DOP853", "Radau"
+#: Stability-bound explicit steps over the span from which auto takes the implicit method.
+STIFF_STEPS = 1e4
+
+
+def choose_method(model, q0: np.ndarray, t_span, max_step: float = np.inf) -> tuple[str, str]:
+    """(method, reason) of method="auto" for a run of ``model`` from q0 (N,) [m, rad] over t_span (t0, t_end) [s]
+    with the solver's largest step max_step [s] (module docstring): "Radau" or "DOP853", and one sentence
+    saying why, with n_stab and the highest frequency [rad/s]."""
+    span = float(t_span[1]) - float(t_span[0])
+    lam = linearised_eigenvalues(model, np.asarray(q0, dtype=float))
+    if lam.size == 0 or not np.abs(lam).max() > 0.0:
+        return EXPLICIT_METHOD, "auto: DOP853, the chain has no vibration mode"
+    top = lam[np.argmax(np.abs(lam))]
+    omega = float(abs(top))
+    r = stability_radius(EXPLICIT_METHOD, float(np.angle(top if top.imag >= 0 else np.conj(top))))
+    n_stab = span * omega / r
+    head = (f"{EXPLICIT_METHOD} needs {n_stab:.3g} steps over {span:g} s for stability alone on the mode at "
+            f"{omega:.4g} rad/s")
+    if max_step <= span / n_stab:
+        return EXPLICIT_METHOD, f"auto: {EXPLICIT_METHOD}, max_step = {max_step:g} s binds before the stability limit"
+    if n_stab >= STIFF_STEPS:
+        return IMPLICIT_METHOD, (f"auto: {IMPLICIT_METHOD}, {head} (>= {STIFF_STEPS:.0e}); {IMPLICIT_METHOD} is not "
+                                 "bound by it but damps the modes it steps over (energy audit: numerical)")
+    return EXPLICIT_METHOD, f"auto: {EXPLICIT_METHOD}, {head} (< {STIFF_STEPS:.0e})"

@@ -1,0 +1,146 @@
+"""method="auto" (gibbsimpact.simulation.auto) and the implicit path with the kernel's Jacobian."""
+
+import copy
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gibbsimpact as gi
+from gibbsimpact.case import case_from_dict
+from gibbsimpact.simulation.auto import STIFF_STEPS, choose_method
+from gibbsimpact.simulation.cost import estimate_cost
+
+CASES = Path(__file__).resolve().parents[2] / "cases"
+
+
+def _case1(EI=None):
+    """Case 1 as shipped, or with EI_N_m2 = EI on link 1 (issue 27's stiff chain for EI = 1e9)."""
+    case = gi.load_case(CASES / "circle_two_link.toml")
+    if EI is None:
+        return case
+    src = copy.deepcopy(case.source)
+    src["links"][0]["EI_N_m2"] = EI
+    return case_from_dict(src, name=f"case1_EI{EI:g}")
+
+
+def test_auto_keeps_case_1_explicit_and_takes_radau_for_a_stiff_link():
+    # Case 1: omega_max = 156.6 rad/s, so DOP853 needs 26 steps a second for stability: explicit.
+    case = _case1()
+    method, why = choose_method(case.model, case.q0, (0.0, 1.0))
+    assert method == "DOP853" and "156.6 rad/s" in why
+    # EI = 1e9: the clamped-clamped mode of link 1 at 22.37 sqrt(EI / (mu l^4)) = 7.07e5 rad/s (the
+    # chain's highest, coupled, 1.07e6 rad/s) needs |lambda| / 5.96 > 1e5 steps a second of DOP853.
+    stiff = _case1(1e9)
+    method, why = choose_method(stiff.model, stiff.q0, (0.0, 1.0))
+    assert method == "Radau" and f"{STIFF_STEPS:.0e}" in why
+    omega = float(why.split("mode at ")[1].split(" rad/s")[0])
+    assert omega > 22.37 * np.sqrt(1e9)
+    # ... but not over a span too short for the stability steps to matter, nor under a binding max_step.
+    assert choose_method(stiff.model, stiff.q0, (0.0, 1e-3))[0] == "DOP853"
+    assert choose_method(stiff.model, stiff.q0, (0.0, 1.0), max_step=1e-6)[0] == "DOP853"
+
+
+def test_auto_says_what_it_chose_in_the_result_and_the_cost_estimate():
+    stiff = _case1(1e9)
+    res = stiff.simulate(t_end=0.1, method="auto")  # n_stab = 1.8e4: Radau
+    assert res.status == "finished"
+    assert res.settings["method"] == "Radau" and res.settings["method_choice"].startswith("auto: Radau")
+    est = stiff.estimate_cost(t_end=0.1, method="auto")
+    assert est.method == "Radau" and est.describe().startswith("auto: Radau")
+    plain = _case1().simulate(t_end=0.01)
+    assert plain.settings["method"] == "DOP853" and plain.settings["method_choice"] == ""
+    with pytest.raises(ValueError, match="use one of .*auto"):
+        stiff.simulate(t_end=0.01, method="automatic")
+    with pytest.raises(ValueError, match="simulate method='automatic' must be a solve_ivp method or 'auto'"):
+        gi.simulate(stiff.model, stiff.q0, stiff.qdot0, (0.0, 0.01), method="automatic")
+    with pytest.raises(ValueError, match="estimate_cost method"):
+        estimate_cost(stiff.model, stiff.q0, stiff.qdot0, (0.0, 0.01), method="automatic")
+
+
+def test_implicit_and_explicit_runs_agree_on_a_stiff_chain():
+    """Case 1 with EI = 1e6 on link 1 (omega_max 3.4e4 rad/s) through its first impact, Radau with the
+    kernel's Jacobian against DOP853, both at rtol 1e-6, atol 1e-8: the joint coordinates agree within
+    10 (rtol max|q| + atol) = 1e-5 (m, rad) and the impact times within that over the impact speed
+    (4.43 m/s): 2.3e-6 s. (Measured: 7e-9 and equal to 1e-9 s.)"""
+    stiff = _case1(1e6)
+    kw = dict(t_end=0.46, rtol=1e-6, atol=1e-8, output_dt=1e-3)
+    radau = stiff.simulate(method="Radau", **kw)
+    dop = stiff.simulate(method="DOP853", **kw)
+    assert radau.status == dop.status == "finished"
+    assert len(radau.impacts) == len(dop.impacts) == 1
+    tol_q = 10 * (1e-6 * np.abs(dop.q).max() + 1e-8)
+    assert abs(radau.impacts[0].time - dop.impacts[0].time) <= tol_q / 4.43
+    joints = [i for i, name in enumerate(stiff.model.coordinate_names) if not name.startswith("delta")]
+    n = min(len(radau.t), len(dop.t))
+    np.testing.assert_allclose(radau.t[:n], dop.t[:n], rtol=0, atol=1e-12)
+    assert np.abs(radau.q[:n, joints] - dop.q[:n, joints]).max() <= tol_q
+    # Fewer steps than the explicit method, which is held to |h lambda_max| <= 5.96 (and the Jacobian
+    # replaced scipy's differences: about 8 right-hand sides a step, not 8 + 2N / (steps per Jacobian)).
+    assert radau.n_steps < dop.n_steps
+
+
+def test_energy_audit_splits_the_balance():
+    """E(end) - E(t0) = inputs + damping_and_friction + impacts + numerical; an undriven chain with e = 1
+    impacts has only the numerical part, and an implicit method's is a loss."""
+    stiff = _case1(1e6)
+    res = stiff.simulate(method="Radau", t_end=0.46, rtol=1e-6, atol=1e-8, output_dt=1e-3)
+    audit = res.energy_audit()
+    E = res.energy().total
+    assert audit["inputs"] == audit["damping_and_friction"] == audit["impacts"] == 0.0
+    assert audit["numerical"] == pytest.approx(E[-1] - E[0], rel=1e-9, abs=1e-12)
+    assert audit["numerical"] < 0.0
+    assert res.summary()["energy_audit_J"]["numerical"] == pytest.approx(audit["numerical"])
+
+
+def test_implicit_method_through_impacts_and_resting_contact_with_friction():
+    """The rigid rod of issue 26 on its pivot at height 0.5 m, pushed down by a torque onto a floor with
+    e = 0.5 and friction 0.3: it bounces, its impacts accumulate and it rests with its tip on the floor,
+    at sin theta = -0.5 / l (theta = -pi/6), with Radau as with DOP853 (the resting phases keep scipy's own
+    differences for their constrained right-hand side). Same resting time to 1e-4 s (measured 7e-6 s)
+    and the same energy audit to 1e-6 of the energy exchanged."""
+    import warnings
+
+    from conftest import issue26_model
+
+    model = issue26_model(0)
+    floor = gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), restitution=0.5, friction=0.3)
+    q0 = np.zeros(model.n_dof)
+    runs = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gi.ValidityWarning)
+        for method in ("DOP853", "Radau"):
+            runs[method] = gi.simulate(model, q0, np.zeros_like(q0), (0.0, 1.0), walls=[floor], method=method,
+                                       rtol=1e-8, atol=1e-10, output_dt=1e-3,
+                                       inputs={"theta_1": lambda t, q, qd: -1.0 + 0.5 * np.sin(20.0 * t)})
+    dop, radau = runs["DOP853"], runs["Radau"]
+    assert radau.status == dop.status == "finished"
+    assert radau.resting_time > 0.2 and abs(radau.resting_time - dop.resting_time) <= 1e-4
+    assert radau.q[-1, 0] == pytest.approx(-np.pi / 6, abs=1e-8)
+    a, b = radau.energy_audit(), dop.energy_audit()
+    scale = abs(b["inputs"]) + abs(b["impacts"])
+    for key in ("inputs", "impacts"):
+        assert abs(a[key] - b[key]) <= 1e-6 * scale
+
+
+def test_prescribed_motion_keeps_the_solvers_own_differences(monkeypatch):
+    """A prescribed run's right-hand side is the partitioned one (simulation.equations), which the kernel's
+    Jacobian does not model: Radau must not be handed it (Equations.phase_jacobian), and with its own
+    differences agrees with DOP853 on the free coordinates to 10 (rtol max|q| + atol)."""
+    from gibbsimpact.simulation.equations import Equations
+
+    link = gi.Link(1.0, 1.0, 50.0, modes=[gi.Mode("clamped-free", "y")])
+    model = gi.Model(gi.Chain([link, link], base=gi.FixedBase((0.0, 0.0))), gravity=(0.0, -9.81, 0.0))
+    q0 = model.state(theta_1=-np.pi / 2, theta_2=1.2)
+    spin = gi.profiles.constant_speed(-np.pi / 2, 2.0)
+    kw = dict(prescribed={"theta_1": spin}, rtol=1e-8, atol=1e-10, output_dt=0.01)
+    qd0 = model.state(theta_1=2.0)
+    dop = gi.simulate(model, q0, qd0, (0.0, 0.3), method="DOP853", **kw)
+
+    def refuse(self, t, y):
+        raise AssertionError("the kernel's Jacobian was used for a prescribed run")
+
+    monkeypatch.setattr(Equations, "jacobian", refuse)
+    radau = gi.simulate(model, q0, qd0, (0.0, 0.3), method="Radau", **kw)
+    assert radau.status == dop.status == "finished"
+    assert np.abs(radau.q - dop.q).max() <= 10 * (1e-8 * np.abs(dop.q).max() + 1e-10)
