@@ -72,9 +72,10 @@ direction s0 it had when the phase started,
 
 (v_tol = grazing_velocity). Events of a frictional contact phase: "slip" when a
 sticking force reaches the cone, mu lambda_n - |lambda_t| = 0; "stick" when a
-slip stops (or, in 3D, turns by 90 degrees), v_t . s0 = 0, or v_t . s0 = -v_tol / 1000
-for a pair that starts to slip from rest (slower than v_tol): its event starts above
-zero, so that a force sitting exactly at the cone's edge (a rod on an incline with
+slip stops (or, in 3D, turns by 90 degrees), v_t . s0 = 0, or v_t . s0 = min(0, v_t0 . s0)
+- v_tol / 1000 for a pair that starts to slip from rest (slower than v_tol; v_t0 its slip
+after the projection, which cannot remove a slip along a tangent in which the point can hardly
+move): its event starts above zero, so that a force sitting exactly at the cone's edge (a rod on an incline with
 mu = tan alpha: zero acceleration either way) keeps slipping at zero speed instead of
 stopping at once and slipping again without end. At the mode decision
 a candidate slower than v_tol sticks (its slip is projected away with the
@@ -137,6 +138,11 @@ def _solve_sym(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     if G.size == 0:
         return np.zeros(0)
     return _k.lazy("sym_solve")(np.array(G, dtype=float, order="C"), np.array(b, dtype=float, order="C"))
+
+
+def _tangential(d: ConstraintData) -> np.ndarray:
+    """v_t (k, 3) [m/s]: the tangential velocities pdot - (pdot . n) n of the pairs of d."""
+    return d.pd - np.sum(d.pd * d.n, axis=1)[:, None] * d.n
 
 
 class _Plan(NamedTuple):
@@ -380,8 +386,7 @@ class RestingContacts:
         # others slip along their velocity. Then an active-set iteration: a negative normal force
         # leaves (the most negative first); a sticking force outside the cone |F_t| < mu N (or on
         # its edge) turns into slip against it (the largest excess first).
-        d0 = constraint_data(self.model, self.walls, q, qd, Q, candidates)
-        vt = d0.pd - np.sum(d0.pd * d0.n, axis=1)[:, None] * d0.n
+        vt = _tangential(constraint_data(self.model, self.walls, q, qd, Q, candidates))
         speed = np.linalg.norm(vt, axis=1)
         stick = (mu > 0) & (speed <= self.v_tol)
         sdir = np.where(speed[:, None] > 0, vt / np.maximum(speed, 1e-300)[:, None], 0.0)
@@ -416,13 +421,19 @@ class RestingContacts:
                 continue
             on[np.nonzero(on)[0][lam <= 1e-10 * scale]] = False
             break
+        # The projection cannot remove a slip along a direction in which the point can hardly move
+        # (a tangent of near-zero mobility: G's cut singular values), so a pair that starts to slip
+        # from rest may still move against s0: its stick event starts at v_t . s0 < 0 (issue 25 item 7).
+        # The event's level is then below that velocity by v_tol / 1000.
+        along = np.sum(_tangential(constraint_data(self.model, self.walls, q, qd, Q, candidates)) * sdir, axis=1)
         for a in np.nonzero(on)[0]:
             w, j = candidates[a]
             self.active[w, j] = True
             self.stick[w, j] = stick[a]
             slips = mu[a] > 0 and not stick[a]
             self.slip_dir[w, j] = sdir[a] if slips else 0.0
-            self.slip_offset[w, j] = 1e-3 * self.v_tol if slips and speed[a] <= self.v_tol else 0.0
+            self.slip_offset[w, j] = (1e-3 * self.v_tol - min(0.0, along[a])
+                                      if slips and speed[a] <= self.v_tol else 0.0)
         return q, qd
 
     # -- the events and the candidates of a contact phase -----------------------------
