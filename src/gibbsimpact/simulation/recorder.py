@@ -24,6 +24,7 @@ class Chunk(NamedTuple):
     forces: np.ndarray | None = None  # (k, W, P) [N] resting-contact forces; None: all zero
     friction: np.ndarray | None = None  # (k, W, P, 3) [N] their tangential forces; None: all zero
     balance: float = 0.0  # [J] signed change of E - W from the sample before, counted in the whole-run error
+    stops: np.ndarray | None = None  # (k, L) [N or N m] forces of the held end stops; None: all zero
 
 
 def one_sample(E: Energy) -> Energy:
@@ -46,9 +47,10 @@ class Recorder:
     every impact with the sample after it).
     """
 
-    def __init__(self, model, t0, q0, qdot0, n_walls=0):
+    def __init__(self, model, t0, q0, qdot0, n_walls=0, n_limits=0):
         self.model = model
         self.force_shape = (n_walls, model.n_joints)
+        self.n_limits = n_limits  # L joint limits (their end-stop forces: Result.stop_forces)
         # Energy of every stored sample: needed for the flight-phase drift, then handed
         # to the Result so res.energy() does not evaluate M at every sample again.
         self.chunks = [Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, 2)),
@@ -67,11 +69,12 @@ class Recorder:
                                   balance=jump))
         self.n_impacts += 1
 
-    def flight(self, T, Y, phase, forces=None, friction=None):
+    def flight(self, T, Y, phase, forces=None, friction=None, stops=None):
         """Samples T (K,), Y (K, 2N [+ 2]) of a flight phase that started at the last stored sample.
 
         forces : None or (K, W, P) [N], the resting-contact forces at the samples;
-        friction : None or (K, W, P, 3) [N], their tangential (friction) forces.
+        friction : None or (K, W, P, 3) [N], their tangential (friction) forces;
+        stops : None or (K, L) [N or N m], the forces of the held end stops.
         """
         N = self.model.n_dof
         last = self.chunks[-1]
@@ -84,22 +87,24 @@ class Recorder:
         balance = E.total - E_start.total - (W.sum(axis=1) - W_start)
         err = float(np.abs(balance).max() / scale) if T.size else 0.0
         self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces,
-                                  friction, float(balance[-1]) if T.size else 0.0))
+                                  friction, float(balance[-1]) if T.size else 0.0, stops))
 
-    def mode(self, t, q, qdot, phase, forces, friction):
+    def mode(self, t, q, qdot, phase, forces, friction, stops=None):
         """After a contact-mode decision at t: its contact forces (W, P) and friction forces (W, P, 3) [N]
-        on the last sample, or a new sample when the projection (gibbsimpact.resting) moved the
-        state (q, qdot) (N,)."""
+        (and end-stop forces (L,) or None) on the last sample, or a new sample when the projection
+        (gibbsimpact.resting, the end stops') moved the state (q, qdot) (N,)."""
         last = self.chunks[-1]
+        S = np.zeros(self.n_limits) if stops is None else stops
         if np.array_equal(last.q[-1], q) and np.array_equal(last.qdot[-1], qdot):
             F = np.zeros((last.t.size,) + self.force_shape) if last.forces is None else last.forces.copy()
             Ft = np.zeros(F.shape + (3,)) if last.friction is None else last.friction.copy()
-            F[-1], Ft[-1] = forces, friction
-            self.chunks[-1] = last._replace(forces=F, friction=Ft)
+            Sk = np.zeros((last.t.size, self.n_limits)) if last.stops is None else last.stops.copy()
+            F[-1], Ft[-1], Sk[-1] = forces, friction, S
+            self.chunks[-1] = last._replace(forces=F, friction=Ft, stops=Sk)
             return
         self.chunks.append(Chunk(np.array([t]), q[None, :].copy(), qdot[None, :].copy(), np.array([phase]),
                                   last.work[-1:].copy(), one_sample(energy(self.model, q, qdot)), 0.0, None,
-                                  forces[None].copy(), friction[None].copy()))
+                                  forces[None].copy(), friction[None].copy(), stops=S[None].copy()))
 
     def ends_with(self, T) -> bool:
         """Whether the last chunk holds the samples T (the same array)."""
@@ -122,11 +127,14 @@ class Recorder:
 
     def arrays(self):
         """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2), Energy of (K,) arrays,
-        contact forces (K, W, P) [N], friction forces (K, W, P, 3) [N]."""
+        contact forces (K, W, P) [N], friction forces (K, W, P, 3) [N], end-stop forces (K, L) [N or
+        N m] (None for a chain without joint limits)."""
         cs = self.chunks
         cat = np.concatenate
         F = cat([np.zeros((c.t.size,) + self.force_shape) if c.forces is None else c.forces for c in cs])
         Ft = cat([np.zeros((c.t.size,) + self.force_shape + (3,)) if c.friction is None else c.friction for c in cs])
+        S = cat([np.zeros((c.t.size, self.n_limits)) if c.stops is None else c.stops for c in cs]) \
+            if self.n_limits else None
         return (cat([c.t for c in cs]), cat([c.q for c in cs]), cat([c.qdot for c in cs]),
                 cat([c.phase for c in cs]), cat([c.work for c in cs]),
-                Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)), F, Ft)
+                Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)), F, Ft, S)

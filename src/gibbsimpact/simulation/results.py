@@ -113,6 +113,11 @@ class Result:
         O_(j+1) while the pair rests on a wall with friction (sticking or slipping); None when
         no wall has friction
     resting_time : float [s], the simulated time spent with at least one pair in resting contact
+    stop_forces : (K, L) [N, or N m] or None: the force mu >= 0 of joint limit k (the order of
+        gibbsimpact.simulation.joint_limits.joint_limits: per prismatic joint its lower bound, its
+        upper bound, then a carriage's bound on a Pb host) along its normal n while its end stop
+        holds the joint (joint_limit="impact", accumulation="rest"; docs/theory.md §13), 0 elsewhere;
+        None for a chain without prismatic joints (and results of older files)
     episodes : list of Episode (property, computed from the above at its first use;
         gibbsimpact.simulation.episodes, docs/theory.md §14.7): the collision episodes, each the
         impacts and resting phases of one meeting of the chain with the walls. The chain is the body
@@ -147,6 +152,7 @@ class Result:
     contact_forces: np.ndarray | None = None
     friction_forces: np.ndarray | None = None
     resting_time: float = 0.0
+    stop_forces: np.ndarray | None = None
     _energy_cache: Energy | None = field(default=None, repr=False)
     # Not an __init__ argument: dataclasses.replace (new samples or forces) must not carry it over.
     _episodes_cache: list | None = field(default=None, init=False, repr=False)
