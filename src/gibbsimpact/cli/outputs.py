@@ -149,7 +149,7 @@ def _data_files(result, case, report: OutputReport, pending: list, csv_every: in
              ("result.npz", lambda p: save_result(result, p, metadata={"case": case.name, "case_toml": source})),
              ("impacts.csv", lambda p: write_impacts_csv(result, p)),
              ("episodes.csv", lambda p: write_episodes_csv(result, p))]
-    if result.contact_forces is not None and np.any(result.contact_forces):
+    if result.has_resting_forces:
         files.append(("contact_forces.csv", lambda p: write_contact_forces_csv(result, p, csv_every)))
     files.append(("timeseries.csv", lambda p: write_timeseries_csv(result, p, csv_every)))
     return files

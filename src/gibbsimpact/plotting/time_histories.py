@@ -289,13 +289,14 @@ def plot_deflection(result, case_name=None, ax=None):
 
 def plot_contact_forces(result, case_name=None, ax=None):
     """Normal force [N] of every (wall, contact point) pair that was ever in resting contact
-    (Result.contact_forces), against time; None when no pair rested.
+    (Result.contact_forces), and the force [N] of every end stop that ever held its joint
+    (Result.stop_forces), against time; None when neither happened.
 
     ax : None (a new figure), one Axes (the normal forces) or two (and the friction forces |F_t|, with friction).
     """
-    F = result.contact_forces
-    if F is None or not np.any(F):
+    if not result.has_resting_forces:
         return None
+    F = result.contact_forces if result.contact_forces is not None else np.zeros((len(result.t), 0, 0))
     Ft = result.friction_forces
     n_panels = 2 if Ft is not None and np.any(Ft) else 1
     own = ax is None
@@ -310,6 +311,14 @@ def plot_contact_forces(result, case_name=None, ax=None):
     for w, j in np.argwhere(np.any(F != 0.0, axis=0)):
         _curve(axes[0], result.t, F[:, w, j], label=f"{names[j]} on wall {w + 1}", **_style(c, _joint_colour(int(j))))
         c += 1
+    S = result.stop_forces
+    if S is not None:
+        from ..simulation.joint_limits import joint_limits
+
+        limits = joint_limits(result.model)
+        for k in np.nonzero(np.any(S != 0.0, axis=0))[0]:
+            _curve(axes[0], result.t, S[:, k], label=f"end stop {limits[k].name}", **_style(c, _joint_colour(c)))
+            c += 1
     axes[0].set_ylabel("contact force [N]")
     if n_panels == 2:
         c = 0
@@ -319,7 +328,8 @@ def plot_contact_forces(result, case_name=None, ax=None):
             c += 1
         axes[1].set_ylabel("friction force\n|F_t| [N]")
     _legend(axes[0], outside=own)
-    what = "normal force of each wall on each contact point in resting contact (0 in flight; impacts are impulses)"
+    what = ("normal force of each wall on each contact point in resting contact, and of each end stop holding its "
+            "joint (0 in flight; impacts are impulses)")
     if n_panels == 2:
         what += "; below: the friction force |F_t|"
     _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)

@@ -177,6 +177,11 @@ class Result:
         return self.status == STATUS_FINISHED
 
     @property
+    def has_resting_forces(self) -> bool:
+        """Whether some wall pair rested or some end stop held its joint (contact_forces.csv, the figure)."""
+        return any(F is not None and np.any(F) for F in (self.contact_forces, self.stop_forces))
+
+    @property
     def energy_error_per_phase(self) -> float:
         """Max over the flight phases of the relative energy balance error, each phase measured from its own
         start (the field ``energy_error``). Not the drift over the run: see ``energy_error_whole_run``."""
