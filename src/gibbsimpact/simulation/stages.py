@@ -31,7 +31,7 @@ from .validity import warn_impact, warn_state
 MAX_MODE_EVENTS = 100_000
 #: Consecutive events without progress in time that end a run (status "failed") instead of hanging.
 MAX_STALLED = 100
-MODE_EVENTS = ("release", "drift", "slip", "stick")
+MODE_EVENTS = ("release", "drift", "slip", "stick", "speed")
 
 
 @dataclass
