@@ -138,8 +138,6 @@ def _write_file(report: OutputReport, name: str, write) -> None:
 def _data_files(result, case, report: OutputReport, pending: list, csv_every: int = 1) -> list:
     """[(name, write(path) -> Path)] of the data files, in the order they are written; csv_every: every K-th
     sample (and the last) in the per-sample CSV files (io.result_files.sample_rows)."""
-    import numpy as np
-
     from ..io.result_files import (save_result, write_contact_forces_csv, write_episodes_csv, write_impacts_csv,
                                    write_summary_json, write_timeseries_csv)
 

@@ -137,8 +137,6 @@ class EndStops:
     def events(self, events, kinds, q, contact_tol, sink_depth):
         """Append the limits' events (gibbsimpact.contacts.phase_events on row W, band 2 contact_tol)
         to the wall events."""
-        from .contacts import phase_events
-
         from .contacts import event_spec, phase_events
 
         g = limit_gaps(self.limits, q)
