@@ -26,7 +26,7 @@ from .results import Result
 from .status import STATUS_FINISHED, stop
 from .validity import warn_impact, warn_state
 
-#: Budget of contact-mode events (release, slip, stick, drift) of one run: a contact mode that keeps
+#: Budget of contact-mode events (release, slip, stick, drift, speed) of one run: a contact mode that keeps
 #: switching without settling ends the run (status "failed") instead of crawling on.
 MAX_MODE_EVENTS = 100_000
 #: Consecutive events without progress in time that end a run (status "failed") instead of hanging.
