@@ -11,6 +11,7 @@ from typing import Callable
 
 import numpy as np
 
+from .bodies import check_bodies
 from .elements import MAX_ELEMENTS
 from .joints import JOINT_TYPES, FixedBase, Revolute
 from .modes import MODE_DIRECTIONS, Mode
@@ -58,6 +59,9 @@ class Link:
         ``(j_x, j_y, j_z)`` [kg m]: rotary inertia of the cross-section per unit
         length about the link-frame axes. The link frame then carries
         ``J = l diag(j_x, j_y, j_z)`` [kg m^2] (docs/theory.md §6).
+    bodies : sequence of RigidBody
+        Rigid bodies attached to the link (payloads, a hub at ``at=0``), docs/theory.md §6.8;
+        each body's ``at=None`` is resolved to the tip l.
     """
 
     length: float
@@ -68,6 +72,7 @@ class Link:
     elements: int = 0
     element_directions: tuple = ("y",)
     damping: float = 0.0
+    bodies: tuple = ()
 
     def __post_init__(self):
         if isinstance(self.length, bool) or not isinstance(self.length, Real) or not np.isfinite(self.length) or self.length <= 0:
@@ -130,6 +135,7 @@ class Link:
                 f"Link rotary_inertia={self.rotary_inertia!r} must be three non-negative numbers (j_x, j_y, j_z) in kg m"
             )
         object.__setattr__(self, "rotary_inertia", tuple(float(v) for v in j))
+        object.__setattr__(self, "bodies", check_bodies(self.bodies, self.length, bool(modes or ne)))
 
     @property
     def EI_y(self):
@@ -246,6 +252,11 @@ def _check_joints(links, joints, base):
         lo, hi = jt.range
         if jt.kind == "Pb":
             lk = links[k]
+            if lk.bodies:
+                raise ValueError(
+                    f"Chain links[{k}] (link {k + 1}) slides through a FixedPrismatic guide and carries bodies: a Pb link's "
+                    "material moves along it with d, which the attached-body model does not cover; attach the body to the "
+                    "next link (at=0) or to a link on a revolute or SlidingPrismatic joint")
             if lk.modes:
                 raise ValueError(
                     f"Chain links[{k}] (link {k + 1}) slides through a FixedPrismatic guide and has assumed modes; a Pb link "
