@@ -12,6 +12,8 @@ from gibbsimpact.cli import commands as cli
 from gibbsimpact.io import result_files as gio
 from gibbsimpact.dynamics.gibbs_appell import forward_dynamics
 from gibbsimpact.dynamics.kinematics import joint_positions
+from gibbsimpact.dynamics.link_points import link_points
+from issue25_reproducers import ITEM7, build
 from gibbsimpact.contact.resting import RestingContacts, constraint_data
 
 G = 9.81
@@ -323,6 +325,22 @@ def test_case2_with_restitution_08_runs_3_s_and_ends_resting_in_the_sphere():
     # Both ends on the sphere at the end (resting pairs are held within contact_tol).
     p = model.joint_positions(res.q[-1])
     np.testing.assert_allclose(np.linalg.norm(p[:2], axis=1), 1.0, atol=1e-9)
+
+
+def test_slip_from_rest_against_a_tangent_of_no_mobility_does_not_stall():
+    # Issue 25 item 7: an FE arm in a circle (mu = 0.053, ramp torques). O2, the tip of a fixed-base
+    # link without axial freedom, can move only across link 1: its slip of 1e-9 m/s along the wall's
+    # tangent lies where the projection (equation (5)) cannot act (a cut singular value of G), so it
+    # survived the "stick" decision; the pair then slipped from rest against it, and its stick event
+    # (v_t . s0 = -v_tol / 1000) started at zero: 100 events at t = 0.184782 s, status "failed". The
+    # event's level is now below the slip left after the projection.
+    model, walls, kw = build(ITEM7)
+    res = gi.simulate(model, walls=walls, max_cpu_time=120.0, **kw)
+    assert res.status == "finished", res.message
+    assert res.t[-1] == kw["t_span"][1]
+    wall = walls[0]
+    lowest = min(float(wall.gap(link_points(model, q, 64).reshape(-1, 3)).min()) for q in res.q)
+    assert lowest >= -1e-9, lowest  # contact_tol
 
 
 def test_carriage_on_a_fixed_base_rail_comes_to_rest_at_its_o1():

@@ -273,3 +273,21 @@ def test_a_file_without_the_whole_run_energy_error_reads_as_nan(result, tmp_path
     assert old.energy_error == result.energy_error
     d = io.summary(old)
     assert d["relative_energy_error_whole_run"] is None and d["max_relative_energy_error"] == result.energy_error
+
+
+def test_end_stop_forces_in_contact_forces_csv_and_npz(tmp_path):
+    # A slide held at its stop (tests/simulation/test_joint_limits.py: mu = F = 2 N) writes its stop
+    # force into contact_forces.csv (columns Fstop_<coordinate>_<min|max>_N) and result.npz.
+    rod = gi.Link(0.6, 1.0, 1.0)
+    model = gi.Model(gi.Chain([rod], joints=[gi.FixedPrismatic(range=(0.1, 0.5))], base=gi.FixedBase((0.0, 0.0), 0.0)),
+                     gravity=(0.0, 0.0, 0.0))
+    res = gi.simulate(model, model.state(d_1=0.45), np.zeros(1), (0.0, 0.4), joint_limit="impact",
+                      joint_restitution=0.0, inputs={"d_1": 2.0})
+    assert res.has_resting_forces
+    out = io.to_csv(res, tmp_path)
+    rows = io.read_csv(out["contact_forces"])
+    assert io.stop_force_columns(res) == ["Fstop_d_1_min_N", "Fstop_d_1_max_N"]
+    np.testing.assert_array_equal(np.asarray(rows["Fstop_d_1_max_N"], dtype=float), res.stop_forces[:, 1])
+    assert float(rows["Fstop_d_1_max_N"][-1]) == pytest.approx(2.0, rel=1e-8)
+    back = io.load_result(io.save_result(res, tmp_path / "r.npz"))
+    assert np.array_equal(back.stop_forces, res.stop_forces)

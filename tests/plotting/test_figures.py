@@ -561,3 +561,17 @@ def test_energy_title_gives_the_whole_run_and_the_per_phase_error(planar):
     title = " ".join(_texts(planar.plot("energy")).split())  # the title is wrapped to the figure width
     assert (f"relative drift over the whole run {planar.energy_error_whole_run:.1e}, "
             f"max per flight phase {planar.energy_error:.1e}") in title
+
+
+def test_contact_force_figure_draws_the_end_stop_forces():
+    # A slide held at its upper stop with mu = 2 N (tests/simulation/test_joint_limits.py): its curve
+    # is in the contact-force panel, labelled with the bound.
+    rod = gi.Link(0.6, 1.0, 1.0)
+    model = gi.Model(gi.Chain([rod], joints=[gi.FixedPrismatic(range=(0.1, 0.5))], base=gi.FixedBase((0.0, 0.0), 0.0)),
+                     gravity=(0.0, 0.0, 0.0))
+    res = gi.simulate(model, model.state(d_1=0.45), np.zeros(1), (0.0, 0.4), joint_limit="impact",
+                      joint_restitution=0.0, inputs={"d_1": 2.0})
+    fig = plotting.plot_contact_forces(res)
+    assert [t.get_text() for t in fig.axes[0].get_legend().get_texts()] == ["end stop d_1 <= d_max = 0.5 m"]
+    line = fig.axes[0].get_lines()[0]
+    assert float(line.get_ydata()[-1]) == pytest.approx(2.0, rel=1e-8)

@@ -31,6 +31,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
+from gibbsimpact.dynamics.link_points import link_points
 
 G = 9.81
 CONTACT_TOL = 1e-9  # simulate's default contact_tol [m]
@@ -276,3 +277,77 @@ def test_stick_slip_under_an_oscillating_push_matches_a_one_dof_reference():
     Nsum = res.contact_forces[:, 0, :].sum(axis=1)
     assert np.all(np.abs(res.friction_forces[:, 0, :, 0].sum(axis=1)) <= mu * Nsum * (1 + 1e-9))
     assert res.energy_error <= 1e-8
+
+
+# -- issue 25 item 9: contact phases with friction advance at the pace of the physics ------------
+
+def _across_the_slope(mu, j=1e-4):
+    """(model, q0, wall): the rod lying on the incline with its axis at 45 degrees to the line of
+    steepest descent (theta_0 = -pi/4 tilts it out of the X1-X2 plane; tan theta_1 = cos theta_0
+    tan alpha puts its X1-X2 projection along u), both ends on the plane."""
+    link = gi.Link(L, MU_L, 20.0, modes=[], rotary_inertia=(j, j, j))
+    model = gi.Model(gi.Chain([link]), gravity=(0.0, -G, 0.0))
+    th0 = -np.pi / 4
+    q0 = model.state(theta_0=th0, theta_1=np.arctan(np.cos(th0) * np.tan(ALPHA)))
+    wall = incline(mu)
+    assert np.max(np.abs(wall.gap(model.joint_positions(q0)))) <= 1e-15
+    return model, q0, wall
+
+
+def test_rod_across_the_slope_at_the_friction_angle_rests_without_crawling():
+    # mu = tan(alpha): each end's friction sits at the cone's edge and balances the pull down the
+    # slope (sum F_t = m g sin(a) u, sum N = m g cos(a): the rod's statics, any orientation in the
+    # plane); slipping or sticking, the rod keeps zero acceleration and stays at rest. The slip
+    # from rest kept its direction regularised over grazing_velocity = 1e-6 m/s, whose feedback on
+    # a slip across s0 (mu N / (m v_tol) ~ 1e6 1/s) made the ODE stiff: 22 571 steps for 0.027 s.
+    # Now the held direction (7') steps as the frictionless run does: at most 10 times its
+    # right-hand sides.
+    t_end = 0.05
+    model, q0, wall = _across_the_slope(np.tan(ALPHA))
+    frictionless = gi.simulate(model, q0, np.zeros(6), (0.0, t_end), walls=[incline(0.0)], output_dt=1e-2)
+    res = gi.simulate(model, q0, np.zeros(6), (0.0, t_end), walls=[wall], output_dt=1e-2, max_cpu_time=60.0)
+    assert res.status == "finished", res.message
+    assert res.nfev <= 10 * frictionless.nfev, (res.nfev, frictionless.nfev)
+    assert np.max(np.abs(centre(model, res) - centre(model, res)[0])) <= 1e-9
+    np.testing.assert_allclose(res.contact_forces[:, 0, :2].sum(axis=1), M * G * np.cos(ALPHA), rtol=1e-9)
+    np.testing.assert_allclose(res.friction_forces[:, 0, :2].sum(axis=1), np.tile(M * G * np.sin(ALPHA) * U_UP,
+                                                                                   (res.t.size, 1)),
+                               rtol=0, atol=1e-9 * M * G)
+    assert gaps(res).min() >= -CONTACT_TOL
+
+
+def test_rod_across_the_slope_slides_from_rest_when_the_cone_cannot_hold_it():
+    # mu = 0.3 < tan(alpha): released at rest it slides down the slope without turning (both
+    # ends' friction mu N_j up the slope, N_1 = N_2 by symmetry about G), s'' = g (sin a - mu cos a)
+    # from rest: s = g (sin a - mu cos a) t^2 / 2. This slip from rest accelerates (|a_t| > 1e-2 g):
+    # it keeps the regularised direction (7), which turns onto its acceleration (a direction held
+    # at the active set's s0 lost 2e-6 m/s, 3e-8 m by t = 0.05 s), and it is not stiff for long.
+    t_end = 0.05
+    model, q0, wall = _across_the_slope(0.3)
+    res = gi.simulate(model, q0, np.zeros(6), (0.0, t_end), walls=[wall], output_dt=1e-2, max_cpu_time=60.0)
+    assert res.status == "finished", res.message
+    s = -(centre(model, res) - centre(model, res)[0]) @ U_UP
+    np.testing.assert_allclose(s, G * (np.sin(ALPHA) - 0.3 * np.cos(ALPHA)) * res.t ** 2 / 2, rtol=0, atol=1e-9)
+    assert res.n_steps <= 100, res.n_steps
+    assert gaps(res).min() >= -CONTACT_TOL
+
+
+def test_fe_arm_tip_resting_on_a_rough_floor_advances():
+    # A fixed-base FE arm (2 elements) falls from 30 degrees below horizontal with its tip on the
+    # floor. With mu = 0.5 sticking would pull the tip off the floor (lambda_n = -5.6 N), so the
+    # pair was dropped, and the tip then sank at -1.4e-6 m/s every 3e-8 s: max_impacts after
+    # 32 s of CPU at t = 0.40 s (the frictionless run: 0.6 s). The sticking pair now tries to
+    # slip before it separates. Bound: 10 times the frictionless run's right-hand sides.
+    link = gi.Link(1.0, 1.0, 20.0, elements=2)
+    model = gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.5), 0.0)), gravity=(0.0, -G, 0.0))
+    q0 = model.state(theta_1=-np.arcsin(0.5))
+    runs = {mu: gi.simulate(model, q0, np.zeros(model.n_dof), (0.0, 0.5),
+                            walls=[gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), friction=mu)], restitution=0.5,
+                            max_cpu_time=60.0) for mu in (0.0, 0.5)}
+    res = runs[0.5]
+    assert res.status == "finished", res.message
+    assert res.nfev <= 10 * runs[0.0].nfev, (res.nfev, runs[0.0].nfev)
+    assert min(float(link_points(model, q, 64)[..., 1].min()) for q in res.q) >= -CONTACT_TOL
+    assert res.contact_forces.min() >= 0.0
+    E = res.energy()
+    assert np.max(E.total - E.total[0] - res.work.sum(axis=1)) <= 1e-9 * (E.kinetic.max() + abs(E.gravity).max())

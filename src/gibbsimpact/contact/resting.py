@@ -70,11 +70,23 @@ direction s0 it had when the phase started,
 
     s_a = (v_t + v_tol s0) / |v_t + v_tol s0|                                    (7)
 
-(v_tol = grazing_velocity). Events of a frictional contact phase: "slip" when a
+(v_tol = grazing_velocity). A pair that starts to slip from rest (slower than v_tol at the
+mode decision) whose point's tangential acceleration stays below 1e-2 g (a force at the cone's
+edge: it slips at ~zero speed) keeps its direction instead,
+
+    s_a = s0                                                                      (7')
+
+(passed to the compiled (7) as s0 scaled by V / v_tol, V = HELD_SLIP_SPEED = 1e3 m/s: s0 to
+|v_t| / V <= 2e-9), until its slip speed reaches 2 v_tol (event "speed", a new mode decision:
+above v_tol, (7) along its velocity) or its stick event: regularised over v_tol, the direction's feedback
+mu lambda_n / (m v_tol) ~ 1e6 1/s on a slip across s0 made the contact ODE stiff, steps of
+1e-6 s for a rod slipping at ~zero speed at the friction angle (issue 25 item 9).
+Events of a frictional contact phase: "slip" when a
 sticking force reaches the cone, mu lambda_n - |lambda_t| = 0; "stick" when a
-slip stops (or, in 3D, turns by 90 degrees), v_t . s0 = 0, or v_t . s0 = -v_tol / 1000
-for a pair that starts to slip from rest (slower than v_tol): its event starts above
-zero, so that a force sitting exactly at the cone's edge (a rod on an incline with
+slip stops (or, in 3D, turns by 90 degrees), v_t . s0 = 0, or v_t . s0 = min(0, v_t0 . s0)
+- v_tol / 1000 for a pair that starts to slip from rest (slower than v_tol; v_t0 its slip
+after the projection, which cannot remove a slip along a tangent in which the point can hardly
+move): its event starts above zero, so that a force sitting exactly at the cone's edge (a rod on an incline with
 mu = tan alpha: zero acceleration either way) keeps slipping at zero speed instead of
 stopping at once and slipping again without end. At the mode decision
 a candidate slower than v_tol sticks (its slip is projected away with the
@@ -101,6 +113,10 @@ from .walls import packed_walls, tangent_basis
 
 _JOB = _k.JOB_SOLVE | _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS | _k.JOB_FRAMES
 _JOB_POS = _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS
+
+
+#: V [m/s] of equation (7'): a slip direction held at s0 is (v_t + V s0) / |v_t + V s0|.
+HELD_SLIP_SPEED = 1e3
 
 
 class ConstraintData(NamedTuple):
@@ -137,6 +153,18 @@ def _solve_sym(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     if G.size == 0:
         return np.zeros(0)
     return _k.lazy("sym_solve")(np.array(G, dtype=float, order="C"), np.array(b, dtype=float, order="C"))
+
+
+def _slip_against(n: np.ndarray, lam_t: np.ndarray) -> np.ndarray:
+    """The impending slip direction (3,) of a sticking point with unit normal n (3,) and tangential
+    force lam_t (2,) [N] in its tangent basis (walls.tangent_basis): against that force."""
+    ft = lam_t @ tangent_basis(n[None, :])[0]
+    return -ft / np.linalg.norm(ft)
+
+
+def _tangential(d: ConstraintData) -> np.ndarray:
+    """v_t (k, 3) [m/s]: the tangential velocities pdot - (pdot . n) n of the pairs of d."""
+    return d.pd - np.sum(d.pd * d.n, axis=1)[:, None] * d.n
 
 
 class _Plan(NamedTuple):
@@ -233,6 +261,8 @@ class RestingContacts:
         # v_t . s0 at which a slipping pair's "stick" event fires, minus sign [m/s]: 0, or
         # v_tol / 1000 for a pair that started to slip from rest (module docstring).
         self.slip_offset = np.zeros((len(walls), P))
+        # Slipping pairs that started from rest: their slip direction is held at s0 (equation (7')).
+        self.slow = np.zeros((len(walls), P), dtype=bool)
         self.mu = np.array([w.friction for w in walls], dtype=float)
         # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves when
         # joint 1 is revolute (J = 0 there), but it does as a carriage on the base rail (Pa) or as the
@@ -264,11 +294,13 @@ class RestingContacts:
         self.stick[:] = False
         self.slip_dir[:] = 0.0
         self.slip_offset[:] = 0.0
+        self.slow[:] = False
         self._cache = (None, None)
 
     # -- equations (1)-(3), (6) ------------------------------------------------------
-    def _solve(self, d, pairs, stick, sdir):
-        """Equations (3)/(6) for the pairs (k, 2) with constraint data d; stick (k,) bool, sdir (k, 3).
+    def _solve(self, d, pairs, stick, sdir, slow=None):
+        """Equations (3)/(6) for the pairs (k, 2) with constraint data d; stick (k,) bool, sdir (k, 3);
+        slow (k,) bool or None: slipping pairs whose direction is held at sdir (7').
 
         Returns (qddot (N,), lambda_n (k,), F_t (k, 3) tangential forces [N], lambda_t (k, 2) of
         sticking pairs in their tangent basis, slip power (k,) [W]).
@@ -280,6 +312,9 @@ class RestingContacts:
             return d.qdd.copy(), d.lam.copy(), np.zeros((k, 3)), np.zeros((k, 2)), np.zeros(k)
         # (6)-(7): constraint rows C (normal gaps; tangential accelerations of sticking points) and
         # force columns B (normal; slip friction -mu n_s along the slip; sticking tangents), compiled.
+        if slow is not None and np.any(slow):
+            # (7'): s = (v_t + V s0) / |v_t + V s0| with V = HELD_SLIP_SPEED: s0 to |v_t| / V <= 2e-9.
+            sdir = sdir * np.where(slow, HELD_SLIP_SPEED / self.v_tol, 1.0)[:, None]
         r = _k.lazy("friction_solve")(d.M, d.W, d.J, d.n, d.pd, d.a0, d.c, d.qdd_free, mu,
                                       np.ascontiguousarray(stick, dtype=np.int64), np.ascontiguousarray(sdir, dtype=float),
                                       float(self.v_tol))
@@ -296,7 +331,7 @@ class RestingContacts:
         if self._cache[0] == key:
             return self._cache[1]
         # The active set and its stick / slip data change only at mode decisions: read once per set.
-        mode = (self.active.tobytes(), self.stick.tobytes(), self.slip_dir.tobytes())
+        mode = (self.active.tobytes(), self.stick.tobytes(), self.slip_dir.tobytes(), self.slow.tobytes())
         if self._mode[0] != mode:
             pairs = self.pairs
             k = len(pairs)
@@ -306,8 +341,8 @@ class RestingContacts:
             for z in zeros:
                 z.flags.writeable = False  # shared by every right-hand side of the set
             self._mode = (mode, (pairs, self.stick[self.active], self.slip_dir[self.active], plan, frictionless,
-                                 zeros))
-        pairs, stick, sdir, plan, frictionless, zeros = self._mode[1]
+                                 zeros, self.slow[self.active]))
+        pairs, stick, sdir, plan, frictionless, zeros, slow = self._mode[1]
         if frictionless:
             # Equation (3) from the compiled contact terms' lambda and qddot sections.
             r = _terms(self.model, q, qd, Q, plan)[1]
@@ -316,7 +351,7 @@ class RestingContacts:
             self._cache = (key, res)
             return res
         d = _constraint_data(self.model, *_terms(self.model, q, qd, Q, plan), plan)
-        qdd, lam, F_t, lam_t, power = self._solve(d, pairs, stick, sdir)
+        qdd, lam, F_t, lam_t, power = self._solve(d, pairs, stick, sdir, slow)
         res = (qdd, lam, F_t, power, lam_t, d)
         self._cache = (key, res)
         return res
@@ -382,8 +417,7 @@ class RestingContacts:
         # others slip along their velocity. Then an active-set iteration: a negative normal force
         # leaves (the most negative first); a sticking force outside the cone |F_t| < mu N (or on
         # its edge) turns into slip against it (the largest excess first).
-        d0 = constraint_data(self.model, self.walls, q, qd, Q, candidates)
-        vt = d0.pd - np.sum(d0.pd * d0.n, axis=1)[:, None] * d0.n
+        vt = _tangential(constraint_data(self.model, self.walls, q, qd, Q, candidates))
         speed = np.linalg.norm(vt, axis=1)
         stick = (mu > 0) & (speed <= self.v_tol)
         sdir = np.where(speed[:, None] > 0, vt / np.maximum(speed, 1e-300)[:, None], 0.0)
@@ -393,14 +427,44 @@ class RestingContacts:
                 stick[a] = False
                 sdir[a] = s if speed[a] <= self.v_tol else sdir[a]
         q, qd = self.project(q, qd, candidates, stick)
+        from_rest = (mu > 0) & (speed <= self.v_tol)  # a slip among these starts from rest
+        on = self._active_set(q, qd, Q, candidates, stick, sdir, from_rest)
+        slow = self._slow_slips(q, qd, Q, candidates, on, stick, sdir, from_rest)
+        # The projection cannot remove a slip along a direction in which the point can hardly move
+        # (a tangent of near-zero mobility: G's cut singular values), so a pair that starts to slip
+        # from rest may still move against s0: its stick event starts at v_t . s0 < 0 (issue 25 item 7).
+        # The event's level is then below that velocity by v_tol / 1000.
+        along = np.sum(_tangential(constraint_data(self.model, self.walls, q, qd, Q, candidates)) * sdir, axis=1)
+        for a in np.nonzero(on)[0]:
+            w, j = candidates[a]
+            self.active[w, j] = True
+            self.stick[w, j] = stick[a]
+            slips = mu[a] > 0 and not stick[a]
+            self.slip_dir[w, j] = sdir[a] if slips else 0.0
+            self.slow[w, j] = slips and slow[a]
+            self.slip_offset[w, j] = 1e-3 * self.v_tol - min(0.0, along[a]) if slips and from_rest[a] else 0.0
+        return q, qd
+
+    def _active_set(self, q, qd, Q, candidates, stick, sdir, slow) -> np.ndarray:
+        """The active-set iteration of decide (its comments): which candidates (k, 2) rest, (k,) bool;
+        stick (k,) bool and sdir (k, 3) are updated in place; slow (k,) bool: the slips from rest (there
+        v_t ~ 0, so (7) and (7') give the same forces; (7') keeps |v_t| <= v_tol out of it)."""
+        mu = self.mu[candidates[:, 0]]
         on = np.ones(len(candidates), dtype=bool)
         for _ in range(4 * len(candidates) + 4):
             pairs = candidates[on]
             d = constraint_data(self.model, self.walls, q, qd, Q, pairs)
-            _, lam, _, lam_t, _ = self._solve(d, pairs, stick[on], sdir[on])
+            _, lam, _, lam_t, _ = self._solve(d, pairs, stick[on], sdir[on], (~stick & slow)[on])
             scale = max(float(np.abs(lam).max(initial=0.0)), self.force_scale)
             if np.any(lam < -1e-10 * scale):
-                on[np.nonzero(on)[0][int(np.argmin(lam))]] = False
+                i = int(np.argmin(lam))
+                a = np.nonzero(on)[0][i]
+                if stick[a] and np.any(lam_t[i]):
+                    # Sticking would pull the point off the wall (a flexible link's tip pressed on
+                    # a rough floor): try it slipping before letting it separate (issue 25 item 9).
+                    stick[a], sdir[a] = False, _slip_against(d.n[i], lam_t[i])
+                    continue
+                on[a] = False
                 if not on.any():
                     break
                 continue
@@ -411,21 +475,29 @@ class RestingContacts:
             if np.any(excess > -1e-9 * scale):
                 i = int(np.argmax(excess))
                 a = np.nonzero(on)[0][i]
-                stick[a] = False
-                T = tangent_basis(d.n[i][None, :])[0]
-                ft = lam_t[i] @ T
-                sdir[a] = -ft / np.linalg.norm(ft)  # impending slip: against the force that would stick
+                stick[a], sdir[a] = False, _slip_against(d.n[i], lam_t[i])
                 continue
             on[np.nonzero(on)[0][lam <= 1e-10 * scale]] = False
             break
-        for a in np.nonzero(on)[0]:
-            w, j = candidates[a]
-            self.active[w, j] = True
-            self.stick[w, j] = stick[a]
-            slips = mu[a] > 0 and not stick[a]
-            self.slip_dir[w, j] = sdir[a] if slips else 0.0
-            self.slip_offset[w, j] = 1e-3 * self.v_tol if slips and speed[a] <= self.v_tol else 0.0
-        return q, qd
+        return on
+
+    def _slow_slips(self, q, qd, Q, candidates, on, stick, sdir, slow) -> np.ndarray:
+        """(K,) bool: the candidates (K, 2) that slip from rest (slow & ~stick & on, each (K,) bool)
+        and whose points' tangential accelerations |a_t| [m/s^2] stay below 1e-2 g: they keep their
+        direction s0 (sdir (K, 3)), equation (7'). A slip that accelerates faster leaves the slow
+        regime |v_t| <= v_tol within v_tol / |a_t| (~100 steps of the regularised (7) at most), and
+        keeps (7): from rest a slip starts along a_t, which the active set's s0 (against a sticking
+        force of a statically indeterminate set) need not be, and (7) turns onto it."""
+        held = slow & ~stick & on
+        if not held.any():
+            return held
+        pairs, rows = candidates[on], np.flatnonzero(held[on])
+        d = constraint_data(self.model, self.walls, q, qd, Q, pairs)
+        qdd = self._solve(d, pairs, stick[on], sdir[on], held[on])[0]
+        acc = np.einsum("kcn,n->kc", d.J[rows], qdd) + d.a0[rows]
+        a_t = acc - np.sum(acc * d.n[rows], axis=1)[:, None] * d.n[rows]
+        held[np.flatnonzero(held)] = np.linalg.norm(a_t, axis=1) <= 1e-2 * self.force_scale / self.model.total_mass
+        return held
 
     # -- the events and the candidates of a contact phase -----------------------------
     def drift_events(self):
@@ -439,8 +511,9 @@ class RestingContacts:
     def release_events(self, applied):
         """(fun(t, y) -> values (m,), directions (m,) = -1) and kinds of the events of a contact phase:
         "release" lambda_n = 0; "slip" mu lambda_n - |F_t| = 0 of a sticking pair; "stick"
-        v_t . s = 0 of a slipping pair (its slip stops or turns by 90 degrees; -v_tol / 1000
-        for a pair that started to slip from rest, slip_offset).
+        v_t . s = 0 of a slipping pair (its slip stops or turns by 90 degrees; below zero for a
+        pair that started to slip from rest, slip_offset); "speed" 2 v_tol - |v_t| = 0 of a pair
+        whose direction is held at s0 (7'): its slip has become fast enough for (7).
 
         applied(t, q, qd) -> (N,) or None: the generalised forces Q of equation (1).
         """
@@ -451,6 +524,7 @@ class RestingContacts:
         slip = ~self.stick[self.active] & (mu > 0)
         sdir = self.slip_dir[self.active]
         offset = self.slip_offset[self.active]
+        slow = self.slow[self.active] & slip
 
         def fun(t, y):
             q, qd = y[:N], y[N:2 * N]
@@ -460,11 +534,14 @@ class RestingContacts:
                 out.append(mu[stick] * lam[stick] - np.linalg.norm(F_t[stick], axis=1))
             if slip.any():
                 out.append(np.sum(d.pd[slip] * sdir[slip], axis=1) + offset[slip])
+            if slow.any():
+                out.append(2.0 * self.v_tol - np.linalg.norm(_tangential(d)[slow], axis=1))
             return np.concatenate(out)
 
         kinds = [("release", int(w), int(j)) for w, j in pairs]
         kinds += [("slip", int(w), int(j)) for w, j in pairs[stick]]
         kinds += [("stick", int(w), int(j)) for w, j in pairs[slip]]
+        kinds += [("speed", int(w), int(j)) for w, j in pairs[slow]]
         return (fun, -np.ones(len(kinds))), kinds
 
     def slip_direction(self, q, qd, Q, pair) -> np.ndarray:

@@ -244,6 +244,21 @@ def contact_force_columns(result: Result) -> list[str]:
     return [f"F_w{w + 1}_{names[j]}_N" for w in range(len(result.walls)) for j in range(len(names))]
 
 
+def stop_force_columns(result: Result) -> list[str]:
+    """Column names Fstop_<coordinate>_<min|max|carriage>_N of the end-stop forces in contact_forces.csv,
+    in the order of Result.stop_forces (simulation.joint_limits.joint_limits)."""
+    from ..simulation.joint_limits import joint_limits
+
+    names = result.model.coordinate_names
+    kinds = ("min", "max", "carriage")
+    out, seen = [], {}
+    for lim in joint_limits(result.model):
+        k = result.model.theta_index[lim.joint - 1]
+        seen[k] = seen.get(k, -1) + 1
+        out.append(f"Fstop_{names[k]}_{kinds[seen[k]]}_N")
+    return out
+
+
 def compliant_force_columns(result: Result) -> list[str]:
     """Column names Fc_w<wall>_<column>_N of the compliant forces (Result.compliant_forces (K, W, C)): the joints,
     then link<i> for the closest point of flexible link i (walls, points and links from 1)."""
@@ -255,14 +270,16 @@ def compliant_force_columns(result: Result) -> list[str]:
 
 
 def has_contact_forces(result: Result) -> bool:
-    """Whether contact_forces.csv is written: some pair rested, or pressed on a compliant wall."""
-    return any(F is not None and np.any(F) for F in (result.contact_forces, result.compliant_forces))
+    """Whether contact_forces.csv is written: some pair rested, an end stop held its joint, or some pair
+    pressed on a compliant wall (Result.has_resting_forces)."""
+    return result.has_resting_forces
 
 
 def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
     """Write t, phase and the resting-contact force of every (wall, contact point) pair, one row per sample
     (with ``every`` > 1 those of sample_rows); with friction on a wall also the friction force
-    Ft_w<wall>_<point>_X<a>_N (world components); with compliant walls their normal forces Fc_w<wall>_<column>_N."""
+    Ft_w<wall>_<point>_X<a>_N (world components); with compliant walls their normal forces Fc_w<wall>_<column>_N;
+    with prismatic joints the end-stop forces Fstop_<coordinate>_<min|max|carriage>_N [N] (Result.stop_forces)."""
     path = Path(path)
     r = sample_rows(len(result.t), every)
     K = len(result.t)
@@ -282,6 +299,9 @@ def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
             F = np.hstack((F, X.reshape(K, -1)))
             header += [c.replace("Fc_", "Xc_", 1)[:-2] + f"_X{a + 1}_m" for c in compliant_force_columns(result)
                        if "_link" in c for a in range(3)]
+    if result.stop_forces is not None:
+        F = np.hstack((F, np.asarray(result.stop_forces).reshape(K, -1)))
+        header += stop_force_columns(result)
     with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
@@ -579,6 +599,8 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         arrays["contact_forces"] = np.asarray(result.contact_forces, dtype=float)
     if result.friction_forces is not None:
         arrays["friction_forces"] = np.asarray(result.friction_forces, dtype=float)
+    if result.stop_forces is not None:
+        arrays["stop_forces"] = np.asarray(result.stop_forces, dtype=float)
     if result.compliant_forces is not None:
         arrays["compliant_forces"] = np.asarray(result.compliant_forces, dtype=float)
         arrays["compliant_points"] = np.asarray(result.compliant_points, dtype=float)
@@ -660,7 +682,7 @@ def load_result(path, with_metadata: bool = False):
         wall_time=float(_untag(meta["wall_time"])), energy_error=float(_untag(meta["energy_error"])),
         energy_error_whole_run_J=float(_untag(meta.get("energy_error_whole_run_J", float("nan")))),
         work=a.get("work"), contact_forces=a.get("contact_forces"), friction_forces=a.get("friction_forces"),
-        resting_time=float(_untag(meta.get("resting_time", 0.0))),
+        resting_time=float(_untag(meta.get("resting_time", 0.0))), stop_forces=a.get("stop_forces"),
         prescribed=tuple(meta.get("prescribed", ())), effort=a.get("effort"),
         compliant_forces=a.get("compliant_forces"), compliant_points=a.get("compliant_points"),
         compliant_integrals=a.get("compliant_integrals"),

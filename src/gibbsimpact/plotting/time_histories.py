@@ -287,17 +287,33 @@ def plot_deflection(result, case_name=None, ax=None):
     return fig
 
 
+def _stop_force_curves(ax, result, c: int) -> int:
+    """The curves of the end stops that held their joints (Result.stop_forces (K, L) [N]) on ax, styles
+    from number c on; returns the next style number."""
+    S = result.stop_forces
+    if S is None:
+        return c
+    from ..simulation.joint_limits import joint_limits
+
+    limits = joint_limits(result.model)
+    for k in np.nonzero(np.any(S != 0.0, axis=0))[0]:
+        _curve(ax, result.t, S[:, k], label=f"end stop {limits[k].name}", **_style(c, _joint_colour(c)))
+        c += 1
+    return c
+
+
 def plot_contact_forces(result, case_name=None, ax=None):
     """Normal force [N] of every (wall, contact point) pair that was ever in resting contact
     (Result.contact_forces) or pressed on a compliant wall (Result.compliant_forces: joints and closest
-    points of flexible links), against time; None when there was neither.
+    points of flexible links), and the force [N] of every end stop that ever held its joint
+    (Result.stop_forces), against time; None when there was none of these.
 
     ax : None (a new figure), one Axes (the normal forces) or two (and the friction forces |F_t|, with friction).
     """
+    if not result.has_resting_forces:
+        return None
     F, Fc = result.contact_forces, getattr(result, "compliant_forces", None)
     rested = F is not None and np.any(F)
-    if not rested and (Fc is None or not np.any(Fc)):
-        return None
     Ft = result.friction_forces
     n_panels = 2 if rested and Ft is not None and np.any(Ft) else 1
     own = ax is None
@@ -317,6 +333,7 @@ def plot_contact_forces(result, case_name=None, ax=None):
         label = f"{point} on wall {w + 1} (compliant)"
         _curve(axes[0], result.t, Fc[:, w, j], label=label, **_style(c, _joint_colour(int(j))))
         c += 1
+    c = _stop_force_curves(axes[0], result, c)
     axes[0].set_ylabel("contact force [N]")
     if n_panels == 2:
         c = 0
@@ -329,6 +346,8 @@ def plot_contact_forces(result, case_name=None, ax=None):
     what = "normal force of each wall on each contact point in resting contact (0 in flight; impacts are impulses)"
     if Fc is not None and np.any(Fc):
         what = what.replace("in resting contact", "in resting contact or on a compliant wall")
+    if result.stop_forces is not None and np.any(result.stop_forces):
+        what = what.replace(" (0 in flight", ", and of each end stop holding its joint (0 in flight")
     if n_panels == 2:
         what += "; below: the friction force |F_t|"
     _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)

@@ -34,9 +34,32 @@ class Accumulation:
         self.streak = np.zeros(shape, dtype=int)  # consecutive in-band impacts per (wall, joint)
         self.times: list[float] = []
         self.pairs: list[tuple] = []  # (walls, joints) that took an impulse, per impact
+        # (W, J) pairs that cannot rest and took impulses in an accumulation resolved by resting the
+        # others, and have not left the contact band since (unresolved)
+        self.pending = np.zeros(shape, dtype=bool)
 
     def left_band(self, w_i, j):
         self.streak[w_i, j] = 0
+        self.pending[w_i, j] = False
+
+    def unresolved(self, can_rest) -> str | None:
+        """Why resting contact cannot resolve the accumulation just detected, or None.
+
+        can_rest (W, J) bool: the pairs that can rest (contact.resting). The pairs of the last
+        zeno_count impacts that cannot rest (a link's span, the tip of a prismatic host) are
+        remembered; when they take part again in the next accumulation without having left the
+        contact band, resting the others did not stop their impacts: the accumulation is
+        unresolved (status "zeno"), instead of an endless crawl of micro-impacts (issue 25 item 6).
+        """
+        cannot = self.recent_pairs() & ~np.asarray(can_rest, dtype=bool)
+        again = cannot & self.pending
+        self.pending |= cannot
+        if not again.any():
+            return None
+        w_i, j = (int(v) for v in np.argwhere(again)[0])
+        what = f"joint {self.names[j]}" if self.names[j].startswith("O") else f"the span of {self.names[j]}"
+        return (f"{what} kept taking impulses from wall {w_i + 1} after the other contacts came to rest; "
+                "resting contact is modelled for joints only, not for a link's span or the tip of a prismatic host")
 
     def reset(self):
         """Forget the impacts so far (the accumulation was resolved into resting contact)."""

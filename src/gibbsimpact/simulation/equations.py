@@ -7,7 +7,9 @@ gibbsimpact.dynamics.forces):
     q' = qdot,   M qddot = Q_in + Q_damp - h - dV/dq,   W_in' = qdot . Q_in,   W_damp' = qdot . Q_damp
 
 In a contact phase (pairs resting on walls) qddot comes from the constrained equations of
-gibbsimpact.contact.resting, and the power of friction joins the damping's.
+gibbsimpact.contact.resting, and the power of friction joins the damping's. Held end stops
+(gibbsimpact.simulation.joint_limits, equations (S1)-(S2)) add their forces n_H^T mu to Q: every
+user of ``applied`` (the walls' resting forces, their events, the recorded forces) sees them.
 
 With prescribed coordinates q_p (gibbsimpact.simulation.prescribed) y has a third work state, the
 actuator's: W_act' = qdot_p . Q_p, Q_p the effort of gibbsimpact.dynamics.prescribed, and qddot
@@ -36,8 +38,9 @@ class Equations:
     compliant : None, or the run's CompliantContacts (simulation.compliant): its force and extra states
     """
 
-    def __init__(self, model, settings, q0, qdot0, resting, clock, compliant=None):
-        self.model, self.resting, self.clock = model, resting, clock
+    def __init__(self, model, settings, q0, qdot0, resting, clock, compliant=None, stops=None):
+        self.model, self.resting, self.clock, self.stops = model, resting, clock, stops
+        self._stop_cache = (None, None)
         self.N = N = model.n_dof
         self.Q_in = generalized_force(model, settings.inputs, settings.t0, q0, qdot0)
         self.C_varies = damping_depends_on_q(model)  # a damped Pb link: C = C(d)
@@ -78,9 +81,45 @@ class Equations:
         return rates if self.compliant is None else (*rates, *self._compliant_rates)
 
     def applied(self, t, q, qd):
-        """Q = Q_in + Q_damp (N,) of the equations of motion, or None (gibbsimpact.contact.resting)."""
+        """Q = Q_in + Q_damp + n_H^T mu (N,) of the equations of motion, or None (gibbsimpact.contact.resting);
+        mu (h,) [N] the forces of the held end stops (stop_forces)."""
         f = self.forces(t, q, qd)
-        return None if f is None else f[0] + f[1]
+        return self.with_stops(t, q, qd, None if f is None else f[0] + f[1])
+
+    def with_stops(self, t, q, qd, Q):
+        """Q (N,) or None plus the held end stops' forces n_H^T mu (unchanged when no stop is held)."""
+        if self.stops is None or not self.stops.held.any():
+            return Q
+        mu = self.stop_forces(t, q, qd, Q)
+        return (self.zeros if Q is None else Q) + mu @ self.stops.n[self.stops.held]
+
+    def stop_forces(self, t, q, qd, Q=False) -> np.ndarray:
+        """mu (h,) [N or N m] of the held end stops at (t, q, qd) (joint_limits.EndStops.stop_forces),
+        cached per state; Q (N,) or None: Q_in + Q_damp if known (False: computed)."""
+        key = (t, q.tobytes(), qd.tobytes(), self.stops.held.tobytes(), self.resting.active.tobytes())
+        if self._stop_cache[0] == key:
+            return self._stop_cache[1]
+        if Q is False:
+            f = self.forces(t, q, qd)
+            Q = None if f is None else f[0] + f[1]
+        Q = self.zeros if Q is None else Q
+        if self.resting.any():
+            def acceleration(Qx):
+                return self.resting.acceleration(q, qd, Qx)[0].copy()
+        else:
+            def acceleration(Qx):
+                return forward_dynamics(self.model, q, qd, Qx)
+        mu = self.stops.stop_forces(acceleration, Q, self.resting.force_scale)
+        self._stop_cache = (key, mu)
+        return mu
+
+    def constrained(self, q, qd, Q):
+        """(qddot (N,), friction power (k,) [W]) of a contact phase: walls (gibbsimpact.contact.resting)
+        and held end stops, their forces in Q (N,) or None."""
+        if self.resting.any():
+            qdd, _, _, power, *_ = self.resting.acceleration(q, qd, Q)
+            return qdd, power
+        return forward_dynamics(self.model, q, qd, Q), np.zeros(0)
 
     def jacobian(self, t, y):
         """df/dy (y.size, y.size) of a flight phase's f at (t, y), for an implicit method
@@ -122,7 +161,7 @@ class Equations:
             q, qd = y[:N], y[N:2 * N]
             if self.resting_phase:
                 f = self.forces(t, q, qd)
-                qdd, _, _, power, *_ = self.resting.acceleration(q, qd, None if f is None else f[0] + f[1])
+                qdd, power = self.constrained(q, qd, self.with_stops(t, q, qd, None if f is None else f[0] + f[1]))
                 return np.concatenate((qd, qdd) if f is None else
                                       (qd, qdd, self._extra(qd @ f[0], qd @ f[1] + power.sum())))
             if not self.driven:

@@ -26,6 +26,7 @@ class Chunk(NamedTuple):
     balance: float = 0.0  # [J] signed change of E - W from the sample before, counted in the whole-run error
     compliant: tuple | None = None  # compliant normal forces (k, W, C) [N], their points (k, W, C, 3) [m] and
     # integrals (k, 3 + N) (simulation.compliant); None: no compliant force on these samples
+    stops: np.ndarray | None = None  # (k, L) [N or N m] forces of the held end stops; None: all zero
 
 
 def one_sample(E: Energy) -> Energy:
@@ -49,11 +50,12 @@ class Recorder:
     every impact with the sample after it).
     """
 
-    def __init__(self, model, t0, q0, qdot0, n_walls=0, prescribed=None):
+    def __init__(self, model, t0, q0, qdot0, n_walls=0, prescribed=None, n_limits=0):
         self.model = model
         self.prescribed = prescribed  # (n_p,) indices of the prescribed coordinates, or None
         n_work = 2 if prescribed is None else 3
         self.force_shape = (n_walls, model.n_joints)
+        self.n_limits = n_limits  # L joint limits (their end-stop forces: Result.stop_forces)
         # Energy of every stored sample: needed for the flight-phase drift, then handed
         # to the Result so res.energy() does not evaluate M at every sample again.
         self.chunks = [Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, n_work)),
@@ -76,13 +78,14 @@ class Recorder:
                                   balance=jump))
         self.n_impacts += 1
 
-    def flight(self, T, Y, phase, forces=None, friction=None, compliant=None):
+    def flight(self, T, Y, phase, forces=None, friction=None, compliant=None, stops=None):
         """Samples T (K,), Y (K, 2N [+ 2 or 3 [+ 3 + N]]) of a flight phase that started at the last stored sample.
 
         forces : None or (K, W, P) [N], the resting-contact forces at the samples;
         friction : None or (K, W, P, 3) [N], their tangential (friction) forces;
         compliant : None or ((K, W, C) [N], (K, W, C, 3) [m]), the compliant contacts' normal forces and points
-        (simulation.compliant), whose integrals are Y's last 3 + N columns.
+        (simulation.compliant), whose integrals are Y's last 3 + N columns;
+        stops : None or (K, L) [N or N m], the forces of the held end stops.
         """
         N = self.model.n_dof
         last = self.chunks[-1]
@@ -97,22 +100,24 @@ class Recorder:
         err = float(np.abs(balance).max() / scale) if T.size else 0.0
         extra = None if compliant is None else (*compliant, Y[:, 2 * N + nw:])
         self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces,
-                                  friction, float(balance[-1]) if T.size else 0.0, extra))
+                                  friction, float(balance[-1]) if T.size else 0.0, extra, stops))
 
-    def mode(self, t, q, qdot, phase, forces, friction):
+    def mode(self, t, q, qdot, phase, forces, friction, stops=None):
         """After a contact-mode decision at t: its contact forces (W, P) and friction forces (W, P, 3) [N]
-        on the last sample, or a new sample when the projection (gibbsimpact.resting) moved the
-        state (q, qdot) (N,)."""
+        (and end-stop forces (L,) or None) on the last sample, or a new sample when the projection
+        (gibbsimpact.resting, the end stops') moved the state (q, qdot) (N,)."""
         last = self.chunks[-1]
+        S = np.zeros(self.n_limits) if stops is None else stops
         if np.array_equal(last.q[-1], q) and np.array_equal(last.qdot[-1], qdot):
             F = np.zeros((last.t.size,) + self.force_shape) if last.forces is None else last.forces.copy()
             Ft = np.zeros(F.shape + (3,)) if last.friction is None else last.friction.copy()
-            F[-1], Ft[-1] = forces, friction
-            self.chunks[-1] = last._replace(forces=F, friction=Ft)
+            Sk = np.zeros((last.t.size, self.n_limits)) if last.stops is None else last.stops.copy()
+            F[-1], Ft[-1], Sk[-1] = forces, friction, S
+            self.chunks[-1] = last._replace(forces=F, friction=Ft, stops=Sk)
             return
         self.chunks.append(Chunk(np.array([t]), q[None, :].copy(), qdot[None, :].copy(), np.array([phase]),
                                   last.work[-1:].copy(), one_sample(energy(self.model, q, qdot)), 0.0, None,
-                                  forces[None].copy(), friction[None].copy()))
+                                  forces[None].copy(), friction[None].copy(), stops=S[None].copy()))
 
     def ends_with(self, T) -> bool:
         """Whether the last chunk holds the samples T (the same array)."""
@@ -154,11 +159,14 @@ class Recorder:
 
     def arrays(self):
         """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2 or 3), Energy of (K,) arrays,
-        contact forces (K, W, P) [N], friction forces (K, W, P, 3) [N]."""
+        contact forces (K, W, P) [N], friction forces (K, W, P, 3) [N], end-stop forces (K, L) [N or
+        N m] (None for a chain without joint limits)."""
         cs = self.chunks
         cat = np.concatenate
         F = cat([np.zeros((c.t.size,) + self.force_shape) if c.forces is None else c.forces for c in cs])
         Ft = cat([np.zeros((c.t.size,) + self.force_shape + (3,)) if c.friction is None else c.friction for c in cs])
+        S = cat([np.zeros((c.t.size, self.n_limits)) if c.stops is None else c.stops for c in cs]) \
+            if self.n_limits else None
         return (cat([c.t for c in cs]), cat([c.q for c in cs]), cat([c.qdot for c in cs]),
                 cat([c.phase for c in cs]), cat([c.work for c in cs]),
-                Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)), F, Ft)
+                Energy(*(cat([getattr(c.energy, f) for c in cs]) for f in Energy._fields)), F, Ft, S)

@@ -121,6 +121,11 @@ class Result:
         O_(j+1) while the pair rests on a wall with friction (sticking or slipping); None when
         no wall has friction
     resting_time : float [s], the simulated time spent with at least one pair in resting contact
+    stop_forces : (K, L) [N, or N m] or None: the force mu >= 0 of joint limit k (the order of
+        gibbsimpact.simulation.joint_limits.joint_limits: per prismatic joint its lower bound, its
+        upper bound, then a carriage's bound on a Pb host) along its normal n while its end stop
+        holds the joint (joint_limit="impact", accumulation="rest"; docs/theory.md §13), 0 elsewhere;
+        None for a chain without prismatic joints (and results of older files)
     compliant_forces : (K, W, C) [N] or None: the normal force F_n of compliant wall w (a wall with a
         stiffness: gibbsimpact.simulation.compliant) on contact column c (the joints O_1 .. O_P, then the
         closest point of each flexible link, as ImpactRecord.joints numbers them) at every sample; None
@@ -167,6 +172,7 @@ class Result:
     contact_forces: np.ndarray | None = None
     friction_forces: np.ndarray | None = None
     resting_time: float = 0.0
+    stop_forces: np.ndarray | None = None
     prescribed: tuple = ()
     effort: np.ndarray | None = None
     compliant_forces: np.ndarray | None = None
@@ -195,6 +201,12 @@ class Result:
     @property
     def success(self) -> bool:
         return self.status == STATUS_FINISHED
+
+    @property
+    def has_resting_forces(self) -> bool:
+        """Whether some wall pair rested, some end stop held its joint or some pair pressed on a compliant wall
+        (contact_forces.csv, the contact-force figure)."""
+        return any(F is not None and np.any(F) for F in (self.contact_forces, self.stop_forces, self.compliant_forces))
 
     @property
     def energy_error_per_phase(self) -> float:

@@ -133,9 +133,12 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
         translation). With inputs or damped links the run integrates their work (Result.work)
         and energy_error measures E(t) - E(start) - (W(t) - W(start))
     joint_limit : "stop" (status "joint_limit" at a prismatic joint's end of range) or "impact"
-        (an end-stop impact with joint_restitution in [0, 1], an ImpactRecord with wall -1)
+        (an end-stop impact with joint_restitution in [0, 1], an ImpactRecord with wall -1; a stop
+        that no longer rebounds then holds its joint with a force mu >= 0, Result.stop_forces,
+        until mu falls to zero: gibbsimpact.simulation.joint_limits)
     accumulation : "rest" (an accumulation of impacts goes on in resting contact,
-        Result.contact_forces) or "stop" (status "zeno" there)
+        Result.contact_forces, or at a held end stop) or "stop" (status "zeno" there, or
+        "joint_limit" at an end stop)
     link_contacts : True: the closest point of every flexible link to every wall is a contact
         candidate too; False: joints only, as in the published case studies
     prescribed : None or {joint coordinate: f(t) -> (q, qdot, qddot)}, motions imposed by actuators (docs/api.md)

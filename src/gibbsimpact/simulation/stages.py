@@ -29,12 +29,12 @@ from .results import Result
 from .status import STATUS_FINISHED, stop
 from .validity import warn_impact, warn_state
 
-#: Budget of contact-mode events (release, slip, stick, drift) of one run: a contact mode that keeps
+#: Budget of contact-mode events (release, slip, stick, drift, speed) of one run: a contact mode that keeps
 #: switching without settling ends the run (status "failed") instead of crawling on.
 MAX_MODE_EVENTS = 100_000
 #: Consecutive events without progress in time that end a run (status "failed") instead of hanging.
 MAX_STALLED = 100
-MODE_EVENTS = ("release", "drift", "slip", "stick")
+MODE_EVENTS = ("release", "drift", "slip", "stick", "speed")
 
 
 @dataclass
@@ -129,11 +129,11 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols)
     compliant = (CompliantContacts(model, contacts, s.wall_restitution, lipschitz)
                  if any(map(is_compliant, walls)) else None)
-    equations = Equations(model, s, q0, qdot0, resting, clock, compliant)
+    equations = Equations(model, s, q0, qdot0, resting, clock, compliant, stops)
     return Run(
         model=model, settings=s, contacts=contacts, limits=limits, stops=stops, resting=resting,
         monitor=Accumulation((len(walls), contacts.n_cols), s.zeno_count, s.zeno_interval, band, contacts.names),
-        recorder=Recorder(model, s.t0, q0, qdot0, len(walls), _index(s.prescribed)), equations=equations,
+        recorder=Recorder(model, s.t0, q0, qdot0, len(walls), _index(s.prescribed), len(limits)), equations=equations,
         clock=clock, lipschitz=lipschitz, t=s.t0, y=np.concatenate((q0, qdot0, np.zeros(equations.n_extra))),
         band=band, near=np.zeros((len(walls), contacts.n_cols), dtype=bool), compliant=compliant,
     )
@@ -171,10 +171,12 @@ def _accumulation(run, accumulation) -> None:
     """An accumulation of impacts: its pairs go on resting, unless that cannot be (status "zeno")."""
     rest = run.settings.accumulation == "rest" and bool(run.settings.walls)
     run.forced = run.monitor.recent_pairs() & run.resting.can_rest
+    unresolved = run.monitor.unresolved(run.resting.can_rest) if rest else None
     why = ("accumulation='stop'" if not rest else
            "resting contact is not modelled with prescribed coordinates" if run.settings.prescribed is not None else
            "resting contact is modelled for joints only, not for a link's span, the "
            "tip of a prismatic host or a body's centre" if not run.forced.any() else
+           unresolved if unresolved is not None else
            "resting contact did not resolve it" if run.settled_at == run.t else None)
     if why is not None:
         run.end("zeno", accumulation=accumulation, why=why)
@@ -229,9 +231,38 @@ def _record_impact(run, rec, q) -> None:
 # -- contact mode ------------------------------------------------------------------------------
 
 def mode(run) -> None:
-    """Stage 2, after an impact stage, a release, slip, stick or drift event: which pairs rest (resting.py)."""
+    """Stage 2, after an impact stage, a release, slip, stick or drift event: which pairs rest (resting.py)
+    and which end stops hold their joints (joint_limits.py)."""
     if not run.pending_mode:
         return
+    s, N, resting, stops = run.settings, run.N, run.resting, run.stops
+    t = run.t
+    held_before = stops is not None and stops.held.any()
+    if stops is not None:
+        # The stop candidates first onto g = 0, n.qdot = 0, so that the walls' projection starts there.
+        q, qd = run.y[:N], run.y[N:2 * N]
+        q, qd = stops.project(mass_matrix(run.model, q), q, qd, stops.candidates(q, qd, 2 * s.contact_tol,
+                                                                                 s.grazing_velocity))
+        run.y = np.concatenate((q, qd, run.y[2 * N:]))
+    changed = _decide_walls(run) if s.walls else False
+    if stops is not None:
+        q, qd = run.y[:N], run.y[N:2 * N]
+        q, qd = stops.decide(lambda q, qd: run.equations.stop_forces(t, q, qd), mass_matrix(run.model, q), q, qd,
+                             2 * s.contact_tol, s.grazing_velocity, resting.force_scale)
+        stops.forced[:] = stops.released[:] = False
+        run.y = np.concatenate((q, qd, run.y[2 * N:]))
+        changed = changed or held_before or stops.held.any()
+    if changed:
+        q, qd = run.y[:N], run.y[N:2 * N]
+        F, Ft, S = _forces_at(run, [t], run.y[None, :])
+        run.recorder.mode(t, q, qd, run.phase, F[0], Ft[0], None if S is None else S[0])
+    run.release = run.forced = run.slipping = None
+    run.pending_mode = False
+
+
+def _decide_walls(run) -> bool:
+    """The walls' contact mode (resting.py), with the held stops' forces in Q; True when some pair was
+    a candidate or rests."""
     s, N, resting = run.settings, run.N, run.resting
     t, q, qd = run.t, run.y[:N], run.y[N:2 * N]
     g, nrm, Jac, _, _ = run.contacts.full(q)
@@ -239,15 +270,12 @@ def mode(run) -> None:
     if run.compliant is not None:  # no resting mode on a compliant wall: its contact is a force
         g = np.where(run.compliant.rows[:, None], np.inf, g)
     cand = resting.candidates(g, v, run.band, s.grazing_velocity, run.release, run.forced)
-    if len(cand) or resting.any():
-        applied = run.equations.applied
-        q, qd = resting.decide(q, qd, applied(t, q, qd), cand, run.slipping)
-        run.monitor.streak[resting.active] = 0
-        run.y = np.concatenate((q, qd, run.y[2 * N:]))
-        P = run.model.n_joints
-        run.recorder.mode(t, q, qd, run.phase, *(f[:, :P] for f in resting.force_matrix(q, qd, applied(t, q, qd))))
-    run.release = run.forced = run.slipping = None
-    run.pending_mode = False
+    if not (len(cand) or resting.any()):
+        return False
+    q, qd = resting.decide(q, qd, run.equations.applied(t, q, qd), cand, run.slipping)
+    run.monitor.streak[resting.active] = 0
+    run.y = np.concatenate((q, qd, run.y[2 * N:]))
+    return True
 
 
 # -- flight ------------------------------------------------------------------------------------
@@ -273,17 +301,39 @@ def _phase_events(run):
         kinds = kinds + drift_kinds
     if run.stops is not None:
         events, kinds = run.stops.events(events, kinds, run.y[:N], s.contact_tol, sink_depth)
+    extras = []
     if resting.any():
         extra, release_kinds = resting.release_events(run.equations.applied)
+        extras.append(extra)
         kinds = kinds + release_kinds
-    return events, kinds, extra
+    if run.stops is not None and run.stops.held.any():
+        extra, release_kinds = run.stops.release_events(
+            lambda t, y: run.equations.stop_forces(t, y[:N], y[N:2 * N]))
+        extras.append(extra)
+        kinds = kinds + release_kinds
+    return events, kinds, _joined(extras)
 
 
-def _contact_forces(run, T, Y):
-    """Normal (K, W, P) and tangential (K, W, P, 3) [N] resting-contact forces at the samples of a phase."""
-    N, P, applied = run.N, run.model.n_joints, run.equations.applied
+def _joined(extras):
+    """One (fun(t, y) -> (m,), directions (m,)) of several, their values in order; None for none."""
+    if len(extras) < 2:
+        return extras[0] if extras else None
+    funs = [f for f, _ in extras]
+    return (lambda t, y: np.concatenate([f(t, y) for f in funs]),
+            np.concatenate([np.asarray(d, dtype=float) for _, d in extras]))
+
+
+def _forces_at(run, T, Y):
+    """Normal (K, W, P) and tangential (K, W, P, 3) [N] resting-contact forces, and the end-stop forces
+    (K, L) [N or N m] (None without joint limits), at the samples T (K,), Y (K, 2N [+ 2])."""
+    N, P, applied, stops = run.N, run.model.n_joints, run.equations.applied, run.stops
     F = [run.resting.force_matrix(yk[:N], yk[N:2 * N], applied(tk, yk[:N], yk[N:2 * N])) for tk, yk in zip(T, Y)]
-    return np.stack([f[0][:, :P] for f in F]), np.stack([f[1][:, :P] for f in F])
+    S = None
+    if stops is not None:
+        S = np.zeros((len(T), len(stops.limits)))
+        if stops.held.any():
+            S[:, stops.held] = [run.equations.stop_forces(tk, yk[:N], yk[N:2 * N]) for tk, yk in zip(T, Y)]
+    return np.stack([f[0][:, :P] for f in F]), np.stack([f[1][:, :P] for f in F]), S
 
 
 def flight(run):
@@ -291,7 +341,8 @@ def flight(run):
     when the integration failed (the run is then stopped)."""
     s, N = run.settings, run.N
     events, kinds, extra = _phase_events(run)
-    run.equations.resting_phase = run.resting.any()
+    held = run.stops is not None and run.stops.held.any()
+    run.equations.resting_phase = run.resting.any() or held
     gap_matrix, gap_batch = gap_functions(run)
     try:
         run.flown = out = integrate_phase(
@@ -311,9 +362,9 @@ def flight(run):
     run.counters["n_steps"] += out.n_steps
     run.counters["n_examined"] += out.n_examined
     if out.sample_t.size:
-        forces = _contact_forces(run, out.sample_t, out.sample_y) if run.resting.any() else (None, None)
+        forces = _forces_at(run, out.sample_t, out.sample_y) if run.resting.any() or held else (None, None, None)
         compliant = None if run.compliant is None else run.compliant.sample_forces(out.sample_y)
-        run.recorder.flight(out.sample_t, out.sample_y, run.phase, *forces, compliant=compliant)
+        run.recorder.flight(out.sample_t, out.sample_y, run.phase, *forces[:2], compliant=compliant, stops=forces[2])
     run.flown = None
     if out.interrupted is not None:
         raise KeyboardInterrupt(out.interrupted)  # its samples are recorded: the driver stops the run
@@ -364,7 +415,10 @@ def _mode_event(run, kind, w_i, j) -> None:
     if run.counters["mode_events"] > MAX_MODE_EVENTS:
         run.end("mode_events", count=MAX_MODE_EVENTS, t=run.t)
         return
-    if kind == "release":
+    if w_i == len(run.settings.walls):
+        if kind == "release":  # an end stop's force reached zero (a drift event only projects again)
+            run.stops.released[j] = True
+    elif kind == "release":
         run.release = np.zeros(run.resting.active.shape, dtype=bool)
         run.release[w_i, j] = True
     elif kind == "slip":
@@ -390,12 +444,16 @@ def _limit_event(run, kind, j) -> None:
             return
         if rec is not None:
             _record_impact(run, rec, run.y[:N])
-            accumulation = stops.accumulation(rec.time, j, s.zeno_count, s.zeno_interval)
+            # (held stops are not modelled with prescribed coordinates: there the old stop stays)
+            rest = s.accumulation == "rest" and s.prescribed is None
+            accumulation = stops.accumulation(rec.time, j, s.zeno_count, s.zeno_interval, rest=rest)
             if accumulation is not None:
                 run.end("end_stop_accumulation", accumulation=accumulation)
                 return
-            # Resting pairs may have been pushed by the end-stop impulse.
+            # Resting pairs may have been pushed by the end-stop impulse; a stop that no longer
+            # rebounds (e_stop = 0, or an accumulation) is held from the mode decision on.
             run.pending_impact = run.resting.any()
+            run.pending_mode = rest
 
 
 def dispatch(run, out, kinds) -> None:
@@ -438,7 +496,7 @@ def finish(run, started: float) -> Result:
     """The Result of the run: every recorded sample, impact and force, its status and counters."""
     if run.status is None:
         run.status = STATUS_FINISHED
-    t_all, q_all, qdot_all, phase_all, work_all, E_all, F_all, Ft_all = run.recorder.arrays()
+    t_all, q_all, qdot_all, phase_all, work_all, E_all, F_all, Ft_all, S_all = run.recorder.arrays()
     walls = run.settings.walls
     return Result(
         model=run.model, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,
@@ -448,7 +506,7 @@ def finish(run, started: float) -> Result:
         energy_error_whole_run_J=run.recorder.balance_J,
         _energy_cache=E_all, work=work_all if run.equations.driven else None, contact_forces=F_all,
         friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
-        resting_time=run.counters["resting_time"], **_efforts(run, t_all, q_all, qdot_all),
+        resting_time=run.counters["resting_time"], stop_forces=S_all, **_efforts(run, t_all, q_all, qdot_all),
         **({} if run.compliant is None else dict(zip(
             ("compliant_forces", "compliant_points", "compliant_integrals"),
             run.recorder.compliant_arrays(run.compliant.active.shape)),

@@ -27,7 +27,7 @@ STATUSES = {
     STATUS_PENETRATION: "a contact point was found beyond a wall (or a joint limit) between events",
     STATUS_FAILED: "the dynamics could not go on (singular M, non-finite state, solver failure, stalled loop)",
     STATUS_JOINT_LIMIT: "a prismatic joint reached an end of its range (joint_limit='stop'), or its end-stop "
-                        "impacts accumulated",
+                        "impacts accumulated with accumulation='stop'",
     STATUS_INTERRUPTED: "a KeyboardInterrupt (Ctrl-C, or SIGTERM in the command line) stopped the run",
     STATUS_CALLBACK_FAILED: "a function the user gave (an input, the progress callback) raised or returned a "
                             "non-finite value",
