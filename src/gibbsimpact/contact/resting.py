@@ -224,8 +224,10 @@ class RestingContacts:
     the P joint points); force_scale [N]: m |g~| (1 N without gravity).
     """
 
-    def __init__(self, model, walls, contact_tol, v_tol=1e-6, n_cols=None):
+    def __init__(self, model, walls, contact_tol, v_tol=1e-6, n_cols=None, flex=()):
         self.model, self.walls, self.contact_tol, self.v_tol = model, walls, contact_tol, v_tol
+        # Link columns (n_cols > P): the closest point of link flex[c - P], a span pair (span_resting.py).
+        self.n_joints, self.flex = model.n_joints, list(flex)
         P = model.n_joints if n_cols is None else n_cols  # columns of the gap matrix (contacts.Contacts)
         self.active = np.zeros((len(walls), P), dtype=bool)
         self.stick = np.zeros((len(walls), P), dtype=bool)
@@ -237,7 +239,8 @@ class RestingContacts:
         # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves when
         # joint 1 is revolute (J = 0 there), but it does as a carriage on the base rail (Pa) or as the
         # rear end of a link sliding through the base guide (Pb): then it rests like any joint.
-        restable = np.arange(P) <= model.n_links  # link columns (contacts.py) never rest
+        # Frame origins and span points (link columns, span_resting.py) rest; the extra tips do not.
+        restable = (np.arange(P) <= model.n_links) | (np.arange(P) >= model.n_joints)
         if not isinstance(model.chain.base, str) and model.joint_kinds[0] == "R":
             restable[0] = False
         self.can_rest = np.broadcast_to(restable[None, :], self.active.shape)  # (W, P): the same for every wall
@@ -267,6 +270,16 @@ class RestingContacts:
         self._cache = (None, None)
 
     # -- equations (1)-(3), (6) ------------------------------------------------------
+    def _data(self, q, qd, Q, pairs, velocities=True) -> ConstraintData:
+        """constraint_data of the pairs (k, 2), span pairs included (span_resting.mixed_constraint_data)."""
+        pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
+        if np.any(pairs[:, 1] >= self.n_joints):
+            from .span_resting import mixed_constraint_data
+
+            return mixed_constraint_data(self.model, self.walls, q, qd, Q, pairs, self.n_joints, self.flex,
+                                         velocities)
+        return constraint_data(self.model, self.walls, q, qd, Q, pairs, velocities)
+
     def _solve(self, d, pairs, stick, sdir):
         """Equations (3)/(6) for the pairs (k, 2) with constraint data d; stick (k,) bool, sdir (k, 3).
 
@@ -308,6 +321,12 @@ class RestingContacts:
             self._mode = (mode, (pairs, self.stick[self.active], self.slip_dir[self.active], plan, frictionless,
                                  zeros))
         pairs, stick, sdir, plan, frictionless, zeros = self._mode[1]
+        if np.any(pairs[:, 1] >= self.n_joints):  # span pairs: equations (3)/(6) in Python
+            d = self._data(q, qd, Q, pairs)
+            qdd, lam, F_t, lam_t, power = self._solve(d, pairs, stick, sdir)
+            res = (qdd, lam, F_t, power, lam_t, d)
+            self._cache = (key, res)
+            return res
         if frictionless:
             # Equation (3) from the compiled contact terms' lambda and qddot sections.
             r = _terms(self.model, q, qd, Q, plan)[1]
@@ -340,7 +359,7 @@ class RestingContacts:
             return q, qd
         tol = 1e-3 * self.contact_tol
         for _ in range(max_iter):
-            d = constraint_data(self.model, self.walls, q, None, None, pairs, velocities=False)
+            d = self._data(q, None, None, pairs, velocities=False)
             if np.max(np.abs(d.g)) <= tol:
                 break
             q = q - d.MinvW @ _solve_sym(d.G, d.g)
@@ -373,7 +392,7 @@ class RestingContacts:
         mu = self.mu[candidates[:, 0]]
         if not np.any(mu > 0):
             q, qd = self.project(q, qd, candidates)
-            d = constraint_data(self.model, self.walls, q, qd, Q, candidates)
+            d = self._data(q, qd, Q, candidates)
             lam = _solve_lcp(d.G, d.W.T @ d.qdd_free + d.c)
             on = lam > 1e-10 * max(float(lam.max(initial=0.0)), self.force_scale)
             self.active[candidates[on, 0], candidates[on, 1]] = True
@@ -382,7 +401,7 @@ class RestingContacts:
         # others slip along their velocity. Then an active-set iteration: a negative normal force
         # leaves (the most negative first); a sticking force outside the cone |F_t| < mu N (or on
         # its edge) turns into slip against it (the largest excess first).
-        d0 = constraint_data(self.model, self.walls, q, qd, Q, candidates)
+        d0 = self._data(q, qd, Q, candidates)
         vt = d0.pd - np.sum(d0.pd * d0.n, axis=1)[:, None] * d0.n
         speed = np.linalg.norm(vt, axis=1)
         stick = (mu > 0) & (speed <= self.v_tol)
@@ -396,7 +415,7 @@ class RestingContacts:
         on = np.ones(len(candidates), dtype=bool)
         for _ in range(4 * len(candidates) + 4):
             pairs = candidates[on]
-            d = constraint_data(self.model, self.walls, q, qd, Q, pairs)
+            d = self._data(q, qd, Q, pairs)
             _, lam, _, lam_t, _ = self._solve(d, pairs, stick[on], sdir[on])
             scale = max(float(np.abs(lam).max(initial=0.0)), self.force_scale)
             if np.any(lam < -1e-10 * scale):

@@ -123,7 +123,7 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
     lipschitz = gap_lipschitz(model)
     band = contact_band(s.contact_tol, lipschitz, s.rtol, s.atol, q0)
-    resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols)
+    resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols, contacts.flex)
     equations = Equations(model, s, q0, qdot0, resting, clock)
     return Run(
         model=model, settings=s, contacts=contacts, limits=limits, stops=stops, resting=resting,
