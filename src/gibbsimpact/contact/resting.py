@@ -12,9 +12,10 @@ and the gaps' second time derivatives along the motion (walls.py: |grad g| = 1)
     c_a = n_a . a0_j + pdot_j^T H_w pdot_j                                            (2)
 
 a0_j = Jdot_j qdot, the acceleration of O_j at qddot = 0, is the translation column
-of the kernel's qddot-free frame acceleration Tddot0 (kernel.JOB_FRAMES), so only
-frame origins O_1 .. O_(n+1) can rest (the extra tips of prismatic hosts cannot:
-an accumulation there still ends the run with status "zeno"). A contact phase
+of the kernel's qddot-free frame acceleration Tddot0 (kernel.JOB_FRAMES): frame
+origins O_1 .. O_(n+1) rest (the extra tips of prismatic hosts cannot: an
+accumulation there still ends the run with status "zeno"), and so do the closest
+points of links' spans (link columns; their W_a and c_a: span_resting.py). A contact phase
 keeps gddot_A = 0: with the Delassus matrix G = W^T M^-1 W (k, k) [m/(N s^2)],
 
     G lambda = -(W^T M^-1 f + c),    qddot = M^-1 f + M^-1 W lambda                (3)

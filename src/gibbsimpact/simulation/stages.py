@@ -165,8 +165,8 @@ def _accumulation(run, accumulation) -> None:
     run.forced = run.monitor.recent_pairs() & run.resting.can_rest
     why = ("accumulation='stop'" if not rest else
            "resting contact is not modelled with prescribed coordinates" if run.settings.prescribed is not None else
-           "resting contact is modelled for joints only, not for a link's span or the "
-           "tip of a prismatic host" if not run.forced.any() else
+           "resting contact is modelled at joints and along links' spans, not at the tip of a "
+           "prismatic host (a contact point after the chain's tip)" if not run.forced.any() else
            "resting contact did not resolve it" if run.settled_at == run.t else None)
     if why is not None:
         run.end("zeno", accumulation=accumulation, why=why)
