@@ -98,6 +98,7 @@ from .. import kernel as _k
 from ..dynamics.gibbs_appell import _raise_singular
 from .impact import _solve_lcp
 from ..dynamics.kinematics import as_vector, run_kernel, states
+from .span_resting import span_abscissae, span_point_terms
 from .walls import packed_walls, tangent_basis
 
 _JOB = _k.JOB_SOLVE | _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS | _k.JOB_FRAMES
@@ -188,6 +189,41 @@ def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> Constrain
     return _constraint_data(model, out, r, plan)
 
 
+def mixed_constraint_data(model, walls, q, qd, Q, pairs, n_joints: int, flex, velocities=True):
+    """resting.ConstraintData of pairs (k, 2) some of which are span pairs (column >= n_joints):
+    the joint pairs from the compiled contact terms (resting.constraint_data), the span pairs from
+    span_resting.span_point_terms at x*, then W (N, k), M^-1 W, G = W^T M^-1 W and, with
+    velocities, equation (3) of resting.py (lam, qdd). Shapes and units as ConstraintData."""
+    pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
+    k, N = len(pairs), model.n_dof
+    span = pairs[:, 1] >= n_joints
+    d0 = constraint_data(model, walls, q, qd, Q, pairs[~span], velocities)
+    qd_use = qd if velocities else np.zeros(N)
+    W, J = np.zeros((N, k)), np.zeros((k, 3, N))
+    nrm, pd, a0, c, g = np.zeros((k, 3)), np.zeros((k, 3)), np.zeros((k, 3)), np.zeros(k), np.zeros(k)
+    joint = np.flatnonzero(~span)
+    W[:, joint], J[joint], nrm[joint], g[joint] = d0.W, d0.J, d0.n, d0.g
+    if velocities:
+        pd[joint], a0[joint], c[joint] = d0.pd, d0.a0, d0.c
+    sp = np.flatnonzero(span)
+    for a, (i, x) in zip(sp, span_abscissae(model, walls, q, pairs[span], n_joints, flex)):
+        _, J[a], nrm[a], pd[a], a0[a], g[a], c[a] = span_point_terms(model, walls[pairs[a, 0]], q, qd_use, i, x)
+        W[:, a] = J[a].T @ nrm[a]
+    if not velocities:
+        pd = a0 = None
+        c = np.zeros(k)
+    M = d0.M
+    MinvW = np.linalg.solve(M, W)
+    G = W.T @ MinvW
+    G = 0.5 * (G + G.T)
+    v = W.T @ qd_use
+    lam = qdd = None
+    if velocities:
+        lam = _solve_sym(G, -(W.T @ d0.qdd_free + c))
+        qdd = d0.qdd_free + MinvW @ lam
+    return ConstraintData(d0.qdd_free, MinvW, W, G, c, g, v, M, J, nrm, pd, a0, lam, qdd)
+
+
 def _constraint_data(model, out, r, plan: _Plan) -> ConstraintData:
     """ConstraintData as views of the two outputs of _terms."""
     N, k, o, off = model.n_dof, len(plan.pairs), plan.o, plan.off
@@ -275,8 +311,6 @@ class RestingContacts:
         """constraint_data of the pairs (k, 2), span pairs included (span_resting.mixed_constraint_data)."""
         pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
         if np.any(pairs[:, 1] >= self.n_joints):
-            from .span_resting import mixed_constraint_data
-
             return mixed_constraint_data(self.model, self.walls, q, qd, Q, pairs, self.n_joints, self.flex,
                                          velocities)
         return constraint_data(self.model, self.walls, q, qd, Q, pairs, velocities)
