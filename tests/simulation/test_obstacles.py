@@ -175,7 +175,7 @@ def test_spatial_rod_strikes_a_ball_off_its_plane():
     np.testing.assert_allclose(p_after, m * np.array([0.0, -G * t_star, 0.0]) + lam * n, rtol=0, atol=1e-12)
 
 
-def test_rod_across_a_rough_cylinder_rocks_without_slipping():
+def test_rod_across_a_rough_cylinder_rocks_without_slipping(tmp_path):
     """A rigid rod (l = 1 m, m = 1 kg, k^2 = l^2 / 12 about its centre G) lies across the top of a
     rough obstacle cylinder (Circle, inside=False, R = 0.2 m, mu = 1), tilted by theta_0 = 0.05 rad
     about the contact at its middle, at rest: it rests on the cylinder with its span
@@ -221,3 +221,19 @@ def test_rod_across_a_rough_cylinder_rocks_without_slipping():
     e = (p[1] - p[0]) / l
     C = R * np.array([np.sin(th[-1]), np.cos(th[-1]), 0.0])
     assert np.dot(C - p[0], e) == pytest.approx(l / 2 + R * th[-1], abs=1e-8)
+    # The span point's forces are recorded in their own column (after the joint points O_1, O_2). At
+    # t = 0 (at rest) the contact force is m (a_G + g e_2), a_G = G_theta theta''(0) with G_theta =
+    # R theta (sin theta, cos theta) along the normal n = (sin theta, cos theta): N = m (R theta_0
+    # theta''(0) + g cos theta_0), |F_t| = m g sin theta_0 (m = 1 kg).
+    assert res.contact_forces.shape[2] == 3 and np.all(res.contact_forces[:, 0, :2] == 0.0)
+    thdd0 = -G * R * th0 * np.cos(th0) / (k2 + R * R * th0 * th0)
+    assert res.contact_forces[0, 0, 2] == pytest.approx(R * th0 * thdd0 + G * np.cos(th0), rel=1e-9)
+    assert np.linalg.norm(res.friction_forces[0, 0, 2]) == pytest.approx(G * np.sin(th0), rel=1e-9)
+    assert np.all(np.linalg.norm(res.friction_forces[:, 0, 2], axis=1) < 1.0 * res.contact_forces[:, 0, 2])
+    # contact_forces.csv and the figure name the span point.
+    from gibbsimpact.io import write_contact_forces_csv
+
+    header = write_contact_forces_csv(res, tmp_path / "f.csv").read_text().splitlines()[0].split(",")
+    assert header[:5] == ["t_s", "phase", "F_w1_O1_N", "F_w1_O2_N", "F_w1_link1_N"]
+    fig = res.plot("contact_forces")
+    assert any("span of link 1" in t.get_text() for ax in fig.axes for t in ax.get_legend().get_texts())

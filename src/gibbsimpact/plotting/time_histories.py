@@ -9,7 +9,7 @@ from ..model.shapes import link_deflection
 from .geometry import is_planar
 from .decimate import COLUMNS_PER_INCH, DENSE_TURNS, envelope, minmax_decimate, visible_turns
 from .impacts import _impact_lines, _impact_note, _number_impacts
-from .labels import _point_label, _status_box, _tex, _title, _wrap_note
+from .labels import _point_label, _point_name, _status_box, _tex, _title, _wrap_note
 from .style import _P_STYLES, _RANGE_STYLE, _STYLES, _figure, _given_axes, _joint_colour, _legend, _link_colour, _style
 
 
@@ -305,7 +305,9 @@ def plot_contact_forces(result, case_name=None, ax=None):
     else:
         axes = _given_axes(ax, n_panels, "plot_contact_forces")
         fig = axes[0].figure
-    names = [_point_label(result.model, j + 1) for j in range(result.model.n_joints)]
+    P = result.model.n_joints
+    names = [_point_label(result.model, j + 1) if j < P else f"span of {_point_name(result.model, j + 1, result.walls)}"
+             for j in range(F.shape[2])]
     c = 0
     for w, j in np.argwhere(np.any(F != 0.0, axis=0)):
         _curve(axes[0], result.t, F[:, w, j], label=f"{names[j]} on wall {w + 1}", **_style(c, _joint_colour(int(j))))

@@ -128,7 +128,8 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     return Run(
         model=model, settings=s, contacts=contacts, limits=limits, stops=stops, resting=resting,
         monitor=Accumulation((len(walls), contacts.n_cols), s.zeno_count, s.zeno_interval, band, contacts.names),
-        recorder=Recorder(model, s.t0, q0, qdot0, len(walls), _index(s.prescribed)), equations=equations,
+        recorder=Recorder(model, s.t0, q0, qdot0, len(walls), _index(s.prescribed), contacts.n_cols),
+        equations=equations,
         clock=clock, lipschitz=lipschitz, t=s.t0, y=np.concatenate((q0, qdot0, np.zeros(equations.n_work))),
         band=band, near=np.zeros((len(walls), contacts.n_cols), dtype=bool),
     )
@@ -230,8 +231,7 @@ def mode(run) -> None:
         q, qd = resting.decide(q, qd, applied(t, q, qd), cand, run.slipping)
         run.monitor.streak[resting.active] = 0
         run.y = np.concatenate((q, qd, run.y[2 * N:]))
-        P = run.model.n_joints
-        run.recorder.mode(t, q, qd, run.phase, *(f[:, :P] for f in resting.force_matrix(q, qd, applied(t, q, qd))))
+        run.recorder.mode(t, q, qd, run.phase, *resting.force_matrix(q, qd, applied(t, q, qd)))
     run.release = run.forced = run.slipping = None
     run.pending_mode = False
 
@@ -260,10 +260,11 @@ def _phase_events(run):
 
 
 def _contact_forces(run, T, Y):
-    """Normal (K, W, P) and tangential (K, W, P, 3) [N] resting-contact forces at the samples of a phase."""
-    N, P, applied = run.N, run.model.n_joints, run.equations.applied
+    """Normal (K, W, C) and tangential (K, W, C, 3) [N] resting-contact forces at the samples of a phase
+    (C: the joint points, then the span points of the link columns)."""
+    N, applied = run.N, run.equations.applied
     F = [run.resting.force_matrix(yk[:N], yk[N:2 * N], applied(tk, yk[:N], yk[N:2 * N])) for tk, yk in zip(T, Y)]
-    return np.stack([f[0][:, :P] for f in F]), np.stack([f[1][:, :P] for f in F])
+    return np.stack([f[0] for f in F]), np.stack([f[1] for f in F])
 
 
 def flight(run):
@@ -414,6 +415,9 @@ def finish(run, started: float) -> Result:
     if run.status is None:
         run.status = STATUS_FINISHED
     t_all, q_all, qdot_all, phase_all, work_all, E_all, F_all, Ft_all = run.recorder.arrays()
+    P = run.model.n_joints
+    if not np.any(F_all[:, :, P:]):  # no span point rested: the joint points' columns only, as before
+        F_all, Ft_all = F_all[:, :, :P], Ft_all[:, :, :P]
     walls = run.settings.walls
     return Result(
         model=run.model, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,
