@@ -8,7 +8,12 @@ CPU time is steadier than wall time), right-hand-side evaluations, accepted
 steps, steps whose dense output was searched, impacts, and the ratio on/off of
 CPU time and of nfev. Identical impact lists show that nothing else changed.
 
-Usage: python benchmarks/bench_events.py [--repeat R]
+Then the cost of the contact search per event-function call (Contacts.gaps_batch of one state,
+one call per in-step sample): a flat finite-element beam lying 1e-4 m above a floor (every
+interval near the wall) and a modal beam tilted over it, with and without the search for dips
+that the sampled slope signs miss (contact.closest_points._hidden_brackets, issue 25 item 5).
+
+Usage: python benchmarks/bench_events.py [--repeat R] [--search-only]
 """
 
 from __future__ import annotations
@@ -50,10 +55,51 @@ def measure(args, check, repeat):
     return float(np.median(cpu)), res
 
 
+def search_models():
+    """(name, model, q, walls): states whose links lie near a floor, so that every event call searches them."""
+    floor = [gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0))]
+    fe = gi.Model(gi.Chain([gi.Link(1.0, 1.0, (20.0, 20.0), elements=4, rotary_inertia=(1e-4, 5e-5, 5e-5))],
+                           base="planar"), gravity=(0.0, -9.81, 0.0))
+    q = np.zeros(fe.n_dof)
+    q[:2] = (-0.5, 1e-4)
+    yield "FE beam, 4 elements", fe, q, floor
+    modal = gi.Model(gi.Chain([gi.Link(1.0, 1.0, (20.0, 20.0), modes=[gi.Mode("clamped-clamped", "y", 1), gi.Mode("clamped-clamped", "y", 2)])]),
+                     gravity=(0.0, -9.81, 0.0))
+    q = np.zeros(modal.n_dof)
+    q[:2], q[5], q[6:8] = (-0.5, 0.01), 0.005, (-0.001, 0.0005)
+    yield "modal beam, 2 modes", modal, q, floor
+
+
+def search_cost(calls=2000):
+    """CPU time [us] per Contacts.gaps_batch call of one state, with and without _hidden_brackets."""
+    from gibbsimpact.contact import closest_points as cp
+    from gibbsimpact.simulation.contacts import Contacts
+
+    print(f"{'model':<22} {'us/call before':>14} {'us/call after':>13}")
+    hidden = cp._hidden_brackets
+    for name, model, q, walls in search_models():
+        contacts = Contacts(model, walls)
+        cost = []
+        for fn in ((lambda *a: None), hidden):
+            cp._hidden_brackets = fn
+            qs = q[None, :]
+            contacts.gaps_batch(qs)
+            t = time.process_time()
+            for _ in range(calls):
+                contacts.gaps_batch(qs)
+            cost.append(1e6 * (time.process_time() - t) / calls)
+        cp._hidden_brackets = hidden
+        print(f"{name:<22} {cost[0]:>14.1f} {cost[1]:>13.1f}")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3, help="runs per measurement; the median CPU time is reported")
+    ap.add_argument("--search-only", action="store_true", help="only the contact search's cost per call")
     args = ap.parse_args(argv)
+    search_cost()
+    if args.search_only:
+        return
     head = (f"{'case':<20} {'check':>5} {'cpu[s]':>7} {'nfev':>6} {'steps':>6} {'searched':>8} {'impacts':>7}"
             f" {'cpu on/off':>10} {'nfev on/off':>11}")
     print(head)

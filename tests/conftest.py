@@ -181,3 +181,29 @@ def issue26_arm(elements=1, EI=1e4, t_end=0.275, accumulation="rest"):
         warnings.simplefilter("ignore", gi.ValidityWarning)
         return gi.simulate(model, q0, np.zeros_like(q0), (0.0, t_end), walls=[ISSUE26_FLOOR],
                            accumulation=accumulation)
+
+
+#: Issue 25 item 5 (the random tester's reproducer): four links, link 2 with a pinned-pinned and a
+#: clamped-clamped mode; gi.Link arguments (length, mass per length, EI, modes).
+ISSUE25_ITEM5_LINKS = (
+    (1.0332584103028422, 4.456424255023867, (1.2138397573378872, 1.2138397573378872), ()),
+    (1.2065600293078453, 0.8127029300460183, (2.2906621986988864, 1.6099354542861524),
+     (("pinned-pinned", "y", 1), ("clamped-clamped", "y", 1))),
+    (1.3426463772531614, 0.8734618454289267, (24.431683210930398, 101.0284457378389), ()),
+    (1.4506055004697493, 4.917844549613507, (21.67920335417858, 2.783118327624412), (("clamped-free", "y", 1),)),
+)
+ISSUE25_ITEM5_FLOOR = gi.Plane((0.0, -0.13589120957267337, 0.0), (0.0, 1.0, 0.0))
+
+
+def issue25_item5_model():
+    links = [gi.Link(length, mu, EI, modes=[gi.Mode(*m) for m in modes]) for length, mu, EI, modes in
+             ISSUE25_ITEM5_LINKS]
+    return gi.Model(gi.Chain(links), gravity=(0.0, -9.81, 0.0))
+
+
+#: Its initial state (q0, qdot0) and time span [s].
+ISSUE25_ITEM5_Q0 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.08736782551397138, 0.8290679050628729, 0.38942952098144035,
+                    1.6585929369678118, 0.016768174926124046, -0.01290106204367606, -0.009427651300191893)
+ISSUE25_ITEM5_QDOT0 = (0.8583076559391034, -1.4290051150753251, 0.0, 0.0, 0.0, -0.034431149144380946,
+                       -0.48459053070925506, 0.7192051244024915, 2.9756709258501006, -0.17100324569045428, 0.0, 0.0)
+ISSUE25_ITEM5_T_SPAN = (0.0, 0.2758842968532299)

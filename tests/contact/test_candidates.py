@@ -27,7 +27,7 @@ import gibbsimpact as gi
 from gibbsimpact.contact import candidates as lp
 from gibbsimpact.dynamics.kinematics import joint_positions
 
-from conftest import random_state
+from conftest import ISSUE25_ITEM5_FLOOR, issue25_item5_model, random_state
 from link_models import (CC, MODELS, _case1, _obstacles_near, _prismatic, _spatial_fe, _state,  # noqa: F401
                          _walls_hugging, _walls_near)
 
@@ -260,3 +260,23 @@ def test_interior_of_a_batch(rng):
     assert inner.shape == (3, 3, 2)
     for k in range(3):
         assert np.array_equal(inner[k], lp.interior(model, qs[k], lp.closest_points(model, qs[k], walls).x))
+
+
+
+def test_dip_growing_out_of_a_resting_end_is_found():
+    """Issue 25 item 5: link 2 lies with its end O2 on the floor (g = 0) and turns about it; g'(0) > 0
+    still, but the curvature near the end already pulls the span below the end, so the sampled g'
+    (17 samples on 1.2 m) is > 0 at both samples of the first interval and the old search
+    returned the end, missing a dip of -1.6e-5 m at x = 0.04 m. The cubic Hermite interpolant of
+    (g, g') on that interval has an interior minimum (_hidden_brackets): the dip is found, against
+    10^5 samples and a bounded minimisation (<= 1e-10 m)."""
+    model = issue25_item5_model()
+    q = np.array([0.19272770594277291, -0.13589120957267337, 0.0, 0.0, 0.0, 6.523487512558426e-18,
+                  0.36984665286241086, 1.0891726192508533, 2.3862880904649697, -0.14888650507160264,
+                  -0.003130873598633499, -0.5352846211162231])
+    res = lp.closest_points(model, q, [ISSUE25_ITEM5_FLOOR])
+    _check_against_brute_force(model, q, [ISSUE25_ITEM5_FLOOR], res, "issue 25 item 5")
+    assert res.gap[0, 1] < -1e-5 and 0.03 < res.x[0, 1] < 0.05
+    # The end O2 is on the floor: the dip is below the end, an interior point.
+    assert abs(ISSUE25_ITEM5_FLOOR.gap(joint_positions(model, q)[1:2])[0]) <= 1e-15
+    assert lp.interior(model, q, res.x)[0, 1]

@@ -90,9 +90,8 @@ def test_rod_balanced_on_a_rough_cylinder_pivots_about_its_end():
     """A rod (l = 1 m, m = 1 kg) stands on its end O_1 on top of a rough obstacle cylinder (Circle,
     inside=False, R = 0.2 m, mu = 1), tilted by theta_0 = 0.05 rad from the vertical, at rest.
 
-    A rod lying *across* the cylinder and rocking on it would need resting contact along a link's
-    span (issue 25 item 1: not yet modelled; an accumulation there stops the run "zeno"), so this is
-    the configuration the package supports: the end O_1 rests and sticks, a pivot at (0, R). Closed
+    (A rod lying *across* the cylinder rests on it with its span and rocks: the test below.) Here
+    the end O_1 rests and sticks, a pivot at (0, R). Closed
     form (rigid rod about a fixed end, theta from the vertical):
 
         I_O theta'' = m g (l / 2) sin theta,  I_O = m l^2 / 3   ->   theta'' = (3 g / 2 l) sin theta
@@ -174,3 +173,67 @@ def test_spatial_rod_strikes_a_ball_off_its_plane():
     # Until the impact the rod only translates: q* = (x0, y*, 0, 0, 0, 0).
     p_after = model.linear_momentum(model.state(X1=x0, X2=ys), rec.qdot_after)
     np.testing.assert_allclose(p_after, m * np.array([0.0, -G * t_star, 0.0]) + lam * n, rtol=0, atol=1e-12)
+
+
+def test_rod_across_a_rough_cylinder_rocks_without_slipping(tmp_path):
+    """A rigid rod (l = 1 m, m = 1 kg, k^2 = l^2 / 12 about its centre G) lies across the top of a
+    rough obstacle cylinder (Circle, inside=False, R = 0.2 m, mu = 1), tilted by theta_0 = 0.05 rad
+    about the contact at its middle, at rest: it rests on the cylinder with its span
+    (contact.span_resting; issue 25 item 1) and rocks, the contact point rolling along the rod.
+
+    Closed form (rolling without slipping; theta the rod's tilt, clockwise): the contact point
+    C = R (sin theta, cos theta) is R theta along the rod from G (arc length rolled), so
+    G = (R sin theta - R theta cos theta, R cos theta + R theta sin theta), |v_G| = R theta theta',
+    T = m (k^2 + R^2 theta^2) theta'^2 / 2, V = m g R (cos theta + theta sin theta), and Lagrange's
+    equation is
+
+        (k^2 + R^2 theta^2) theta'' + R^2 theta theta'^2 + g R theta cos theta = 0,
+
+    whose small oscillations have omega^2 = g R / k^2 (k^2 + R^2 theta^2 -> k^2): period
+    2 pi / omega = 1.2955 s here. theta(t) is checked against scipy's solution of this ODE to
+    1e-8 rad (the run's rtol), no impact, resting throughout, and the material point of the rod at
+    the contact does not slip (the contact point moves along the rod by R (theta - theta_0))."""
+    model = planar_rod()
+    R, l, th0, t_end = 0.2, 1.0, 0.05, 1.5
+    wall = gi.Circle(R, (0.0, 0.0), inside=False, friction=1.0)
+    Gc = np.array([R * np.sin(th0) - R * th0 * np.cos(th0), R * np.cos(th0) + R * th0 * np.sin(th0)])
+    O1 = Gc - 0.5 * l * np.array([np.cos(th0), -np.sin(th0)])
+    res = gi.simulate(model, model.state(X1=O1[0], X2=O1[1], theta_1=-th0), np.zeros(3), (0.0, t_end),
+                      walls=[wall], restitution=0.0)
+    assert res.status == "finished", res.message
+    assert res.impacts == [] and res.resting_time == pytest.approx(t_end, rel=1e-12)
+    th = -res.q[:, 2]
+    k2 = l * l / 12.0
+
+    def rocking(t, y):
+        return [y[1], -(R * R * y[0] * y[1] ** 2 + G * R * y[0] * np.cos(y[0])) / (k2 + R * R * y[0] ** 2)]
+
+    ref = solve_ivp(rocking, (0.0, t_end), [th0, 0.0], rtol=1e-12, atol=1e-14, dense_output=True).sol(res.t)[0]
+    assert np.max(np.abs(th - ref)) <= 1e-8
+    # A full swing to -theta_0; the first zero crossing at a quarter of the small-oscillation period,
+    # (pi / 2) sqrt(k^2 / (g R)) (the amplitude's correction R^2 theta_0^2 / k^2 = 1.2e-3 is within 1 %).
+    assert th.min() < -0.049
+    k = int(np.argmax(th < 0.0))
+    t0 = res.t[k - 1] + th[k - 1] / (th[k - 1] - th[k]) * (res.t[k] - res.t[k - 1])
+    assert t0 == pytest.approx(0.5 * np.pi * np.sqrt(k2 / (G * R)), rel=0.01)
+    # The rod's point at the contact: distance from O_1 along the rod = l / 2 + R theta (rolling).
+    p = model.joint_positions(res.q[-1])
+    e = (p[1] - p[0]) / l
+    C = R * np.array([np.sin(th[-1]), np.cos(th[-1]), 0.0])
+    assert np.dot(C - p[0], e) == pytest.approx(l / 2 + R * th[-1], abs=1e-8)
+    # The span point's forces are recorded in their own column (after the joint points O_1, O_2). At
+    # t = 0 (at rest) the contact force is m (a_G + g e_2), a_G = G_theta theta''(0) with G_theta =
+    # R theta (sin theta, cos theta) along the normal n = (sin theta, cos theta): N = m (R theta_0
+    # theta''(0) + g cos theta_0), |F_t| = m g sin theta_0 (m = 1 kg).
+    assert res.contact_forces.shape[2] == 3 and np.all(res.contact_forces[:, 0, :2] == 0.0)
+    thdd0 = -G * R * th0 * np.cos(th0) / (k2 + R * R * th0 * th0)
+    assert res.contact_forces[0, 0, 2] == pytest.approx(R * th0 * thdd0 + G * np.cos(th0), rel=1e-9)
+    assert np.linalg.norm(res.friction_forces[0, 0, 2]) == pytest.approx(G * np.sin(th0), rel=1e-9)
+    assert np.all(np.linalg.norm(res.friction_forces[:, 0, 2], axis=1) < 1.0 * res.contact_forces[:, 0, 2])
+    # contact_forces.csv and the figure name the span point.
+    from gibbsimpact.io import write_contact_forces_csv
+
+    header = write_contact_forces_csv(res, tmp_path / "f.csv").read_text().splitlines()[0].split(",")
+    assert header[:5] == ["t_s", "phase", "F_w1_O1_N", "F_w1_O2_N", "F_w1_link1_N"]
+    fig = res.plot("contact_forces")
+    assert any("span of link 1" in t.get_text() for ax in fig.axes for t in ax.get_legend().get_texts())

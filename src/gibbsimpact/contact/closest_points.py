@@ -282,13 +282,23 @@ def _interior_minima(tab, wp: _WallParams, st, p0, g, g1, refine_below: float, b
     # Interior minima: g' changes sign from - to + between samples k and k + 1.
     g1f = g1 if fl.size == n else g1[:, :, fl]
     ks, ws, ls, js = np.nonzero((g1f[..., :-1] < 0.0) & (g1f[..., 1:] >= 0.0))
+    gf = g if fl.size == n else g[:, :, fl]
+    hidden = _hidden_brackets(tab, wp, st, gf, g1f)
+    lo = hi = np.full(ks.size, np.nan)
+    if hidden is not None:
+        n_old = ks.size
+        ks, ws, ls, js = (np.concatenate((u, v)) for u, v in zip((ks, ws, ls, js), hidden[:4]))
+        order = np.lexsort((js, ls, ws, ks))  # np.nonzero's order: the keys of a pair stay together
+        ks, ws, ls, js = ks[order], ws[order], ls[order], js[order]
+        lo, hi = (np.concatenate((np.full(n_old, np.nan), e))[order] for e in hidden[4:])
     if refine_below < np.inf and ks.size:
-        ks, ws, ls, js = _keep_coarse(tab, p0, g, refine_below, (ks, ws, ls, js), best_s, best_g, best_p)
+        ks, ws, ls, js, lo, hi = _keep_coarse(tab, p0, g, refine_below, (ks, ws, ls, js, lo, hi), best_s, best_g,
+                                              best_p)
     if not ks.size:
         return
     links = fl[ls]
     s_new, gs, ps = _refine(tab, wp, st, ks, ws, links, js, g[ks, ws, links, js], g[ks, ws, links, js + 1],
-                            g1[ks, ws, links, js], g1[ks, ws, links, js + 1])
+                            g1[ks, ws, links, js], g1[ks, ws, links, js + 1], (lo, hi))
     # The lowest interior minimum of each pair (np.nonzero sorts the keys); it beats the
     # ends only beyond round-off.
     key = (ks * W + ws) * n + links
@@ -337,8 +347,9 @@ def _rigid_obstacle_minima(tab, wp: _WallParams, p0, best_s, best_g, best_p):
 
 def _keep_coarse(tab, p0, g, refine_below: float, brackets, best_s, best_g, best_p):
     """refine_below: a flexible pair whose lowest sample gap exceeds it takes that sample as its minimum
-    (written into best_s, best_g, best_p); returns the brackets (ks, ws, ls, js) of the other pairs."""
-    ks, ws, ls, js = brackets
+    (written into best_s, best_g, best_p); returns the brackets (ks, ws, ls, js, sub) of the other pairs
+    (lo, hi: the ends of a bracket of _hidden_brackets, NaN for a sample bracket)."""
+    ks, ws, ls, js, lo, hi = brackets
     fl = tab.flex_links
     gf = g if fl.size == tab.n else g[:, :, fl]
     kmin = np.argmin(gf, axis=-1)
@@ -351,8 +362,8 @@ def _keep_coarse(tab, p0, g, refine_below: float, brackets, best_s, best_g, best
         best_g[kc, wc, lk] = gmin[kc, wc, lc]
         best_p[kc, wc, lk] = p0[kc, lk, jc]
         fine = ~coarse[ks, ws, ls]
-        ks, ws, ls, js = ks[fine], ws[fine], ls[fine], js[fine]
-    return ks, ws, ls, js
+        ks, ws, ls, js, lo, hi = ks[fine], ws[fine], ls[fine], js[fine], lo[fine], hi[fine]
+    return ks, ws, ls, js, lo, hi
 
 
 def _abscissa(tab, st, s):
@@ -362,8 +373,78 @@ def _abscissa(tab, st, s):
     return s   # s = x (and s = l exactly at the far end)
 
 
-def _refine(tab, wp, st, ks, ws, links, js, ga, gb, g1a, g1b):
-    """Minima of g(s) in the brackets [s_j, s_(j+1)] where g'(s_j) < 0 <= g'(s_(j+1)) (P seeds).
+def _hidden_brackets(tab, wp: _WallParams, st, g, g1):
+    """Interior minima that the signs of the sampled g' miss: (ks, ws, ls, js, lo, hi) or None.
+
+    g, g1 : (K, W, F, S) samples of the F flexible links (_sample_gaps). On the sample interval
+    [s_j, s_(j+1)] of length h, t in [0, 1], the cubic Hermite interpolant G of (g, g') has
+
+        h G'(t) = a t^2 + b t + c,  a = 3 (m0 + m1) - 6 dg,  b = 6 dg - 4 m0 - 2 m1,  c = m0,
+
+    m0 = h g'(s_j), m1 = h g'(s_(j+1)), dg = g(s_(j+1)) - g(s_j). Where g' has one sign at both
+    samples, G still has an interior minimum when G' changes sign twice: m0, m1 >= 0 with a > 0,
+    or m0, m1 < 0 with a < 0, the vertex -b / (2 a) in (0, 1) and b^2 > 4 a c; its minimum is at
+    t_m = (-b + sqrt(b^2 - 4 a c)) / (2 a) (G'' = 2 a t + b > 0 there). Typically a dip that grows
+    out of a link's end resting on a wall (issue 25 item 5): the link turns about the end, g'(0)
+    is still > 0 while the curvature near the end already pulls the span below the end. The
+    exact g' at 8 probes, t = 1/8 .. 7/8 and t_m, then gives the first bracket where g' goes from
+    < 0 to >= 0 among (0, probes, 1); an interval without one is dropped. (``lo``, ``hi``: that
+    bracket's ends.) For Hermite elements on a plane with the nodes as samples the cubic is
+    exact, so no minimum is missed there; for modes the test sees every dip the cubic resolves.
+    """
+    fl = tab.flex_links
+    h = (tab.Lc[fl] / (tab.S - 1))[:, None]                        # (F, 1) [m or shape units]
+    m0, m1 = h * g1[..., :-1], h * g1[..., 1:]
+    dg = g[..., 1:] - g[..., :-1]
+    a = 3.0 * (m0 + m1) - 6.0 * dg
+    b = 6.0 * dg - 4.0 * m0 - 2.0 * m1
+    disc = b * b - 4.0 * a * m0
+    up = (m0 >= 0.0) & (m1 >= 0.0) & (a > 0.0)
+    down = (m0 < 0.0) & (m1 < 0.0) & (a < 0.0)
+    vertex = -b / np.where(a != 0.0, 2.0 * a, 1.0)
+    ks, ws, ls, js = np.nonzero((up | down) & (disc > 0.0) & (vertex > 0.0) & (vertex < 1.0))
+    if not ks.size:
+        return None
+    aa, bb, dd = a[ks, ws, ls, js], b[ks, ws, ls, js], disc[ks, ws, ls, js]
+    links, P = fl[ls], ks.size
+    t_m = np.clip((-bb + np.sqrt(dd)) / (2.0 * aa), 0.0, 1.0)
+    t = np.sort(np.concatenate((np.broadcast_to(np.arange(1, 8) / 8.0, (P, 7)), t_m[:, None]), axis=1), axis=1)
+    s0, hh = tab.s_grid[links, js], h[ls, 0]
+    probes = s0[:, None] + t * hh[:, None]                          # (P, 8)
+    rep = lambda v: np.repeat(v, 8)  # noqa: E731
+    slope = _slopes(tab, wp, st, rep(ks), rep(ws), rep(links), rep(js), probes.ravel()).reshape(P, 8)
+    V = np.concatenate((m0[ks, ws, ls, js, None], slope, m1[ks, ws, ls, js, None]), axis=1)   # (P, 10)
+    S = np.concatenate((s0[:, None], probes, tab.s_grid[links, js + 1][:, None]), axis=1)
+    fall = (V[:, :-1] < 0.0) & (V[:, 1:] >= 0.0)
+    keep = fall.any(axis=1)
+    if not keep.any():
+        return None
+    i = np.argmax(fall, axis=1)[keep]
+    rows = np.flatnonzero(keep)
+    return ks[keep], ws[keep], ls[keep], js[keep], S[rows, i], S[rows, i + 1]
+
+
+def _slopes(tab, wp, st, ks, ws, links, js, s):
+    """The exact g' = dg/ds (P,) at s (P,) on the sample intervals js of links (P,) (one basis per kind)."""
+    out = np.empty(s.size)
+    modal = tab.modal[links]
+    for sel, is_modal in ((modal, True), (~modal, False)):
+        if not sel.any():
+            continue
+        wpp = _WallParams(*(arr[ws[sel]] for arr in wp))
+        lo = tab.s_grid[links[sel], js[sel]]
+        hi = tab.s_grid[links[sel], js[sel] + 1]
+        ss = s[sel].copy()
+        basis = _ModalBasis(tab, st, ks[sel], links[sel]) if is_modal else \
+            _HermiteBasis(tab, st, ks[sel], links[sel], js[sel], lo, hi, ss, wpp)
+        out[sel] = _gap_derivatives(wpp, basis.points(s[sel]))[1]
+    return out
+
+
+def _refine(tab, wp, st, ks, ws, links, js, ga, gb, g1a, g1b, bounds=None):
+    """Minima of g(s) in the brackets [s_j, s_(j+1)] where g'(s_j) < 0 <= g'(s_(j+1)) (P seeds);
+    bounds : None, or (lo, hi) (P,) each: NaN, or a bracket of _hidden_brackets inside that
+    interval (g'(lo) < 0 <= g'(hi)), whose Newton iteration starts at its middle.
 
     Returns s (P,), g (P,) [m] and p (P, 3) [m] at the minima. Start: the minimum of the cubic
     Hermite interpolant of (g, g') at the bracket's ends (exact for a Hermite-element link
@@ -385,6 +466,10 @@ def _refine(tab, wp, st, ks, ws, links, js, ga, gb, g1a, g1b):
     den = -b - np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
     t = np.clip(2.0 * c / np.minimum(den, -1e-300), 0.0, 1.0)
     s = lo + t * (hi - lo)
+    if bounds is not None and not np.isnan(bounds[0]).all():
+        inner = ~np.isnan(bounds[0])
+        lo[inner], hi[inner] = bounds[0][inner], bounds[1][inner]
+        s[inner] = 0.5 * (lo[inner] + hi[inner])
     wpp = _WallParams(*(arr[ws] for arr in wp))
     modal = tab.modal[links]
     tol = X_TOL * Lc

@@ -12,9 +12,10 @@ and the gaps' second time derivatives along the motion (walls.py: |grad g| = 1)
     c_a = n_a . a0_j + pdot_j^T H_w pdot_j                                            (2)
 
 a0_j = Jdot_j qdot, the acceleration of O_j at qddot = 0, is the translation column
-of the kernel's qddot-free frame acceleration Tddot0 (kernel.JOB_FRAMES), so only
-frame origins O_1 .. O_(n+1) can rest (the extra tips of prismatic hosts cannot:
-an accumulation there still ends the run with status "zeno"). A contact phase
+of the kernel's qddot-free frame acceleration Tddot0 (kernel.JOB_FRAMES): frame
+origins O_1 .. O_(n+1) rest (the extra tips of prismatic hosts cannot: an
+accumulation there still ends the run with status "zeno"), and so do the closest
+points of links' spans (link columns; their W_a and c_a: span_resting.py). A contact phase
 keeps gddot_A = 0: with the Delassus matrix G = W^T M^-1 W (k, k) [m/(N s^2)],
 
     G lambda = -(W^T M^-1 f + c),    qddot = M^-1 f + M^-1 W lambda                (3)
@@ -109,6 +110,7 @@ from .. import kernel as _k
 from ..dynamics.gibbs_appell import _raise_singular
 from .impact import _solve_lcp
 from ..dynamics.kinematics import as_vector, run_kernel, states
+from .span_resting import span_abscissae, span_point_terms
 from .walls import packed_walls, tangent_basis
 
 _JOB = _k.JOB_SOLVE | _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS | _k.JOB_FRAMES
@@ -215,6 +217,41 @@ def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> Constrain
     return _constraint_data(model, out, r, plan)
 
 
+def mixed_constraint_data(model, walls, q, qd, Q, pairs, n_joints: int, flex, velocities=True):
+    """resting.ConstraintData of pairs (k, 2) some of which are span pairs (column >= n_joints):
+    the joint pairs from the compiled contact terms (resting.constraint_data), the span pairs from
+    span_resting.span_point_terms at x*, then W (N, k), M^-1 W, G = W^T M^-1 W and, with
+    velocities, equation (3) of resting.py (lam, qdd). Shapes and units as ConstraintData."""
+    pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
+    k, N = len(pairs), model.n_dof
+    span = pairs[:, 1] >= n_joints
+    d0 = constraint_data(model, walls, q, qd, Q, pairs[~span], velocities)
+    qd_use = qd if velocities else np.zeros(N)
+    W, J = np.zeros((N, k)), np.zeros((k, 3, N))
+    nrm, pd, a0, c, g = np.zeros((k, 3)), np.zeros((k, 3)), np.zeros((k, 3)), np.zeros(k), np.zeros(k)
+    joint = np.flatnonzero(~span)
+    W[:, joint], J[joint], nrm[joint], g[joint] = d0.W, d0.J, d0.n, d0.g
+    if velocities:
+        pd[joint], a0[joint], c[joint] = d0.pd, d0.a0, d0.c
+    sp = np.flatnonzero(span)
+    for a, (i, x) in zip(sp, span_abscissae(model, walls, q, pairs[span], n_joints, flex)):
+        _, J[a], nrm[a], pd[a], a0[a], g[a], c[a] = span_point_terms(model, walls[pairs[a, 0]], q, qd_use, i, x)
+        W[:, a] = J[a].T @ nrm[a]
+    if not velocities:
+        pd = a0 = None
+        c = np.zeros(k)
+    M = d0.M
+    MinvW = np.linalg.solve(M, W)
+    G = W.T @ MinvW
+    G = 0.5 * (G + G.T)
+    v = W.T @ qd_use
+    lam = qdd = None
+    if velocities:
+        lam = _solve_sym(G, -(W.T @ d0.qdd_free + c))
+        qdd = d0.qdd_free + MinvW @ lam
+    return ConstraintData(d0.qdd_free, MinvW, W, G, c, g, v, M, J, nrm, pd, a0, lam, qdd)
+
+
 def _constraint_data(model, out, r, plan: _Plan) -> ConstraintData:
     """ConstraintData as views of the two outputs of _terms."""
     N, k, o, off = model.n_dof, len(plan.pairs), plan.o, plan.off
@@ -252,8 +289,10 @@ class RestingContacts:
     the P joint points); force_scale [N]: m |g~| (1 N without gravity).
     """
 
-    def __init__(self, model, walls, contact_tol, v_tol=1e-6, n_cols=None):
+    def __init__(self, model, walls, contact_tol, v_tol=1e-6, n_cols=None, flex=()):
         self.model, self.walls, self.contact_tol, self.v_tol = model, walls, contact_tol, v_tol
+        # Link columns (n_cols > P): the closest point of link flex[c - P], a span pair (span_resting.py).
+        self.n_joints, self.flex = model.n_joints, list(flex)
         P = model.n_joints if n_cols is None else n_cols  # columns of the gap matrix (contacts.Contacts)
         self.active = np.zeros((len(walls), P), dtype=bool)
         self.stick = np.zeros((len(walls), P), dtype=bool)
@@ -267,7 +306,8 @@ class RestingContacts:
         # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves when
         # joint 1 is revolute (J = 0 there), but it does as a carriage on the base rail (Pa) or as the
         # rear end of a link sliding through the base guide (Pb): then it rests like any joint.
-        restable = np.arange(P) <= model.n_links  # link columns (contacts.py) never rest
+        # Frame origins and span points (link columns, span_resting.py) rest; the extra tips do not.
+        restable = (np.arange(P) <= model.n_links) | (np.arange(P) >= model.n_joints)
         if not isinstance(model.chain.base, str) and model.joint_kinds[0] == "R":
             restable[0] = False
         self.can_rest = np.broadcast_to(restable[None, :], self.active.shape)  # (W, P): the same for every wall
@@ -298,6 +338,14 @@ class RestingContacts:
         self._cache = (None, None)
 
     # -- equations (1)-(3), (6) ------------------------------------------------------
+    def _data(self, q, qd, Q, pairs, velocities=True) -> ConstraintData:
+        """constraint_data of the pairs (k, 2), span pairs included (span_resting.mixed_constraint_data)."""
+        pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
+        if np.any(pairs[:, 1] >= self.n_joints):
+            return mixed_constraint_data(self.model, self.walls, q, qd, Q, pairs, self.n_joints, self.flex,
+                                         velocities)
+        return constraint_data(self.model, self.walls, q, qd, Q, pairs, velocities)
+
     def _solve(self, d, pairs, stick, sdir, slow=None):
         """Equations (3)/(6) for the pairs (k, 2) with constraint data d; stick (k,) bool, sdir (k, 3);
         slow (k,) bool or None: slipping pairs whose direction is held at sdir (7').
@@ -343,6 +391,12 @@ class RestingContacts:
             self._mode = (mode, (pairs, self.stick[self.active], self.slip_dir[self.active], plan, frictionless,
                                  zeros, self.slow[self.active]))
         pairs, stick, sdir, plan, frictionless, zeros, slow = self._mode[1]
+        if np.any(pairs[:, 1] >= self.n_joints):  # span pairs: equations (3)/(6) in Python
+            d = self._data(q, qd, Q, pairs)
+            qdd, lam, F_t, lam_t, power = self._solve(d, pairs, stick, sdir, slow)
+            res = (qdd, lam, F_t, power, lam_t, d)
+            self._cache = (key, res)
+            return res
         if frictionless:
             # Equation (3) from the compiled contact terms' lambda and qddot sections.
             r = _terms(self.model, q, qd, Q, plan)[1]
@@ -375,7 +429,7 @@ class RestingContacts:
             return q, qd
         tol = 1e-3 * self.contact_tol
         for _ in range(max_iter):
-            d = constraint_data(self.model, self.walls, q, None, None, pairs, velocities=False)
+            d = self._data(q, None, None, pairs, velocities=False)
             if np.max(np.abs(d.g)) <= tol:
                 break
             q = q - d.MinvW @ _solve_sym(d.G, d.g)
@@ -408,7 +462,7 @@ class RestingContacts:
         mu = self.mu[candidates[:, 0]]
         if not np.any(mu > 0):
             q, qd = self.project(q, qd, candidates)
-            d = constraint_data(self.model, self.walls, q, qd, Q, candidates)
+            d = self._data(q, qd, Q, candidates)
             lam = _solve_lcp(d.G, d.W.T @ d.qdd_free + d.c)
             on = lam > 1e-10 * max(float(lam.max(initial=0.0)), self.force_scale)
             self.active[candidates[on, 0], candidates[on, 1]] = True
@@ -417,7 +471,7 @@ class RestingContacts:
         # others slip along their velocity. Then an active-set iteration: a negative normal force
         # leaves (the most negative first); a sticking force outside the cone |F_t| < mu N (or on
         # its edge) turns into slip against it (the largest excess first).
-        vt = _tangential(constraint_data(self.model, self.walls, q, qd, Q, candidates))
+        vt = _tangential(self._data(q, qd, Q, candidates))
         speed = np.linalg.norm(vt, axis=1)
         stick = (mu > 0) & (speed <= self.v_tol)
         sdir = np.where(speed[:, None] > 0, vt / np.maximum(speed, 1e-300)[:, None], 0.0)
@@ -453,7 +507,7 @@ class RestingContacts:
         on = np.ones(len(candidates), dtype=bool)
         for _ in range(4 * len(candidates) + 4):
             pairs = candidates[on]
-            d = constraint_data(self.model, self.walls, q, qd, Q, pairs)
+            d = self._data(q, qd, Q, pairs)
             _, lam, _, lam_t, _ = self._solve(d, pairs, stick[on], sdir[on], (~stick & slow)[on])
             scale = max(float(np.abs(lam).max(initial=0.0)), self.force_scale)
             if np.any(lam < -1e-10 * scale):

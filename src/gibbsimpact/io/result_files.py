@@ -239,8 +239,9 @@ def write_impacts_csv(result: Result, path) -> Path:
 
 
 def contact_force_columns(result: Result) -> list[str]:
-    """Column names F_w<wall>_<point>_N of contact_forces.csv (walls and points from 1)."""
-    names = result.model.contact_point_names
+    """Column names F_w<wall>_<point>_N of contact_forces.csv (walls and points from 1; a link's span
+    point: F_w<wall>_link<i>_N)."""
+    names = _force_point_names(result)
     return [f"F_w{w + 1}_{names[j]}_N" for w in range(len(result.walls)) for j in range(len(names))]
 
 
@@ -273,6 +274,14 @@ def has_contact_forces(result: Result) -> bool:
     """Whether contact_forces.csv is written: some pair rested, an end stop held its joint, or some pair
     pressed on a compliant wall (Result.has_resting_forces)."""
     return result.has_resting_forces
+def _force_point_names(result: Result) -> list[str]:
+    """Names of the columns of Result.contact_forces: O1 .. O_P, then link<i> for the span point of link i
+    (simulation.contacts.link_columns), as many as the array has."""
+    from ..simulation.contacts import link_columns
+
+    names = list(result.model.contact_point_names)
+    C = len(names) if result.contact_forces is None else np.shape(result.contact_forces)[2]
+    return (names + [f"link{i + 1}" for i in link_columns(result.model, result.walls)])[:C]
 
 
 def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
@@ -285,6 +294,7 @@ def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
     K = len(result.t)
     F = result.contact_forces
     F = np.zeros((K, len(result.walls) * result.model.n_joints)) if F is None else np.asarray(F).reshape(K, -1)
+    # (K, W C): the joint points, then the span points (contact_force_columns)
     header = ["t_s", "phase"] + contact_force_columns(result)
     if result.friction_forces is not None:
         F = np.hstack((F, np.asarray(result.friction_forces).reshape(K, -1)))
@@ -463,7 +473,7 @@ def summary(result: Result, case=None) -> dict:
     d["resting_time_s"] = float(result.resting_time)
     F = result.contact_forces
     if F is not None and F.size and np.any(F[-1]):
-        names = model.contact_point_names
+        names = _force_point_names(result)
         d["final_contact_forces_N"] = {f"{names[j]} on wall {w + 1}": float(F[-1, w, j])
                                        for w, j in np.argwhere(F[-1] != 0.0)}
         if result.friction_forces is not None:

@@ -323,7 +323,9 @@ def plot_contact_forces(result, case_name=None, ax=None):
     else:
         axes = _given_axes(ax, n_panels, "plot_contact_forces")
         fig = axes[0].figure
-    names = [_point_label(result.model, j + 1) for j in range(result.model.n_joints)]
+    P = result.model.n_joints
+    names = [_point_label(result.model, j + 1) if j < P else f"span of {_point_name(result.model, j + 1, result.walls)}"
+             for j in range(F.shape[2])]
     c = 0
     for w, j in (np.argwhere(np.any(F != 0.0, axis=0)) if rested else ()):
         _curve(axes[0], result.t, F[:, w, j], label=f"{names[j]} on wall {w + 1}", **_style(c, _joint_colour(int(j))))

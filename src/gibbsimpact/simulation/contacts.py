@@ -47,7 +47,7 @@ class Contacts:
     an end, the end joint's own column is the candidate, so nothing is counted twice. Its
     event fires where a link bulges into a wall between its joints. Rigid links have no column
     unless a wall is an obstacle (else their closest point is always an end). Link columns
-    cannot rest (resting.py).
+    rest like the joints (contact.span_resting: the contact point rolls and slides along the link).
 
     Then one column per attached body with a centre offset (contact.candidates.body_candidates,
     ``bodies``): the gap of its centre, a point candidate like a joint (docs/theory.md §6.8); it

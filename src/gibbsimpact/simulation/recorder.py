@@ -50,11 +50,12 @@ class Recorder:
     every impact with the sample after it).
     """
 
-    def __init__(self, model, t0, q0, qdot0, n_walls=0, prescribed=None, n_limits=0):
+    def __init__(self, model, t0, q0, qdot0, n_walls=0, prescribed=None, n_limits=0, n_cols=None):
         self.model = model
         self.prescribed = prescribed  # (n_p,) indices of the prescribed coordinates, or None
         n_work = 2 if prescribed is None else 3
-        self.force_shape = (n_walls, model.n_joints)
+        # (W, C): the P joint points, then the span points of the link columns (contacts.Contacts).
+        self.force_shape = (n_walls, model.n_joints if n_cols is None else n_cols)
         self.n_limits = n_limits  # L joint limits (their end-stop forces: Result.stop_forces)
         # Energy of every stored sample: needed for the flight-phase drift, then handed
         # to the Result so res.energy() does not evaluate M at every sample again.

@@ -114,10 +114,12 @@ class Result:
     prescribed : tuple of str, the prescribed coordinates (simulate's ``prescribed``; () for none)
     effort : (K, n_p) or None: the generalised force Q_p each prescribed coordinate's actuator applies at
         every sample [N m on an angle, N on a length] (formulation §16), columns in ``prescribed``'s order
-    contact_forces : (K, W, P) [N] or None: the normal force of wall w on contact point
+    contact_forces : (K, W, C) [N] or None: the normal force of wall w on contact point
         O_(j+1) at every sample while the pair is in resting contact (gibbsimpact.resting),
-        0 elsewhere (impulses of impacts are in ``impacts``); None for results of older files
-    friction_forces : (K, W, P, 3) [N] or None: the tangential (friction) force of wall w on
+        0 elsewhere (impulses of impacts are in ``impacts``); None for results of older files.
+        C = P joint points, then, when a span point rested (contact.span_resting), one column per
+        link column of the run (contacts.link_columns): the force on that link's resting span point
+    friction_forces : (K, W, C, 3) [N] or None: the tangential (friction) force of wall w on
         O_(j+1) while the pair rests on a wall with friction (sticking or slipping); None when
         no wall has friction
     resting_time : float [s], the simulated time spent with at least one pair in resting contact

@@ -126,14 +126,15 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
     lipschitz = gap_lipschitz(model)
     band = contact_band(s.contact_tol, lipschitz, s.rtol, s.atol, q0)
-    resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols)
+    resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols, contacts.flex)
     compliant = (CompliantContacts(model, contacts, s.wall_restitution, lipschitz)
                  if any(map(is_compliant, walls)) else None)
     equations = Equations(model, s, q0, qdot0, resting, clock, compliant, stops)
     return Run(
         model=model, settings=s, contacts=contacts, limits=limits, stops=stops, resting=resting,
         monitor=Accumulation((len(walls), contacts.n_cols), s.zeno_count, s.zeno_interval, band, contacts.names),
-        recorder=Recorder(model, s.t0, q0, qdot0, len(walls), _index(s.prescribed), len(limits)), equations=equations,
+        recorder=Recorder(model, s.t0, q0, qdot0, len(walls), _index(s.prescribed), len(limits),
+                          contacts.n_cols), equations=equations,
         clock=clock, lipschitz=lipschitz, t=s.t0, y=np.concatenate((q0, qdot0, np.zeros(equations.n_extra))),
         band=band, near=np.zeros((len(walls), contacts.n_cols), dtype=bool), compliant=compliant,
     )
@@ -174,8 +175,8 @@ def _accumulation(run, accumulation) -> None:
     unresolved = run.monitor.unresolved(run.resting.can_rest) if rest else None
     why = ("accumulation='stop'" if not rest else
            "resting contact is not modelled with prescribed coordinates" if run.settings.prescribed is not None else
-           "resting contact is modelled for joints only, not for a link's span, the "
-           "tip of a prismatic host or a body's centre" if not run.forced.any() else
+           "resting contact is modelled at joints and along links' spans, not at the tip of a prismatic host "
+           "(a contact point after the chain's tip) or a body's centre" if not run.forced.any() else
            unresolved if unresolved is not None else
            "resting contact did not resolve it" if run.settled_at == run.t else None)
     if why is not None:
@@ -324,16 +325,17 @@ def _joined(extras):
 
 
 def _forces_at(run, T, Y):
-    """Normal (K, W, P) and tangential (K, W, P, 3) [N] resting-contact forces, and the end-stop forces
+    """Normal (K, W, C) and tangential (K, W, C, 3) [N] resting-contact forces (C: the joint points, then the
+    span points of the link columns), and the end-stop forces
     (K, L) [N or N m] (None without joint limits), at the samples T (K,), Y (K, 2N [+ 2])."""
-    N, P, applied, stops = run.N, run.model.n_joints, run.equations.applied, run.stops
+    N, applied, stops = run.N, run.equations.applied, run.stops
     F = [run.resting.force_matrix(yk[:N], yk[N:2 * N], applied(tk, yk[:N], yk[N:2 * N])) for tk, yk in zip(T, Y)]
     S = None
     if stops is not None:
         S = np.zeros((len(T), len(stops.limits)))
         if stops.held.any():
             S[:, stops.held] = [run.equations.stop_forces(tk, yk[:N], yk[N:2 * N]) for tk, yk in zip(T, Y)]
-    return np.stack([f[0][:, :P] for f in F]), np.stack([f[1][:, :P] for f in F]), S
+    return np.stack([f[0] for f in F]), np.stack([f[1] for f in F]), S
 
 
 def flight(run):
@@ -497,6 +499,9 @@ def finish(run, started: float) -> Result:
     if run.status is None:
         run.status = STATUS_FINISHED
     t_all, q_all, qdot_all, phase_all, work_all, E_all, F_all, Ft_all, S_all = run.recorder.arrays()
+    P = run.model.n_joints
+    if not np.any(F_all[:, :, P:]):  # no span point rested: the joint points' columns only, as before
+        F_all, Ft_all = F_all[:, :, :P], Ft_all[:, :, :P]
     walls = run.settings.walls
     return Result(
         model=run.model, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,

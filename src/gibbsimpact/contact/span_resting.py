@@ -1,0 +1,80 @@
+"""Resting contact at a material point of a link's span (issue 25 item 1; docs/theory.md §10.3, §14).
+
+A span pair a = (wall w, link column c) is the point of link i = flex[c - P] closest to wall w,
+x* = argmin_x phi(q, x), phi(q, x) = g_w(p(q, x)) (contact.closest_points: an interior minimum,
+phi_x = 0, phi_xx >= 0). It rests like a joint pair (resting.py, equations (1)-(7)) with the
+constraint g_a(q) = phi(q, x*(q)) = 0. The contact point follows the link: it rolls and slides
+along the span, deflection included.
+
+Kinematics of the sliding contact point. With phi_x(q, x*(q)) = 0 (envelope theorem)
+
+    g_a'   = phi_q qdot = n^T J(x*) qdot                                                      (1)
+
+so the force column W_a = J(x*)^T n is that of the material point at x*. Differentiating again,
+with xdot* from d/dt phi_x(q, x*) = 0, i.e. phi_xq qdot + phi_xx xdot* = 0,
+
+    g_a''  = phi_q qddot + qdot^T phi_qq qdot + (phi_xq qdot) xdot*
+           = n^T (J qddot + a0) + pdot^T H_w pdot - (phi_xq qdot)^2 / phi_xx                (2)
+    phi_xq qdot = n^T pdot_x + p_x^T H_w pdot,   phi_xx = n^T p_xx + p_x^T H_w p_x
+
+(a0 = Jdot qdot of the material point, pdot = J qdot, p_x = dp/dx, p_xx = d2p/dx2 and pdot_x the
+velocity of p_x at fixed x; H_w the Hessian of the wall's gap, |grad g| = 1). The last term
+of (2) is the only one a joint pair does not have: the contact point's own motion along the
+link, xdot* = -(phi_xq qdot) / phi_xx. For a rigid rod rolling on a cylinder of radius R it is
+-R omega^2 (phi_xx = 1 / R, phi_xq qdot = omega); for a rod lying flat on a plane phi_xx = 0 and
+x* is not defined (both ends rest instead: a rigid link has no column on a plane).
+
+p_x, p_xx and pdot_x are central differences of the material points and their velocities at
+x* +- h_x, h_x = 1e-4 l_i (exact for a rigid link up to round-off ~ eps l / h_x^2; O(h_x^2)
+for a flexible one, relative error ~1e-8). The tangential rows of a sticking span point use
+a0 of the material point at x*: rolling without slipping keeps its tangential velocity and
+acceleration zero.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..dynamics.link_points import material_jacobian
+from .closest_points import closest_points
+
+#: Step of the central differences along the link, relative to its length.
+H_X = 1e-4
+
+
+def _bilinear(wall, p, u, v) -> float:
+    """u^T H_w v [1/m times the units of u, v] at p (3,) from the wall's quadratic form (polarisation)."""
+    P = p[None, :]
+    return 0.25 * float(wall.curvature(P, (u + v)[None, :])[0] - wall.curvature(P, (u - v)[None, :])[0])
+
+
+def span_point_terms(model, wall, q, qd, i: int, x: float):
+    """Equations (1)-(2) of the module docstring for the material point x [m] of link i on ``wall``.
+
+    Returns p (3,) [m], J (3, N), n (3,), pd (3,) [m/s], a0 (3,) [m/s^2] of the material point,
+    g [m], the acceleration term c = n.a0 + pd^T H pd - (phi_xq qd)^2 / phi_xx [m/s^2].
+    """
+    length = model.chain.links[i].length
+    h = H_X * length
+    x = float(np.clip(x, h, length - h))
+    p, J, a0 = material_jacobian(model, q, qd, i, x)
+    pm, Jm, _ = material_jacobian(model, q, qd, i, x - h)
+    pp, Jp, _ = material_jacobian(model, q, qd, i, x + h)
+    n = wall.normal(p[None, :])[0]
+    g = float(wall.gap(p[None, :])[0])
+    pd = J @ qd
+    p_x, p_xx = (pp - pm) / (2.0 * h), (pp - 2.0 * p + pm) / (h * h)
+    pd_x = (Jp - Jm) @ qd / (2.0 * h)
+    c = float(n @ a0) + float(wall.curvature(p[None, :], pd[None, :])[0])
+    phi_xx = float(n @ p_xx) + float(wall.curvature(p[None, :], p_x[None, :])[0])
+    if phi_xx > 0.0:
+        phi_xq = float(n @ pd_x) + _bilinear(wall, p, p_x, pd)
+        c -= phi_xq * phi_xq / phi_xx
+    return p, J, n, pd, a0, g, c
+
+
+def span_abscissae(model, walls, q, pairs, n_joints: int, flex) -> list:
+    """(link, x* [m]) of every span pair (wall, column >= n_joints) of ``pairs`` (k, 2): closest_points."""
+    cp = closest_points(model, q, walls)
+    return [(flex[c - n_joints], float(cp.x[w, flex[c - n_joints]])) for w, c in pairs]
+
