@@ -488,7 +488,7 @@ class RestingContacts:
         # (a tangent of near-zero mobility: G's cut singular values), so a pair that starts to slip
         # from rest may still move against s0: its stick event starts at v_t . s0 < 0 (issue 25 item 7).
         # The event's level is then below that velocity by v_tol / 1000.
-        along = np.sum(_tangential(constraint_data(self.model, self.walls, q, qd, Q, candidates)) * sdir, axis=1)
+        along = np.sum(_tangential(self._data(q, qd, Q, candidates)) * sdir, axis=1)
         for a in np.nonzero(on)[0]:
             w, j = candidates[a]
             self.active[w, j] = True
@@ -546,7 +546,7 @@ class RestingContacts:
         if not held.any():
             return held
         pairs, rows = candidates[on], np.flatnonzero(held[on])
-        d = constraint_data(self.model, self.walls, q, qd, Q, pairs)
+        d = self._data(q, qd, Q, pairs)
         qdd = self._solve(d, pairs, stick[on], sdir[on], held[on])[0]
         acc = np.einsum("kcn,n->kc", d.J[rows], qdd) + d.a0[rows]
         a_t = acc - np.sum(acc * d.n[rows], axis=1)[:, None] * d.n[rows]
