@@ -11,6 +11,7 @@ import numpy as np
 from ..kernel.layout import (_CI, _F_LINKS, _GAUSS, _H, _LI, BASE_FIXED, BASE_FREE, BASE_PLANAR, END_GENERAL, END_RIGID,
                              JOINT_PA, JOINT_PB, JOINT_R, KIND_MODE, KIND_PA, KIND_PB, KIND_ROTATION, KIND_TRANSLATION)
 from .elements import assemble as assemble_elements, element_stiffness, hermite_shape
+from .shapes import foreshortening_matrix, link_quadrature, shape_functions
 
 
 def _pb_tables(link):
@@ -25,6 +26,19 @@ def _pb_tables(link):
     Kunit = assemble_elements(element_stiffness(1.0, 1.0 / ne), ne)
     a = np.tile([0.0, 1.0], ne)  # a_k: 0 for a deflection dof, 1 for a slope dof
     return [xi, w, *N, Kunit.ravel(), a]
+
+
+def _fs_tables(link, quadrature):
+    """The per-call foreshortening tables of a stiffened link (formulation §15; kernel/moments.py
+    _fs_moments): [G, P, x (G) [m], w mu (G) [kg], psi (G, m), k (P), l (P), H_p(x) (G, P) [1/m],
+    H(l) (m, m)], on the link's quadrature points (link_quadrature, the same material as the
+    modal integrals); the P pairs k <= l are those where H(x) is not zero for some x."""
+    x, _, wm = link_quadrature(link, quadrature)
+    psi = shape_functions(link, x)[1].T
+    H = foreshortening_matrix(link, x)
+    Hl = foreshortening_matrix(link, [link.length])[0]
+    k, l = np.nonzero(np.triu(np.any(H != 0.0, axis=0)))
+    return [[x.size, k.size], x, wm, psi.ravel(), k, l, H[:, k, l].ravel(), Hl.ravel()]
 
 
 def pack(model):
@@ -69,7 +83,7 @@ def pack(model):
             ci[c] = (KIND_MODE, axis_of[ld.directions[l]], i + 1, i, l, 0)
         # A moving end always takes the Rodrigues path (exact at phi = 0: R = I, dR[u] = a skew(u)).
         end = END_RIGID if ld.end_is_rigid else END_GENERAL
-        li[i] = (m, idx[0] if m else 0, th, off, end, jk)
+        li[i] = (m, idx[0] if m else 0, th, off, end, jk, -1)
         P0 = np.array(ld.P0, dtype=float)
         J = ld.J_body
         # Rotary inertia as a pseudo-inertia: Sigma = tr(J)/2 I - J (module docstring, item 5).
@@ -85,6 +99,9 @@ def pack(model):
                  np.asarray(ld.end_t).ravel(), np.asarray(ld.end_phi).ravel(), joint]
         if jk == JOINT_PB:
             block += _pb_tables(lk)
+        if lk.stiffened:
+            li[i, 6] = off + sum(np.size(b) for b in block)
+            block += _fs_tables(lk, model.quadrature)
         f += block
         off += sum(np.size(b) for b in block)
     # A second twist (B[ss + N + c]): the protruding length D of a flexible Pb link that carries
