@@ -63,12 +63,13 @@ def _link(r: _Reader, tbl, path: str):
     j = _rotary_inertia(r, tbl, path, mu)
     modes = _modes(r, tbl, join(path, "modes"))
     elements, directions, zeta = _discretisation(r, tbl, path, modes)
-    if _BAD in (length, mu, ei, j, elements, directions, zeta) or modes is _BAD:
+    stiff = r.get(tbl, path, "geometric_stiffening", "bool", default=True)
+    if _BAD in (length, mu, ei, j, elements, directions, zeta, stiff) or modes is _BAD:
         return _BAD
     try:
         link = Link(length=length, mass_per_length=mu, EI=ei, modes=tuple(modes),
                     rotary_inertia=tuple(j) if j is not None else (0.0, 0.0, 0.0),
-                    elements=elements, element_directions=directions, damping=zeta)
+                    elements=elements, element_directions=directions, damping=zeta, geometric_stiffening=stiff)
     except ValueError as exc:  # pragma: no cover - every check above mirrors Link's
         r.add(path, str(exc))
         return _BAD
@@ -382,6 +383,11 @@ def _pb_rules(r: _Reader, links, joints, k: int) -> bool:
                                              "stretching finite elements; give it elements instead of modes (or "
                                              "neither: rigid)")
         ok = False
+    if lk.stiffened:
+        r.add(key_path("links", k, "geometric_stiffening"),
+              f"link {i} slides through a Pb guide ({p}): the foreshortening of material flowing through a guide "
+              "is not modelled; set geometric_stiffening = false (the linear beam)")
+        ok = False
     if hi > lk.length + 1e-12:
         r.add(join(p, "range_m"), f"d_max = {fmt(hi)} m is more than {key_path('links', k, 'length_m')} = "
                                   f"{fmt(lk.length)}: d_{i} is the length protruding from the guide, at "
@@ -400,6 +406,11 @@ def _pa_rules(r: _Reader, links, joints, k: int) -> bool:
     if host.modes:
         r.add(join(p, "type"), f"a Pa carriage rides on link {h}, which has assumed modes: give links[{h}] "
                                "elements instead of modes, or neither (rigid)")
+        ok = False
+    if host.stiffened:
+        r.add(key_path("links", h - 1, "geometric_stiffening"),
+              f"a Pa carriage ({p}) rides on link {h}: a carriage on a foreshortening host is not modelled yet; "
+              "set geometric_stiffening = false on the host (the linear beam)")
         ok = False
     if host.elements and c <= 0:
         r.add(join(p, "half_length_m"),

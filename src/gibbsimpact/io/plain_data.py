@@ -29,7 +29,7 @@ def model_to_dict(model: Model) -> dict:
             "modes": [[m.kind, m.direction, int(m.number)] for m in lk.modes],
             "rotary_inertia": list(lk.rotary_inertia),
             "elements": int(lk.elements), "element_directions": list(lk.element_directions),
-            "damping": float(lk.damping),
+            "damping": float(lk.damping), "geometric_stiffening": bool(lk.geometric_stiffening),
         })
     d = {"links": links, "gravity": [float(g) for g in model.gravity]}
     base = model.chain.base
@@ -58,7 +58,9 @@ def model_from_dict(d: dict) -> Model:
         Link(length=lk["length"], mass_per_length=lk["mass_per_length"], EI=tuple(lk["EI"]),
              modes=tuple(Mode(k, dr, n) for k, dr, n in lk["modes"]), rotary_inertia=tuple(lk["rotary_inertia"]),
              elements=int(lk.get("elements", 0)), element_directions=tuple(lk.get("element_directions", ("y",))),
-             damping=float(lk.get("damping", 0.0)))
+             damping=float(lk.get("damping", 0.0)),
+             # files written before foreshortening existed hold linear beams
+             geometric_stiffening=bool(lk.get("geometric_stiffening", False)))
         for lk in d["links"]
     ]
     kw = {"quadrature": tuple(d["quadrature"])} if "quadrature" in d else {}
