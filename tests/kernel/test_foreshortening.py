@@ -136,3 +136,37 @@ def test_impacts_at_e1_conserve_energy_and_angular_momentum_about_the_centre():
     H0 = model.angular_momentum(res.q[0], res.qdot[0], about=np.zeros(3))
     H = np.array([model.angular_momentum(a, b, about=np.zeros(3)) for a, b in zip(res.q, res.qdot)])
     assert np.max(np.linalg.norm(H - H0, axis=1)) <= 1e-9 * np.linalg.norm(H0)
+
+
+def test_tip_of_a_bent_link_sits_at_l_plus_u_f_everywhere():
+    # One Hermite element (l = 0.8 m) bent by a tip deflection w1 and slope t1: v(x) = w1 H3 + l t1 H4,
+    # u_f(l) = -1/2 int_0^l v'^2 dx by numpy's exact polynomial integration (no package code).
+    from numpy.polynomial import Polynomial as P
+
+    from gibbsimpact.contact.closest_points import closest_points
+    from gibbsimpact.dynamics.link_points import link_points, material_jacobian, material_points
+    from gibbsimpact.plotting.geometry import _link_parts
+
+    l, th, w1, t1 = 0.8, 0.4, 0.12, 0.2
+    xi = P([0.0, 1.0 / l])
+    v = w1 * (3 * xi**2 - 2 * xi**3) + l * t1 * (-xi**2 + xi**3)
+    u_f = -0.5 * (v.deriv() ** 2).integ()(l)
+    R = np.array([[np.cos(th), -np.sin(th), 0.0], [np.sin(th), np.cos(th), 0.0], [0.0, 0.0, 1.0]])
+    tip = R @ [l + u_f, v(l), 0.0]
+    model = gi.Model(gi.Chain([gi.Link(l, 1.0, 5.0, elements=1)], base=gi.FixedBase()), gravity=(0.0, 0.0, 0.0))
+    q = np.array([th, w1, t1])
+    assert u_f < -1e-3  # a visible shortening: 1.2 % of l
+    np.testing.assert_allclose(model.joint_positions(q)[1], tip, rtol=0, atol=1e-15)  # kernel end transform
+    np.testing.assert_allclose(material_points(model, q, 0, [l])[0], tip, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(material_jacobian(model, q, np.zeros(3), 0, l)[0], tip, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(link_points(model, q)[0, -1], tip, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(_link_parts(model, q)[0][0][-1], tip, rtol=0, atol=1e-15)  # what the figures draw
+    # mid-span: x = l/2 + u_f(l/2), the same integral up to l/2
+    mid = R @ [l / 2 - 0.5 * (v.deriv() ** 2).integ()(l / 2), v(l / 2), 0.0]
+    np.testing.assert_allclose(material_points(model, q, 0, [l / 2])[0], mid, rtol=0, atol=1e-15)
+    # a plane wall across the link axis beyond the tip: the closest point is the tip, its gap the tip's
+    ex = R[:, 0]
+    wall = gi.Plane(point=tuple(R @ [l + 0.05, 0.0, 0.0]), normal=tuple(-ex))
+    cp = closest_points(model, q, [wall])
+    assert cp.x[0, 0] == pytest.approx(l, abs=1e-9)
+    assert cp.gap[0, 0] == pytest.approx(float(ex @ (R @ [l + 0.05, 0.0, 0.0] - tip)), abs=1e-12)

@@ -229,13 +229,36 @@ def closest_points(model, q, walls, refine_below: float = np.inf) -> ClosestPoin
     best_s, best_g, best_p = _end_minima(tab, p0, g, K, W)
     if tab.flex_links.size:
         _interior_minima(tab, wp, st, p0, g, g1, refine_below, best_s, best_g, best_p)
+    x = _abscissa(tab, st, best_s)
+    _foreshorten(model, wp, st, qs, x, best_g, best_p)
     best_n = np.empty((K, W, n, 3))
     for k in range(W):
         best_n[:, k] = _normals(wp, k, best_p[:, k])
-    x = _abscissa(tab, st, best_s)
     if qa.ndim == 1:
         return ClosestPoints(x[0], best_g[0], best_n[0])
     return ClosestPoints(x, best_g, best_n)
+
+
+def _foreshorten(model, wp: _WallParams, st, qs, x, best_g, best_p):
+    """Move the closest points of stiffened links onto the foreshortened centreline (formulation
+    §15): p += u_f(x*) R_i e_x, and their gaps g(p) (best_g (K, W, n), best_p (K, W, n, 3), in place).
+
+    x* is searched on the linear centreline r = (x, v, w): the two curves differ by
+    r(x) - r_lin(x + u_f) = O(delta^3) (an axial shift along the curve), so x* is the minimiser to
+    that order, and the point and gap returned are those of the material point x* exactly (the
+    ones the impact's Jacobian, material_jacobian, uses).
+    """
+    from ..model.shapes import link_foreshortening
+
+    K, W = best_g.shape[:2]
+    for i, lk in enumerate(model.chain.links):
+        if not lk.stiffened:
+            continue
+        for k, q in enumerate(qs):
+            best_p[k, :, i] += link_foreshortening(model, q, i, x[k, :, i])[0][:, None] * st.R[k, i, :, 0]
+        for w in range(W):
+            g, _ = _gap_terms(_WallParams(*(np.repeat(a[w:w + 1], K, axis=0) for a in wp)), best_p[:, w, i])
+            best_g[:, w, i] = g
 
 
 def _sample_gaps(tab, wp: _WallParams, st, K: int, W: int):

@@ -2,9 +2,11 @@
 
 A material point at abscissa x [m] of link i (0-based) is, with T_i (4, 4) the link frame,
 
-    p(q, i, x) = (T_i(q) r_i(x))[:3],   r_i(x) = (x, v_i(x), w_i(x), 1)^T
+    p(q, i, x) = (T_i(q) r_i(x))[:3],   r_i(x) = (x + u_f(x), v_i(x), w_i(x), 1)^T
 
-with v, w the deflections of model.link_deflection (modes or Hermite elements; no axial u).
+with v, w the deflections of model.link_deflection (modes or Hermite elements) and u_f the
+foreshortening of a stiffened link (model.link_foreshortening, formulation §15; 0 for a link
+with geometric_stiffening=False).
 Every caller that needs a point of a deformed link (contact candidates, validity checks,
 figures) goes through :func:`points_on_link` (frames given) or :func:`material_points`.
 """
@@ -15,7 +17,7 @@ import numpy as np
 
 from .. import kernel as _k
 from ..model.elements import hermite_shape
-from ..model.shapes import link_deflection, shape_functions
+from ..model.shapes import foreshortening_matrix, link_deflection, link_foreshortening, shape_functions
 from .kinematics import frames, run_kernel, section, states, transforms
 
 
@@ -24,7 +26,7 @@ def points_on_link(model, q, T, i: int, x) -> np.ndarray:
     of the state q (N,) given: p = T_i r_i(x), unchecked (the callers check once)."""
     x = np.asarray(x, dtype=float)
     v, w = link_deflection(model, q, i, x)
-    r = np.stack([x, v, w], axis=1)
+    r = np.stack([x + link_foreshortening(model, q, i, x)[0], v, w], axis=1)
     return r @ T[i][:3, :3].T + T[i][:3, 3]
 
 
@@ -73,7 +75,9 @@ def material_points(model, q, i: int, x) -> np.ndarray:
 def _local_derivatives(model, q, qdot, i, x):
     """r (4,), dr/dq (N, 4), rdot (4,), rddot0 (4,) of link i's material point at x (docs/theory.md §7.4).
 
-    Ordinary links: dr/d delta_k = (e_dir psi_k(x), 0), rddot0 = 0. Pb link (d, stretching
+    Ordinary links: dr/d delta_k = (e_dir psi_k(x), 0), rddot0 = 0; a stiffened link (formulation §15)
+    adds u_f = -1/2 delta^T H delta to r, -(H delta)_k to dr/d delta_k and -deltadot^T H deltadot to
+    rddot0, along e_x. Pb link (d, stretching
     elements, xi = (x - l + d) / d, Phi_k = d^(a_k) N_k(xi) on xi >= 0, 0 behind the guide):
 
         dv/d delta_k  = d^(a_k) N_k
@@ -95,6 +99,11 @@ def _local_derivatives(model, q, qdot, i, x):
         directions, psi = shape_functions(lk, [x], 0)
         for k, (c, s) in enumerate(zip(idx, directions)):
             dr[c, 1 if s == "y" else 2] = psi[k, 0]
+        if lk.stiffened:
+            H = foreshortening_matrix(lk, [x])[0]
+            r[0] += -0.5 * q[idx] @ H @ q[idx]
+            dr[idx, 0] = -H @ q[idx]
+            rddot0[0] = -qdot[idx] @ H @ qdot[idx]
         return r, dr, dr.T @ qdot, rddot0
     jd = model.theta_index[i]
     d, dd = q[jd], qdot[jd]

@@ -173,25 +173,24 @@ def foreshortening_matrix(link: Link, x) -> np.ndarray:
         H_kl(x) = [dir_k = dir_l] int_0^x psi_k' psi_l' dxi,   u_f(x) = -1/2 delta^T H(x) delta
 
     (u_f [m] the axial displacement of an inextensible centreline, -1/2 int_0^x (v'^2 + w'^2)).
-    Gauss-Legendre with 8 points on each piece of [0, x] between element nodes (exact for
-    Hermite elements: psi_k' psi_l' has degree 4) or between 64 equal panels of [0, l] (assumed
-    modes: relative error < 1e-13 for the first four modes).
+    H at the breaks b_j (element nodes, or 64 equal panels for assumed modes) summed piece by
+    piece, plus the piece [b_j, x]; 8 Gauss-Legendre points a piece: exact for Hermite elements
+    (psi_k' psi_l' has degree 4), relative error < 1e-13 for the first four modes.
     """
     x = np.atleast_1d(np.asarray(x, dtype=float))
-    l = link.length
-    breaks = np.linspace(0.0, l, (link.elements or 64) + 1)
+    breaks = np.linspace(0.0, link.length, (link.elements or 64) + 1)
+    directions = np.array(shape_functions(link, [link.length])[0])
+    same = np.equal.outer(directions, directions)
     t, wt = np.polynomial.legendre.leggauss(8)
-    directions = shape_functions(link, [l])[0]
-    same = np.equal.outer(np.array(directions), np.array(directions))
-    H = np.zeros((x.size, len(directions), len(directions)))
-    for j, xj in enumerate(x):
-        b = np.append(breaks[breaks < xj], xj)
-        a, h = b[:-1], np.diff(b)
-        xs = (a[:, None] + 0.5 * h[:, None] * (t[None, :] + 1.0)).ravel()
-        ws = (0.5 * h[:, None] * wt[None, :]).ravel()
-        d1 = shape_functions(link, xs, 1)[1]
-        H[j] = (d1 * ws) @ d1.T * same
-    return H
+
+    def pieces(a, b):  # int_a^b psi' psi'^T for each pair (a, b) (P,) -> (P, m, m)
+        xs = a[:, None] + 0.5 * (b - a)[:, None] * (t[None, :] + 1.0)
+        d1 = shape_functions(link, xs.ravel(), 1)[1].reshape(-1, *xs.shape)  # (m, P, 8)
+        return np.einsum("kpg,lpg,pg->pkl", d1, d1, 0.5 * (b - a)[:, None] * wt[None, :]) * same
+
+    at_breaks = np.concatenate([np.zeros((1,) + same.shape), np.cumsum(pieces(breaks[:-1], breaks[1:]), axis=0)])
+    j = np.clip(np.searchsorted(breaks, x, side="right") - 1, 0, breaks.size - 1)
+    return at_breaks[j] + pieces(breaks[j], x)
 
 
 def link_foreshortening(model, q, i: int, x) -> tuple[np.ndarray, np.ndarray]:
