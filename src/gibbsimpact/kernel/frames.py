@@ -159,7 +159,8 @@ def _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi, oHl):
                 beta += H * qd[d0 + k] * qd[d0 + j]
     B[kG, 3, 3] = 1.0
     rodrigues_directional(B, kv, 2, 3, 3, w + _E_R, w + _E_DR, w + _E_D2R, w + _E_S)
-    B[kG + 2, 0, 3] = -beta
+    if oHl >= 0:
+        B[kG + 2, 0, 3] = -beta
     for a in range(3):
         B[kG, a, 3] = B[kv, 0, a]
         B[kG + 1, a, 3] = B[kv, 1, a]
