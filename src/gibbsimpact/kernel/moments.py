@@ -260,10 +260,11 @@ def _link_body(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, so, p
 
 def _fs_tables(fdat, of, m):
     """Offsets of a stiffened link's foreshortening tables at fdat[of:] (packing._fs_tables), m its
-    number of deltas: (G, P, x, w mu, psi, k, l, H_p, H(l)): G points, P pairs k <= l."""
+    number of deltas: (G, P, x, w mu, psi, k, l, H_p, H(l)): G points, P pairs k <= l; in the
+    tensor form G = P = 0 and A0, A1, B, A4 follow H(l) (_fs_tensor_offsets)."""
     G = int(fdat[of])
     P = int(fdat[of + 1])
-    ox = of + 2
+    ox = of + 3
     opsi = ox + 2 * G
     opk = opsi + G * m
     oH = opk + 2 * P
@@ -341,6 +342,8 @@ def _fs_moments(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, fo):
     for k in range(o_s, o_zeta + m):
         SD[k] = 0.0
     acc = np.zeros(10)
+    if fdat[idat[base + 6] + 2] == 1.0:
+        _fs_tensor_moments(fdat, idat, d0, m, oHl + m * m, q, qd, V, kqv, kqdv, SD, fo, acc)
     r = np.zeros(5)  # (x + u_f, v, w, 1, x)
     rd = np.zeros(4)  # (rho, vdot, wdot, 0)
     for g in range(G):
@@ -369,6 +372,13 @@ def _fs_moments(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, fo):
         acc[4] += W * uf * rd[1]
         acc[5] += W * uf * rd[2]
         _fs_own(fdat, m, opsi + m * g, W, r, rd, beta, V, kqv, kqdv, SD, fo)
+    _fs_add_moments(B, kP, kPv, V, kmr, acc)
+
+
+@inline
+def _fs_add_moments(B, kP, kPv, V, kmr, acc):
+    """The foreshortening parts acc (10,) of _fs_moments added to P, Pv, m_r: acc = sum W times
+    (u_f (2 x + u_f), u_f v, u_f w, u_f, u_f vdot, u_f wdot, rho (x + u_f), rho v, rho w, rho)."""
     B[kP, 0, 0] += acc[0]
     for a in range(1, 4):
         B[kP, 0, a] += acc[a]
@@ -378,3 +388,78 @@ def _fs_moments(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, fo):
     B[kPv, 0, 0] += acc[6]
     B[kPv, 0, 1] += acc[4]
     B[kPv, 0, 2] += acc[5]
+
+
+@inline
+def _fs_contract(fdat, d0, m, oA, q, qd, SD, o_M, mm, o_h, t):
+    """The contractions of a stiffened link's tensors (packing._fs_tables' tensor form at fdat[oA:]:
+    A0, A1 (m, m), B (m, m, m), A4 (m^4)) with delta = q[d0:], deltadot = qd[d0:]:
+
+        Mfs_kl = A4_kilj delta_i delta_j -> SD[o_M + mm k + l],  E_k = A4_kilj delta_i deltadot_l deltadot_j -> SD[o_h + k]
+        t = (A0 delta, A1 delta, delta^T B_k delta, deltadot^T B_k delta, deltadot^T B_k deltadot (m each),
+             (B_k delta)_l (m, m))
+    """
+    oA1 = oA + m * m
+    oB = oA1 + m * m
+    o4 = oB + m * m * m
+    for k in range(m):
+        for i in range(m):
+            di = q[d0 + i]
+            for l in range(m):
+                for j in range(m):
+                    a = fdat[o4 + ((k * m + i) * m + l) * m + j] * di
+                    SD[o_M + mm * k + l] += a * q[d0 + j]
+                    SD[o_h + k] += a * qd[d0 + l] * qd[d0 + j]
+            t[k] += fdat[oA + m * k + i] * di
+            t[m + k] += fdat[oA1 + m * k + i] * di
+            for l in range(m):
+                b = fdat[oB + (k * m + i) * m + l]
+                t[2 * m + k] += b * di * q[d0 + l]
+                t[3 * m + k] += b * di * qd[d0 + l]
+                t[4 * m + k] += b * qd[d0 + i] * qd[d0 + l]
+                t[5 * m + m * k + l] += b * q[d0 + i]  # B_k symmetric: (B_k delta)_l
+
+
+@inline
+def _fs_tensor_moments(fdat, idat, d0, m, oA, q, qd, V, kqv, kqdv, SD, fo, acc):
+    """_fs_moments' sums from the precomputed tensors (the same sums over the same points, taken
+    once: packing._fs_tables), with e0 = A0 delta, e1 = A1 delta, b.. = _fs_contract's, Mfs, E:
+
+        int u_f = -1/2 delta.e0,  int x u_f = -1/2 delta.e1,  int u_f^2 = 1/4 delta^T Mfs delta,
+        int rho = -deltadot.e0,  int u_f rho = 1/2 delta^T Mfs deltadot,  int psi_k u_f = -1/2 b_dd,k,
+        int psi_k rho = -b_vd,k,  int psi_k beta = b_vv,k,  s_l = (e1 - 1/2 Mfs delta, sum_k delta_k (B_k delta)_l
+        by axis, e0)_l,  sd_l = (-Mfs deltadot, sum_k deltadot_k (B_k delta)_l by axis, 0)_l,  hfs = E,
+        qa = (-deltadot^T A1 deltadot + 1/2 delta.E, -sum_k delta_k b_vv,k by axis, -deltadot^T A0 deltadot)
+    """
+    o_s, o_sd, o_z, o_M, o_h, o_qa, o_eta, o_zeta = fo
+    mm = (o_sd - o_s) // 4
+    t = np.zeros(5 * m + m * m)
+    _fs_contract(fdat, d0, m, oA, q, qd, SD, o_M, mm, o_h, t)
+    for k in range(m):
+        dk = q[d0 + k]
+        vk = qd[d0 + k]
+        ax = idat[_H + _CI * (d0 + k) + 1]
+        Md = 0.0
+        Mv = 0.0
+        for l in range(m):
+            Md += SD[o_M + mm * k + l] * q[d0 + l]
+            Mv += SD[o_M + mm * k + l] * qd[d0 + l]
+            SD[o_s + 4 * l + ax] += dk * t[5 * m + m * k + l]
+            SD[o_sd + 4 * l + ax] += vk * t[5 * m + m * k + l]
+        acc[0] += -dk * t[m + k] + 0.25 * dk * Md
+        acc[3] -= 0.5 * dk * t[k]
+        acc[ax] -= 0.5 * dk * t[2 * m + k]
+        acc[3 + ax] -= 0.5 * vk * t[2 * m + k]
+        acc[6] += -vk * t[m + k] + 0.5 * dk * Mv
+        acc[6 + ax] -= dk * t[3 * m + k]
+        acc[9] -= vk * t[k]
+        V[kqv + k, 0] -= 0.5 * t[2 * m + k]
+        V[kqdv + k, 0] -= t[3 * m + k]
+        SD[o_s + 4 * k] += t[m + k] - 0.5 * Md
+        SD[o_s + 4 * k + 3] += t[k]
+        SD[o_sd + 4 * k] -= Mv
+        SD[o_qa] += 0.5 * dk * SD[o_h + k]
+        SD[o_qa + ax] -= dk * t[4 * m + k]
+        for l in range(m):
+            SD[o_qa] -= vk * fdat[oA + m * m + m * k + l] * qd[d0 + l]
+            SD[o_qa + 3] -= vk * fdat[oA + m * k + l] * qd[d0 + l]
