@@ -117,3 +117,20 @@ def _walls_hugging(model, q, i, rng):
     circle = gi.Circle(np.max(np.hypot(*(allp[:, :2] - cc).T)) + 0.01, cc)
     sphere = gi.Sphere(np.max(np.linalg.norm(allp - c, axis=1)) + 0.01, c)
     return [plane, circle, sphere]
+
+
+def _obstacles_near(model, q, i, rng, clearance=0.005):
+    """An obstacle circle and sphere of radius 0.05-0.2 m beside link i, ``clearance`` [m] off the point at a random
+    abscissa, on the side of a random direction normal to the chord (towards a bulge or away from it)."""
+    a, b = lp.search_interval(model, q)
+    x = rng.uniform(0.2, 0.8)
+    pa, pm, pb = lp.material_points(model, q, i, [a[i], a[i] + x * (b[i] - a[i]), b[i]])
+    chord = (pb - pa) / np.linalg.norm(pb - pa)
+    u = rng.normal(size=3)
+    if model.planar:
+        u[2] = 0.0
+    u -= (u @ chord) * chord
+    u /= np.linalg.norm(u)
+    R = rng.uniform(0.05, 0.2)
+    c = pm + (R + clearance) * u
+    return [gi.Circle(R, c[:2], inside=False), gi.Sphere(R, c, inside=False)]

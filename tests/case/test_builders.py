@@ -351,3 +351,38 @@ def test_a_link_that_cannot_be_built_blames_no_correct_key(path):
         assert any(p == key for p, _ in problems), (key, problems)
         blamed += [(key, p, m) for p, m in problems if not within(p, key)]
     assert not blamed, "\n".join(f"{key} wrong, blamed {p}: {m}" for key, p, m in blamed[:10])
+
+
+def test_obstacle_walls_in_a_case_file_round_trip_through_a_result_file(tmp_path):
+    """[[walls]] with inside = false builds an obstacle (Circle/Sphere inside=False), inside = true or no key
+    a container; the run's result file stores the obstacle and reads it back equal; a non-boolean is
+    refused at its key."""
+    text = GOOD + ('\n[[walls]]\ntype = "circle"\nradius_m = 0.1\ncenter_m = [0.3, 0.4]\ninside = false\n'
+                   '\n[[walls]]\ntype = "sphere"\nradius_m = 0.2\ncenter_m = [-0.3, 0.5, 0.0]\ninside = false\n'
+                   'friction = 0.3\n\n[[walls]]\ntype = "sphere"\nradius_m = 2.0\ninside = true\n')
+    case = gi.load_case(write(tmp_path, text))
+    assert case.walls == (gi.Circle(1.5), gi.Circle(0.1, (0.3, 0.4), inside=False),
+                          gi.Sphere(0.2, (-0.3, 0.5, 0.0), friction=0.3, inside=False), gi.Sphere(2.0))
+    res = case.simulate(t_end=0.01)
+    back = gi.load_result(res.save(tmp_path / "r.npz"))
+    assert back.walls == case.walls
+    err = problems_of(tmp_path, text.replace("inside = false", 'inside = "no"', 1))
+    assert [p for p, _ in err.problems] == ["walls[2].inside"]
+
+
+def test_walls_of_the_compliant_law(tmp_path):
+    """stiffness, exponent, damping of a [[walls]] table make the wall compliant (contact.compliant); without
+    stiffness it keeps Newton's law; a bad damping name or exponent is a problem of that key; a result file
+    keeps them."""
+    from gibbsimpact.io.plain_data import wall_from_dict, wall_to_dict
+
+    law = 'stiffness = 1e6\nexponent = 1.0\ndamping = "lankarani-nikravesh"'
+    text = GOOD.replace('radius_m = 1.5', 'radius_m = 1.5\n' + law)
+    (wall,) = gi.load_case(write(tmp_path, text)).walls
+    assert wall == gi.Circle(radius=1.5, stiffness=1e6, exponent=1.0, damping="lankarani-nikravesh")
+    assert wall_from_dict(wall_to_dict(wall)) == wall
+    assert gi.load_case(write(tmp_path, GOOD)).walls[0].stiffness is None
+    err = problems_of(tmp_path, text.replace('"lankarani-nikravesh"', '"hertz"'))
+    assert [p for p, _ in err.problems] == ["walls[1].damping"]
+    err = problems_of(tmp_path, text.replace("exponent = 1.0", "exponent = 0.5"))
+    assert [p for p, _ in err.problems] == ["walls[1].exponent"]

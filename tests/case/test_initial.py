@@ -263,3 +263,13 @@ def test_a_link_bent_across_a_wall_names_the_link_its_point_and_the_depth(tmp_pa
     assert float(m[1]) == pytest.approx(x_ref, rel=5e-6)
     p_ref = material_points(case.model, case.q0, 0, [x_ref])[0]
     np.testing.assert_allclose([float(m[k]) for k in (2, 3, 4)], p_ref, rtol=5e-6, atol=1e-12)
+
+
+def test_a_link_through_an_obstacle_names_the_obstacle_and_the_fix(tmp_path):
+    # GOOD's link lies straight on X1 from -0.5 to 0.5 m; a post of R = 0.1 m at the origin has it 0.1 m deep.
+    text = GOOD + '\n[[walls]]\ntype = "circle"\nradius_m = 0.1\ninside = false\n'
+    (path, message), = problems_of(tmp_path, text).problems
+    assert path == "initial"
+    assert re.fullmatch(r"link 1 at x = 0\.5 m of its 1 m, the point \(0, 0, 0\) m, is beyond walls\[2\] \(circle "
+                        r"R=0\.1 m centre \(0, 0\) \(obstacle: the chain stays outside\)\) by 0\.1 m at t = 0: link 1 "
+                        r"passes through it between its joints; move the chain out of the obstacle", message), message

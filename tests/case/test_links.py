@@ -178,3 +178,39 @@ def test_planar_base_needs_a_revolute_joint_1(tmp_path):
     d = dict(problems_of(tmp_path, text).problems)
     assert d["links[1].joint.type"].startswith("on a planar free-flying base ([base] type = 'planar') joint 1 "
                                                "must be 'R'")
+
+
+def _arm_with_bodies(hub="", payload=""):
+    """ARM with [[links.bodies]]: a hub on link 1 (at its joint) and a payload on link 2 (its tip)."""
+    link1 = "EI_N_m2 = 25.0\n"
+    text = ARM.replace(link1, link1 + "\n[[links.bodies]]\nmass_kg = 2.0\ninertia_kg_m2 = [0.01, 0.01, 0.02]\n"
+                       "at_m = 0.0\n" + hub, 1)
+    return text.replace("elements = 1\n", "elements = 1\n\n[[links.bodies]]\nmass_kg = 0.5\n"
+                        "center_m = [0.05, 0.0, 0.0]\n" + payload, 1)
+
+
+def test_links_bodies_tables(tmp_path):
+    links = gi.load_case(write(tmp_path, _arm_with_bodies(hub="inertia_products_kg_m2 = [0.001, 0.0, 0.0]\n"))
+                         ).model.chain.links
+    (hub,), (payload,) = links[0].bodies, links[1].bodies
+    assert hub == gi.RigidBody(2.0, inertia=[[0.01, 0.001, 0.0], [0.001, 0.01, 0.0], [0.0, 0.0, 0.02]], at=0.0)
+    assert payload == gi.RigidBody(0.5, center=(0.05, 0.0, 0.0), at=0.6)
+
+
+@pytest.mark.parametrize("hub, payload, path, words", [
+    ("colour = 1\n", "", "links[1].bodies[1].colour", "unknown key"),
+    ("", "at_m = 0.7\n", "links[2].bodies[1]", "beyond the link's length"),
+    ("", "center_m = [0.0, 0.1, 0.0]\n", "links[2].bodies[1]", "center=(c_x, 0, 0)"),
+    ("inertia_products_kg_m2 = [0.0, 0.0, 0.3]\n", "", "links[1].bodies[1].inertia_kg_m2", "triangle"),
+])
+def test_links_bodies_problems_at_their_keys(tmp_path, hub, payload, path, words):
+    # (a payload's own center_m replaces the default one: TOML refuses a repeated key)
+    text = _arm_with_bodies(hub, payload).replace("center_m = [0.05, 0.0, 0.0]\ncenter_m", "center_m")
+    d = dict(problems_of(tmp_path, text).problems)
+    assert words in d[path], d
+
+
+def test_links_bodies_mass_range(tmp_path):
+    text = _arm_with_bodies().replace("mass_kg = 0.5", "mass_kg = 0.0")
+    d = dict(problems_of(tmp_path, text).problems)
+    assert d["links[2].bodies[1].mass_kg"] == "must be in [1e-12, 1e12] kg, got 0"

@@ -64,6 +64,8 @@ def with_key(range_key, value):
         table[key] = value
         d["inputs"] = [table]
         return d, f"inputs[1].{key}"
+    if section == "links.bodies":
+        return d, _with_body_key(link, key, value)
     if section == "links.modes":
         link["modes"][0][key] = value
         return d, f"links[1].modes[1].{key}"
@@ -118,9 +120,63 @@ def with_key(range_key, value):
         if key in ("output_dt_s", "max_step_s"):
             d["time"]["t_end_s"] = 1e-9  # 1e6 samples at the smallest interval
         return d, f"solver.{key}"
+    if section == "prescribed":
+        return _prescribed_key(d, link, coords, key, value)
     assert section == "output", range_key
     d["output"] = {key: value}
     return d, f"output.{key}"
+
+
+def _with_body_key(link: dict, key: str, value) -> str:
+    """A [[links.bodies]] table with ``key`` = value on the rigid link ``link`` in free flight; its key path."""
+    # A heavy body keeps M regular under the largest inertia: J / (m l^2) ~ 1e3.
+    heavy = key == "inertia_products_kg_m2" or (key == "inertia_kg_m2" and value > 1.0)
+    body = {"mass_kg": 1e12 if heavy else 1.0, "inertia_kg_m2": [1e15 if heavy else 0.1] * 3}
+    if key == "at_m":
+        link["length_m"] = max(value, 1e-6)
+        link["rotary_inertia_kg_m"] = [(0.3 * link["length_m"]) ** 2] * 3
+    body[key] = ([value] * 3 if key == "inertia_kg_m2" else [value, 0.0, 0.0]
+                 if key in ("center_m", "inertia_products_kg_m2") else value)
+    link["bodies"] = [body]
+    return f"links[1].bodies[1].{key}"
+
+
+def _prescribed_key(d, link, coords, key, value):
+    """A rigid rod on a fixed base whose joint 1 follows the profile that has ``key``: an R joint for an angle
+    key, a Pa carriage on the base rail for a length key (its range holds 0, where [initial] leaves d_1, and the
+    profile's start)."""
+    coords.pop("X1_m")
+    d["base"] = {"type": "fixed"}
+    length = key.endswith(("_m", "_m_per_s"))
+    table = {"coordinate": "d_1" if length else "theta_1"}
+    Q = "m" if length else "rad"
+    stem = key.rsplit("_", 1)[0] if key in ("T_s", "t_s") else key.split(f"_{Q}")[0]
+    start = 0.0
+    if stem == "Omega" or key == "T_s":
+        table.update(profile="spin_up", **{f"Omega_{Q}_per_s": 1.0, "T_s": 1.0})
+    elif stem in ("q0", "v"):
+        table.update(profile="constant_speed", **{f"v_{Q}_per_s": 0.0})
+        start = value if stem == "q0" else 0.0
+    elif stem in ("q_a", "q_b", "t_a_s", "t_b_s") or key in ("t_a_s", "t_b_s"):
+        table.update(profile="point_to_point", **{f"q_a_{Q}": 0.0, f"q_b_{Q}": 0.0, "t_a_s": 0.0, "t_b_s": 1.0})
+        if key == "t_a_s":
+            table["t_b_s"] = value + 1.0 if value < 0 else value  # t_b > t_a only below the top of the range
+        if key == "t_b_s":
+            table["t_a_s"] = value - 1.0 if value > 0 else value
+        start = value if stem == "q_a" else 0.0
+    else:  # samples: four equal values, or four times ending / starting at value
+        t = [value + k for k in range(4)] if value < 0 else [value - 3 + k for k in range(4)]
+        table.update(profile="samples", t_s=t if key == "t_s" else [0.0, 1.0, 2.0, 3.0],
+                     **{f"q_{Q}": [value] * 4 if key != "t_s" else [0.0] * 4})
+        start = value if key != "t_s" else 0.0
+        value = table[key]
+    if key not in ("t_s", f"q_{Q}"):
+        table[key] = value
+    if length:
+        lo, hi = max(min(0.0, start), -1e6), min(max(0.0, start), 1e6)  # clipped: a value outside is the key's
+        link["joint"] = {"type": "Pa", "range_m": [lo, hi] if hi > lo else [-1.0, 1.0]}
+    d["prescribed"] = [table]
+    return d, f"prescribed[1].{key}"
 
 
 def just_inside(rng, side):
@@ -142,7 +198,8 @@ def test_every_range_bound_is_enforced(range_key, side):
     rng = RANGES[range_key]
     # Just inside loads; only the t_start upper and t_end lower bounds leave no room for the other time.
     d, path = with_key(range_key, just_inside(rng, side))
-    if (range_key, side) in (("time.t_start_s", "high"), ("time.t_end_s", "low"), ("inputs.end_s", "low")):
+    if (range_key, side) in (("time.t_start_s", "high"), ("time.t_end_s", "low"), ("inputs.end_s", "low"),
+                             ("prescribed.t_a_s", "high"), ("prescribed.t_b_s", "low")):
         with pytest.raises(CaseError) as info:
             case_from_dict(d)
         assert path not in dict(info.value.problems)

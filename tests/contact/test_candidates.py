@@ -28,7 +28,8 @@ from gibbsimpact.contact import candidates as lp
 from gibbsimpact.dynamics.kinematics import joint_positions
 
 from conftest import random_state
-from link_models import CC, MODELS, _case1, _prismatic, _spatial_fe, _state, _walls_hugging, _walls_near  # noqa: F401
+from link_models import (CC, MODELS, _case1, _obstacles_near, _prismatic, _spatial_fe, _state,  # noqa: F401
+                         _walls_hugging, _walls_near)
 
 # -- 1. positions ------------------------------------------------------------------------------
 
@@ -159,6 +160,19 @@ def _brute_force(model, q, wall, i, samples):
     return (res.x, res.fun) if res.fun < g[k] else (x[k], g[k])
 
 
+def _check_against_brute_force(model, q, walls, res, label):
+    """Every (wall, link) pair of closest_points' res against _brute_force (<= 1e-10 m); its gap and normal
+    are those of the material point at x*."""
+    samples = [_samples(model, q, i) for i in range(model.n_links)]
+    for w, wall in enumerate(walls):
+        for i in range(model.n_links):
+            x_bf, g_bf = _brute_force(model, q, wall, i, samples[i])
+            assert abs(res.gap[w, i] - g_bf) <= 1e-10, (label, w, i, res.x[w, i], x_bf, res.gap[w, i], g_bf)
+            p = lp.material_points(model, q, i, [res.x[w, i]])
+            assert abs(wall.gap(p)[0] - res.gap[w, i]) <= 1e-13
+            assert np.max(np.abs(wall.normal(p)[0] - res.normal[w, i])) <= 1e-12
+
+
 @pytest.mark.parametrize("name", list(MODELS))
 def test_closest_points_against_brute_force(name, rng):
     model = MODELS[name]()
@@ -173,17 +187,26 @@ def test_closest_points_against_brute_force(name, rng):
         W = len(walls)
         assert res.x.shape == res.gap.shape == (W, model.n_links) and res.normal.shape == (W, model.n_links, 3)
         n_interior += int(lp.interior(model, q, res.x).sum())
-        samples = [_samples(model, q, i) for i in range(model.n_links)]
-        for w, wall in enumerate(walls):
-            for i in range(model.n_links):
-                x_bf, g_bf = _brute_force(model, q, wall, i, samples[i])
-                assert abs(res.gap[w, i] - g_bf) <= 1e-10, (name, trial, w, i, res.x[w, i], x_bf, res.gap[w, i], g_bf)
-                # gap and normal are those of the material point at x*.
-                p = lp.material_points(model, q, i, [res.x[w, i]])
-                assert abs(wall.gap(p)[0] - res.gap[w, i]) <= 1e-13
-                assert np.max(np.abs(wall.normal(p)[0] - res.normal[w, i])) <= 1e-12
+        _check_against_brute_force(model, q, walls, res, (name, trial))
     # Rigid links: always an end (closed form); the hugging walls give interior minima.
     assert (n_interior == 0) if not flexible else (n_interior >= 4)
+
+
+@pytest.mark.parametrize("name", list(MODELS))
+def test_closest_points_to_obstacles_against_brute_force(name, rng):
+    """Obstacles (inside=False, g = |P (p - c)| - R, convex along a line): the closest point of a
+    rigid link is the projection of the centre onto it (closed form), of a flexible link a
+    refined interior minimum; both against 10^5 samples and a bounded minimisation (<= 1e-10 m),
+    with the obstacles beside the links at interior points (every pair of the obstacles beside
+    link i has an interior minimum on link i)."""
+    model = MODELS[name]()
+    for trial in range(3):
+        q, _ = _state(model, rng, delta=0.08)
+        i = trial % model.n_links
+        walls = _obstacles_near(model, q, i, rng) + _walls_near(model, q, rng)
+        res = lp.closest_points(model, q, walls)
+        assert lp.interior(model, q, res.x)[:2, i].all(), (name, trial, res.x[:2, i])
+        _check_against_brute_force(model, q, walls, res, (name, trial))
 
 
 def test_bowed_link_touches_at_mid_span():

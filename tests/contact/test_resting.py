@@ -23,6 +23,25 @@ def second_derivative(f, h):
     return (4 * d(h / 2) - d(h)) / 3
 
 
+#: Every wall kind, containers and obstacles (inside=False: g = |P (p - c)| - R, the sign of g, n, H flipped).
+WALLS = [gi.Circle(1.3, (0.2, -0.1)), gi.Sphere(1.1, (0.1, 0.2, -0.3)), gi.Plane((0, -1, 0), (0.3, 1.0, 0.2)),
+         gi.Circle(0.3, (0.2, -0.1), inside=False), gi.Sphere(0.2, (0.1, 0.2, -0.3), inside=False)]
+
+
+def test_obstacle_gap_and_normal_are_distance_minus_radius_and_outward():
+    # A point 0.5 m from the centre of an obstacle of radius 0.2: g = 0.3 m, n = (p - c) / |p - c|; the
+    # container of the same radius has g = -0.3 m and the opposite normal.
+    p = np.array([[0.1 + 0.3, 0.2 + 0.4, 7.0]])
+    for cls, c in ((gi.Circle, (0.1, 0.2)), (gi.Sphere, (0.1, 0.2, 7.0))):
+        g, n, _ = cls(0.2, c, inside=False).geometry(p)
+        assert g[0] == pytest.approx(0.3, abs=1e-15)
+        np.testing.assert_allclose(n[0], (0.6, 0.8, 0.0), rtol=0, atol=1e-15)
+        g_in, n_in, _ = cls(0.2, c).geometry(p)
+        assert g_in[0] == -g[0] and np.array_equal(n_in, -n)
+    with pytest.raises(ValueError, match="inside='no'.*True.*False"):
+        gi.Circle(0.2, inside="no")
+
+
 def chain_on_wall(which):
     """(model, wall, q): case 1's chain on the unit circle, or case 2's link in the unit sphere."""
     if which == "circle":
@@ -32,8 +51,7 @@ def chain_on_wall(which):
     return model, gi.Sphere(1.0), single_link_sphere_state(model)[0]
 
 
-@pytest.mark.parametrize("wall", [gi.Circle(1.3, (0.2, -0.1)), gi.Sphere(1.1, (0.1, 0.2, -0.3)),
-                                  gi.Plane((0, -1, 0), (0.3, 1.0, 0.2))])
+@pytest.mark.parametrize("wall", WALLS)
 def test_wall_curvature_is_the_second_derivative_of_the_gap(wall):
     # g(p0 + v t) along a straight line: g''(0) = v^T H v exactly (no n . p'' term).
     rng = np.random.default_rng(1)
@@ -44,8 +62,7 @@ def test_wall_curvature_is_the_second_derivative_of_the_gap(wall):
         assert float(wall.curvature(p0[None, :], v[None, :])[0]) == pytest.approx(fd, rel=1e-7, abs=1e-7)
 
 
-@pytest.mark.parametrize("wall", [gi.Circle(1.3, (0.2, -0.1)), gi.Sphere(1.1, (0.1, 0.2, -0.3)),
-                                  gi.Plane((0, -1, 0), (0.3, 1.0, 0.2))])
+@pytest.mark.parametrize("wall", WALLS)
 def test_wall_geometry_is_gap_gradient_and_curvature(wall):
     # geometry(p, v) gives in one call what resting contact needs: g (the gap function itself,
     # bit for bit), n = grad g by central differences, and v^T H v (the test above).
@@ -64,8 +81,7 @@ def test_wall_geometry_is_gap_gradient_and_curvature(wall):
         assert np.array_equal(wall.geometry(np.vstack((centre, p)))[1][0], np.zeros(3))
 
 
-@pytest.mark.parametrize("wall", [gi.Circle(1.3, (0.2, -0.1)), gi.Sphere(1.1, (0.1, 0.2, -0.3)),
-                                  gi.Plane((0, -1, 0), (0.3, 1.0, 0.2))])
+@pytest.mark.parametrize("wall", WALLS)
 def test_compiled_contact_terms_are_the_walls_geometry(wall):
     # constraint_data's compiled wall terms (kernel.contact_terms) against walls.py's numpy
     # gap, normal and curvature at the joint points, their velocities J qdot and Tddot0's a0.
@@ -307,3 +323,24 @@ def test_case2_with_restitution_08_runs_3_s_and_ends_resting_in_the_sphere():
     # Both ends on the sphere at the end (resting pairs are held within contact_tol).
     p = model.joint_positions(res.q[-1])
     np.testing.assert_allclose(np.linalg.norm(p[:2], axis=1), 1.0, atol=1e-9)
+
+
+def test_carriage_on_a_fixed_base_rail_comes_to_rest_at_its_o1():
+    """Issue 25 item 8 (the random tester's reproducer): a rigid link on a Pa carriage that runs down a
+    vertical rail of a fixed base drops 1 cm onto a floor with e = 0.5. O_1 (the carriage) moves with
+    d_1, so it must rest after the accumulation of bounces (at 3 sqrt(2 h / g) = 0.1355 s: each
+    bounce lasts e times the one before), not stop "zeno" blaming a link's span. At rest the floor
+    carries the weight: lambda n^T J = -m g . dr_G/dd with n^T J = -1 and dr_G/dd = (0, -1), so
+    lambda = m g (m = 0.5 kg)."""
+    link = gi.Link(0.5, 1.0, (20.0, 20.0), rotary_inertia=(1e-4, 5e-5, 5e-5))
+    joint = gi.SlidingPrismatic(angle=1.8707963267948966, half_length=0.0, range=(-0.5, 0.6))
+    chain = gi.Chain([link], base=gi.FixedBase((0.0, 0.5, 0.0), -1.5707963267948966), joints=[joint])
+    model = gi.Model(chain, gravity=(0.0, -9.81, 0.0))
+    res = gi.simulate(model, np.array([0.49]), np.array([0.0]), (0.0, 0.3),
+                      walls=[gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0))], restitution=0.5)
+    assert res.status == "finished", res.message
+    assert res.t[-1] == pytest.approx(0.3, rel=1e-12)
+    assert res.impacts[0].time == pytest.approx(np.sqrt(2 * 0.01 / 9.81), rel=1e-6)
+    assert res.resting_time == pytest.approx(0.3 - 3 * np.sqrt(2 * 0.01 / 9.81), abs=1e-3)
+    assert res.contact_forces[-1, 0, 0] == pytest.approx(0.5 * 9.81, rel=1e-9)
+    assert abs(res.q[-1, 0] - 0.5) <= 1e-9

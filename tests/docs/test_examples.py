@@ -20,6 +20,7 @@ T_END = {
     "symbolic_equations.py": 0.1,
     "telescoping_arm.py": 0.4,                   # first end-stop impact at 0.386 s
     "rod_on_a_frictional_incline.py": 1.5,       # 13 bounces, then resting: sticks (mu 0.6) / slides (mu 0.2)
+    "compliant_vs_newton_arm.py": 0.06,          # the compliant contact lasts to 56 ms; n_e = 1, 2 only
 }
 DEFAULT_T_END = 0.05
 

@@ -111,6 +111,16 @@ def test_round_trip_of_a_fixed_base_run(tmp_path):
     np.testing.assert_array_equal(back.model.mass_matrix(res.q[-1]), model.mass_matrix(res.q[-1]))
 
 
+def test_round_trip_keeps_the_attached_bodies():
+    hub = gi.RigidBody(2.0, inertia=[[0.1, 0.01, 0.0], [0.01, 0.1, 0.0], [0.0, 0.0, 0.15]], at=0.0)
+    payload = gi.RigidBody(0.5, center=(0.05, 0.0, 0.0), inertia=(0.001, 0.002, 0.002))
+    model = gi.Model(gi.Chain([gi.Link(0.8, 1.0, 10.0, bodies=[hub]), gi.Link(0.6, 1.0, 10.0, elements=1,
+                                                                               bodies=[payload])],
+                              base=gi.FixedBase()))
+    back = io.model_from_dict(json.loads(json.dumps(io.model_to_dict(model))))
+    assert back.chain == model.chain
+
+
 def test_npz_rejects_foreign_files_and_callable_links(tmp_path):
     np.savez(tmp_path / "other.npz", a=np.zeros(3))
     with pytest.raises(ValueError, match="not a gibbsimpact result"):

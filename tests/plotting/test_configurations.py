@@ -54,3 +54,63 @@ def test_chain_at_t0_and_floor_shadow_look_different_in_3d(spatial):
              if len(ln.get_xdata()) > 2}
     assert ("--", mc.to_hex(t0.get_color()), t0.get_linewidth()) in style
     assert ("-", mc.to_hex(shadow.get_color()), shadow.get_linewidth()) in style
+
+
+def test_attached_bodies_are_drawn_at_their_centres():
+    # A hub (open disc on joint 1) and an offset payload (square at its centre) in both figures.
+    import gibbsimpact as gi
+    from gibbsimpact.dynamics.link_points import body_centers
+
+    links = [gi.Link(1.0, 1.0, 25.0, elements=2, bodies=[gi.RigidBody(0.5, inertia=(0.01, 0.01, 0.02), at=0.0)]),
+             gi.Link(0.6, 0.5, 8.0, bodies=[gi.RigidBody(0.3, center=(0.05, 0.02, 0.0))])]
+    model = gi.Model(gi.Chain(links, base=gi.FixedBase((0.0, 0.6), 0.0)))
+    res = gi.simulate(model, model.state(theta_2=0.4), np.zeros(model.n_dof), (0.0, 0.05), output_dt=1e-2)
+    P, _ = body_centers(model, res.q[-1])
+    for fig in (plot_configurations(res, n_points=5), plot_trajectory(res, n_points=5)):
+        ax = fig.axes[-1] if len(fig.axes) == 1 else [a for a in fig.axes if a.get_visible()][-1]
+        marks = {ln.get_marker(): np.array(ln.get_xydata())[0] for ln in ax.get_lines() if ln.get_marker() in "os"
+                 and ln.get_markersize() >= 8}
+        np.testing.assert_allclose(marks["o"], P[0, :2], atol=1e-12)
+        np.testing.assert_allclose(marks["s"], P[1, :2], atol=1e-12)
+        labels = ax.get_legend_handles_labels()[1]
+        assert "hub (body at a joint)" in labels and "payload (attached body)" in labels
+    # The animation's frame puts the same markers at the same places.
+    from gibbsimpact.plotting.animation import _actors, _pose, _stage
+
+    fig, ax, floor = _stage(res, np.arange(len(res.t)), 5, True)
+    actors = _actors(ax, model, res.q[0], True)
+    _pose(actors, res, res.q[-1], float(res.t[-1]), 0.0, 5, floor, True)
+    np.testing.assert_allclose([np.ravel(a.get_xydata()) for a in actors["bodies"]], P[:, :2], atol=1e-12)
+    assert [a.get_marker() for a in actors["bodies"]] == ["o", "s"]
+
+
+def test_obstacles_are_drawn_as_filled_bodies():
+    """An obstacle (inside=False) is a filled Polygon patch (its section) in 2D, a surface (Poly3DCollection)
+    in 3D; its outline is drawn like every wall; a container gets neither fill nor surface."""
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Polygon
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    import gibbsimpact as gi
+    from gibbsimpact.plotting.scene import _draw_walls_3d
+
+    model = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0)], base="planar"), gravity=(0.0, -9.81, 0.0))
+    walls = [gi.Circle(2.0), gi.Circle(0.1, (0.0, 0.0), inside=False), gi.Sphere(0.15, (0.5, 0.0, 0.0), inside=False),
+             gi.Plane((0.0, -0.5, 0.0), (0.0, 1.0, 0.0))]
+    res = gi.simulate(model, model.state(X1=-0.3, X2=0.5), np.zeros(3), (0.0, 0.4), walls=walls, restitution=0.5)
+    assert res.impacts
+    fig = plot_configurations(res, n_points=11)
+    ax = fig.axes[0]
+    bodies = {p.get_gid(): p for p in ax.patches if isinstance(p, Polygon)}
+    assert set(bodies) == {"obstacle 2", "obstacle 3"} and all(p.get_fill() for p in bodies.values())
+    # The post's body is its section: radius 0.1 about the origin.
+    xy = bodies["obstacle 2"].get_xy()
+    np.testing.assert_allclose(np.hypot(xy[:, 0], xy[:, 1]), 0.1, rtol=1e-12)
+    assert {"wall 1", "wall 2", "wall 3", "wall 4"} <= {ln.get_gid() for ln in ax.get_lines()}
+    plt.close(fig)
+    fig = plt.figure()
+    ax3 = fig.add_subplot(projection="3d")
+    _draw_walls_3d(ax3, walls, np.full(3, -2.0), np.full(3, 2.0))
+    surfaces = {c.get_gid() for c in ax3.collections if isinstance(c, Poly3DCollection)}
+    assert {"obstacle 2", "obstacle 3"} <= surfaces and not any(g and "obstacle 1" in g for g in surfaces)
+    plt.close(fig)

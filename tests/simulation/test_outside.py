@@ -67,3 +67,13 @@ def test_a_joint_outside_is_named_as_before():
     with pytest.raises(ValueError, match=r"puts a joint outside a wall: joint O2 at \[0\.997583, 0\.222309, 0\.0\] m "
                                          r"is 0\.0223 m outside wall 1 \(plane[^;]*\)\. Move the chain inside\.$"):
         gi.simulate(model, q, np.zeros_like(q), (0.0, 0.01), walls=[gi.Plane((0, 0.2, 0), (0, -1, 0))])
+
+
+def test_a_rigid_rod_starting_through_an_obstacle_is_refused():
+    # The rod's span at x = 0.3 m crosses a post of R = 0.1 m at the origin 0.05 m deep (|p - c| - R = -0.05).
+    model = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0)], base="planar"), gravity=(0.0, -9.81, 0.0))
+    with pytest.raises(ValueError, match=r"link 1 passes 0\.05 m beyond wall 1 \(circle R=0\.1 m centre \(0, 0\) "
+                                         r"\(obstacle[^)]*\)\) between its joints: its point at x = 0\.3 m .*"
+                                         r"Move the chain out of the obstacle\.$"):
+        gi.simulate(model, model.state(X1=-0.3, X2=0.05), np.zeros(3), (0.0, 0.1),
+                    walls=[gi.Circle(0.1, inside=False)])

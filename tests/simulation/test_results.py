@@ -70,10 +70,13 @@ def test_per_phase_energy_error_is_unchanged(case1_3s):
 
 
 @pytest.mark.parametrize("name,kw", [("circle_two_link.toml", {"t_end": 3.0, "restitution": 0.8}),
-                                     ("fixed_base_fe_arm.toml", {})], ids=["e=0.8", "driven_damped_e=0.6"])
+                                     ("fixed_base_fe_arm.toml", {"t_end": 0.5175})],
+                         ids=["e=0.8", "driven_damped_e=0.6"])
 def test_whole_run_energy_error_leaves_out_what_impacts_dissipate(name, kw):
     # With e < 1 the impacts take energy away by design (case 1 with e = 0.8: 20.8 J in 3 s): the
     # error of the run is the sum of the phases' balance errors, the work of inputs and damping counted.
+    # (The arm to 0.5175 s: 5 impacts, ending before they accumulate at 0.517582 s, after which a resting
+    # projection dissipates within a phase, which this second route, phase by phase, does not see.)
     res = gi.load_case(CASES / name).simulate(**kw)
     B = balance(res)
     assert len(res.impacts) >= 4 and abs(B[-1] - B[0]) > 1e-3

@@ -169,7 +169,8 @@ def test_newton_at_a_finite_element_tip_warns_once_at_its_first_impact():
     assert msg.startswith(f"Newton's law applied at O2 (tip of link 1) on wall 1 (plane through (0, 0, 0) normal "
                           f"(0, 1, 0)) at t = {res.impacts[0].time:.9g} s")
     for text in ("(link 1: 1 finite element)", "halves with every doubling of elements", "docs/theory.md §11.4",
-                 "not yet available", "make link 1 rigid", "clamped-clamped modes", "Result.episodes"):
+                 "stiffness=k", "docs/theory.md §11.5", "make link 1 rigid", "clamped-clamped modes",
+                 "Result.episodes"):
         assert text in msg, text
     assert "link_contacts=False" not in msg  # only where a span point struck
     assert Path(newton[0].filename).name == "test_validity.py"  # the line that called simulate

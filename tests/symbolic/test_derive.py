@@ -64,6 +64,18 @@ def _fixed_base_spatial_one():
     return gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.5, 0.2), -0.4)), gravity=(0.0, 0.0, -9.81))
 
 
+def _fixed_base_bodies():
+    """Attached bodies (docs/theory.md §6.8): an axial payload on a bending link's tip, an off-axis one with
+    products of inertia on a rigid link, bent out of plane by link 1's z-mode."""
+    tip = gi.RigidBody(0.4, center=(0.1, 0.0, 0.0), inertia=(0.002, 0.01, 0.012))
+    off = gi.RigidBody(0.3, center=(0.1, 0.05, -0.03), inertia=[[0.01, 0.001, 0.002], [0.001, 0.02, 0.0],
+                                                                  [0.002, 0.0, 0.02]])
+    links = [gi.Link(1.0, 1.0, (20.0, 30.0), modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "z")],
+                     rotary_inertia=(1e-3, 1e-3, 1e-3), bodies=[tip]),
+             gi.Link(0.5, 1.0, 1.0, rotary_inertia=(1e-3, 1e-3, 1e-3), bodies=[off])]
+    return gi.Model(gi.Chain(links, base=gi.FixedBase((0.0, 0.5, 0.2), -0.4)), gravity=(0.0, -9.81, 0.0))
+
+
 def _planar_chain(n):
     """n links, one clamped-free y-mode each, small rotary inertia (the benchmark chain)."""
     link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-free", "y")], rotary_inertia=(1e-3, 1e-3, 1e-3), geometric_stiffening=False)
@@ -78,6 +90,7 @@ CHAINS = {
     "spatial_two_rodrigues": _spatial_two_rodrigues,
     "planar_four": _planar_four,
     "fixed_base_spatial_one": _fixed_base_spatial_one,
+    "fixed_base_bodies": _fixed_base_bodies,
 }
 
 
@@ -340,3 +353,15 @@ def test_chosen_parameters_stay_symbolic():
     with pytest.raises(ValueError, match=r"L_1 not parameters of this model; choose from"):
         gi.derive_equations(model, symbols=("L_1",))
     assert sp.Symbol("l_1", positive=True) in eqs.constants
+
+
+def test_attached_bodies_both_routes_and_no_parametric_tables():
+    # The bodies live in the numeric link tables (P0, C, D, m_r0): Lagrange's route agrees with Gibbs-Appell's;
+    # symbols=True writes a uniform link's tables from mu and l, so it refuses a link with bodies.
+    model = model_of("fixed_base_bodies")
+    ga = tuple(equations("fixed_base_bodies").numeric())
+    la = tuple(equations("fixed_base_bodies", "lagrange").numeric())
+    for q, qd in _states(model, 5):
+        assert _rel(la[0](q), ga[0](q)) <= RTOL and _rel(la[1](q, qd), ga[1](q, qd)) <= RTOL
+    with pytest.raises(ValueError, match="carries RigidBody entries"):
+        gi.derive_equations(model, symbols=True)

@@ -23,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..contact.walls import Circle, Plane, Sphere
+from ..contact.compliant import DAMPING_RELATIONS
+from ..contact.walls import WALL_KINDS, Plane
 from ..dynamics.inputs import INPUT_KINDS, InputSpec, is_angle_coordinate, named_inputs
 from ..model.model import Model
 from .links import read_chain
@@ -32,6 +33,7 @@ from .reader import _BAD, CaseError, _build_each, _Reader
 from .schema import _FILE_NAMES, _INPUT_TABLE_KEYS, _TOP_KEYS, _WALL_KEYS, OUTPUT_DEFAULTS, _input_keys
 from .run_options import check_samples, override_problems, read_output, read_solver, read_time
 from .initial import check_start, read_initial, unknown_coordinate
+from .prescribed import read_prescribed, start_on_profiles
 from .text import fmt, type_name
 
 __all__ = ["Case", "load_case", "case_from_dict"]
@@ -57,6 +59,8 @@ class Case:
     source : dict, the parsed TOML table
     inputs : tuple of gibbsimpact.inputs.InputSpec, the [[inputs]] tables in SI units
         (simulate_kwargs turns them into simulate's ``inputs``)
+    prescribed : tuple of (coordinate name, gibbsimpact.profiles.Profile), the [[prescribed]] tables
+        (simulate's ``prescribed``; q0, qdot0 of those coordinates are the profiles' at t_start)
     """
 
     name: str
@@ -72,6 +76,7 @@ class Case:
     path: Path | None = None
     source: dict = field(default_factory=dict, repr=False)
     inputs: tuple = ()
+    prescribed: tuple = ()
 
     def override_problems(self, names: dict | None = None, **overrides) -> list[tuple[str, str]]:
         """Check keywords that override case-file keys (``t_end``, ``rtol``, ``output_dt``, ... see
@@ -99,6 +104,7 @@ class Case:
             model=self.model, q0=self.q0.copy(), qdot0=self.qdot0.copy(), t_span=tuple(self.t_span),
             walls=self.walls, restitution=self.restitution, **self.solver,
             inputs=named_inputs(self.inputs, self.model.coordinate_names) if self.inputs else None,
+            **({"prescribed": dict(self.prescribed)} if self.prescribed else {}),
         )
         if "t_end" in overrides:
             t_end = overrides.pop("t_end")
@@ -187,6 +193,9 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
     output = read_output(r, top)
     q0, qdot0 = read_initial(r, top, model, base)
     inputs = _inputs(r, top, model)
+    prescribed = read_prescribed(r, top, model)
+    if q0 is not None and t_span is not _BAD:
+        start_on_profiles(r, top, model, prescribed, q0, qdot0, t_span[0])
     if q0 is not None:
         check_start(r, model, q0, qdot0, walls if walls is not _BAD else (), solver)
     if r.problems:
@@ -197,6 +206,7 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
         name=case_name, model=model, q0=q0, qdot0=qdot0, t_span=t_span, walls=tuple(walls),
         restitution=restitution, solver=solver, output=output, description=description,
         path=Path(path) if path is not None else None, source=data, inputs=tuple(inputs),
+        prescribed=tuple(prescribed.items()),
     )
 
 
@@ -237,19 +247,29 @@ def _wall(r: _Reader, tbl, path: str):
     r.table(tbl, path, _WALL_KEYS[kind])
     e = r.get(tbl, path, "restitution", "number", default=None)
     mu = r.get(tbl, path, "friction", "number", default=0.0)
+    law = {"stiffness": r.get(tbl, path, "stiffness", "number", default=None),
+           "exponent": r.get(tbl, path, "exponent", "number", default=1.5),
+           "damping": r.get(tbl, path, "damping", "str", default="flores")}
+    if law["damping"] not in (_BAD, *DAMPING_RELATIONS):
+        r.add(join(path, "damping"), f"unknown damping {law['damping']!r}; use "
+              + " or ".join(map(repr, DAMPING_RELATIONS)))
+        return _BAD
+    if _BAD in law.values():
+        return _BAD
     if kind in ("circle", "sphere"):
         radius = r.get(tbl, path, "radius_m", "number", required=True, what="radius R in m")
         dim = 2 if kind == "circle" else 3
         center = r.get(tbl, path, "center_m", f"vector{dim}", default=[0.0] * dim)
-        if _BAD in (radius, center, e, mu):
+        inside = r.get(tbl, path, "inside", "bool", default=True)
+        if _BAD in (radius, center, e, mu, inside):
             return _BAD
-        cls = Circle if kind == "circle" else Sphere
-        return cls(radius=radius, center=tuple(center), restitution=e, friction=mu)
+        return WALL_KINDS[kind](radius=radius, center=tuple(center), restitution=e, friction=mu, inside=inside,
+                               **law)
     point = r.get(tbl, path, "point_m", "vector3", default=[0.0, 0.0, 0.0])
     normal = r.get(tbl, path, "normal", "vector3", required=True, what="normal pointing into the free side")
     if _BAD in (point, normal, e, mu):
         return _BAD
-    return Plane(point=tuple(point), normal=tuple(normal), restitution=e, friction=mu)
+    return Plane(point=tuple(point), normal=tuple(normal), restitution=e, friction=mu, **law)
 
 
 # -- inputs ---------------------------------------------------------------------------------

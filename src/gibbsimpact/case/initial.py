@@ -246,9 +246,13 @@ def _outside_message(model, o, walls) -> str:
     """The problem of one contact point beyond a wall at t = 0 (simulation.outside.Outside)."""
     pos = ", ".join(f"{c:.6g}" for c in o.point)
     wall = f"{key_path('walls', o.wall)} ({describe(walls[o.wall])})"
+    fix = "out of the obstacle" if walls[o.wall].obstacle else "inside"
     if o.link is None:
-        return f"{point_name(model, o)} at ({pos}) m is outside {wall} by {o.depth:.6g} m at t = 0; move the chain inside"
+        return f"{point_name(model, o)} at ({pos}) m is outside {wall} by {o.depth:.6g} m at t = 0; move the chain {fix}"
     i = o.link + 1
+    if walls[o.wall].obstacle:   # a link, bent or straight, through an obstacle
+        return (f"{point_name(model, o)}, the point ({pos}) m, is beyond {wall} by {o.depth:.6g} m at t = 0: link {i} "
+                f"passes through it between its joints; move the chain {fix}")
     return (f"{point_name(model, o)}, the point ({pos}) m, is beyond {wall} by {o.depth:.6g} m at t = 0: link {i} "
             f"is bent across the wall between its joints; move the chain inside or straighten the link (its "
             f"initial.coordinates.delta_{i}_*)")

@@ -12,11 +12,12 @@ import math
 
 import scipy.linalg as sl
 
+from ..model.bodies import RigidBody
 from ..model.model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
 from ..model.modes import MODE_DIRECTIONS, MODE_KINDS, Mode, natural_frequency
 from .keypaths import join, key_path
 from .reader import _BAD, _MISSING, _build_each, _Reader
-from .schema import _BASE_KEYS, _JOINT_KEYS, _JOINT_TYPES, _LINK_KEYS, _MODE_KEYS, MAX_MODE_FREQUENCY
+from .schema import _BASE_KEYS, _BODY_KEYS, _JOINT_KEYS, _JOINT_TYPES, _LINK_KEYS, _MODE_KEYS, MAX_MODE_FREQUENCY
 from .text import fmt, type_name
 
 __all__ = ["read_chain"]
@@ -64,14 +65,19 @@ def _link(r: _Reader, tbl, path: str):
     modes = _modes(r, tbl, join(path, "modes"))
     elements, directions, zeta = _discretisation(r, tbl, path, modes)
     stiff = r.get(tbl, path, "geometric_stiffening", "bool", default=True)
-    if _BAD in (length, mu, ei, j, elements, directions, zeta, stiff) or modes is _BAD:
+    bodies = _bodies(r, tbl, join(path, "bodies"))
+    if _BAD in (length, mu, ei, j, elements, directions, zeta, stiff) or _BAD in (modes, bodies):
         return _BAD
     try:
         link = Link(length=length, mass_per_length=mu, EI=ei, modes=tuple(modes),
                     rotary_inertia=tuple(j) if j is not None else (0.0, 0.0, 0.0),
-                    elements=elements, element_directions=directions, damping=zeta, geometric_stiffening=stiff)
-    except ValueError as exc:  # pragma: no cover - every check above mirrors Link's
-        r.add(path, str(exc))
+                    elements=elements, element_directions=directions, damping=zeta, bodies=tuple(bodies),
+                    geometric_stiffening=stiff)
+    except ValueError as exc:
+        # Only the bodies' rules that involve the link (at <= l, on the axis of a bending link)
+        # reach here; every other check above mirrors Link's.
+        k = str(exc).partition("bodies[")[2].partition("]")[0]
+        r.add(join(join(path, "bodies"), int(k)) if k.isdigit() else path, str(exc))
         return _BAD
     return link if _mode_frequencies_ok(r, link, path) else _BAD
 
@@ -102,16 +108,56 @@ def _rotary_inertia(r: _Reader, tbl: dict, path: str, mu):
     return _BAD if mu is _BAD else [mu * radius**2 / 2.0, mu * radius**2 / 4.0, mu * radius**2 / 4.0]
 
 
+def _sub_tables(r: _Reader, tbl: dict, path: str, allowed: dict):
+    """The entries of the array of tables at ``path`` (links[i].modes, links[i].bodies) as a list of
+    (their key path, the table or None when it is no table; its unknown keys reported), _BAD when the
+    key holds no array."""
+    key = path.rpartition(".")[2]
+    raw = tbl.get(key, [])
+    if not isinstance(raw, list):
+        r.add(path, f"expected [[links.{key}]] tables, got {type_name(raw)}")
+        return _BAD
+    return [(join(path, k), r.table(t, join(path, k), allowed, f"a [[links.{key}]] table")) for k, t in enumerate(raw)]
+
+
+def _bodies(r: _Reader, tbl: dict, path: str):
+    """The [[links.bodies]] of a link (path links[i].bodies) as a list of RigidBody, _BAD on a problem.
+
+    inertia_kg_m2 are the diagonal (J_xx, J_yy, J_zz) and inertia_products_kg_m2 (J_xy, J_xz, J_yz)
+    the off-diagonal entries of J about the body's centre in link axes [kg m^2].
+    """
+    entries = _sub_tables(r, tbl, path, _BODY_KEYS)
+    if entries is _BAD:
+        return _BAD
+    bodies = []
+    for pb, bt in entries:
+        if bt is None:
+            bodies = _BAD
+            continue
+        m = r.get(bt, pb, "mass_kg", "number", required=True, what=_BODY_KEYS["mass_kg"])
+        c = r.get(bt, pb, "center_m", "vector3", default=[0.0, 0.0, 0.0])
+        d = r.get(bt, pb, "inertia_kg_m2", "vector3", default=[0.0, 0.0, 0.0])
+        o = r.get(bt, pb, "inertia_products_kg_m2", "vector3", default=[0.0, 0.0, 0.0])
+        at = r.get(bt, pb, "at_m", "number", default=None)
+        if _BAD in (m, c, d, o, at) or bodies is _BAD:
+            bodies = _BAD
+            continue
+        J = [[d[0], o[0], o[1]], [o[0], d[1], o[2]], [o[1], o[2], d[2]]]
+        try:
+            bodies.append(RigidBody(m, center=tuple(c), inertia=J, at=at))
+        except ValueError as exc:  # the triangle inequality of the inertia: the one rule not a range
+            r.add(join(pb, "inertia_kg_m2"), str(exc))
+            bodies = _BAD
+    return bodies
+
+
 def _modes(r: _Reader, tbl: dict, path: str):
     """The [[links.modes]] of a link (path links[i].modes) as a list of Mode, _BAD on a problem."""
-    raw = tbl.get("modes", [])
-    if not isinstance(raw, list):
-        r.add(path, f"expected [[links.modes]] tables, got {type_name(raw)}")
+    entries = _sub_tables(r, tbl, path, _MODE_KEYS)
+    if entries is _BAD:
         return _BAD
     modes = []
-    for k, md in enumerate(raw):
-        pm = join(path, k)
-        mt = r.table(md, pm, _MODE_KEYS, "a [[links.modes]] table")
+    for k, (pm, mt) in enumerate(entries):
         if mt is None:
             modes = _BAD
             continue
@@ -375,7 +421,8 @@ def _bends_in_plane(r: _Reader, links) -> bool:
 
 
 def _pb_rules(r: _Reader, links, joints, k: int) -> bool:
-    """Link k (0-based) behind a Pb guide: stretching elements (no modes), d_max at most its length."""
+    """Link k (0-based) behind a Pb guide: stretching elements (no modes), no attached bodies, d_max at most
+    its length."""
     ok, i, lk, hi = True, k + 1, links[k], joints[k].range[1]
     p = key_path("links", k, "joint")
     if lk.modes:
@@ -387,6 +434,10 @@ def _pb_rules(r: _Reader, links, joints, k: int) -> bool:
         r.add(key_path("links", k, "geometric_stiffening"),
               f"link {i} slides through a Pb guide ({p}): the foreshortening of material flowing through a guide "
               "is not modelled; set geometric_stiffening = false (the linear beam)")
+    if lk.bodies:
+        r.add(key_path("links", k, "bodies"), f"link {i} slides through a Pb guide ({p}): its material moves along "
+                                              "it with d, which attached bodies do not follow; attach them to a "
+                                              "link on an 'R' or 'Pa' joint")
         ok = False
     if hi > lk.length + 1e-12:
         r.add(join(p, "range_m"), f"d_max = {fmt(hi)} m is more than {key_path('links', k, 'length_m')} = "

@@ -67,6 +67,12 @@ RANGES = {
     "links.elements": Range(0, MAX_ELEMENTS, integer=True,
                             why="the explicit solvers' step shrinks as 1/elements^2"),
     "links.damping_ratio": Range(0, 10, why="of the link's first elastic mode; 1 = critical"),
+    "links.bodies.mass_kg": Range(1e-12, 1e12, "kg"),
+    "links.bodies.center_m": Range(-1e6, 1e6, "m"),
+    "links.bodies.inertia_kg_m2": Range(0, 1e15, "kg m^2"),
+    "links.bodies.inertia_products_kg_m2": Range(-5e14, 5e14, "kg m^2",
+                                                 why="|J_xy| <= J_xx/2 with J_xx <= 1e15 (triangle inequality)"),
+    "links.bodies.at_m": Range(0, 1e6, "m"),
     "links.joint.angle_deg": Range(-1e4 * _DEG, 1e4 * _DEG, "deg", why="1e4 rad"),
     "links.joint.angle_rad": Range(-1e4, 1e4, "rad"),
     "links.joint.half_length_m": Range(0, 1e6, "m"),
@@ -80,6 +86,8 @@ RANGES = {
     "walls.normal": Range(1e-6, 1e6, direction=True, why="it is normalised on load"),
     "walls.restitution": Range(0, 1, why="1 = elastic, 0 = plastic"),
     "walls.friction": Range(0, MAX_FRICTION, why="Coulomb's coefficient; 0 = frictionless"),
+    "walls.stiffness": Range(1e-6, 1e20, "N/m^p", why="k of the compliant law F_n = k g^p (1 + chi gdot / v0)"),
+    "walls.exponent": Range(1, 10, why="p of the compliant law: 1.5 Hertz, 1 linear"),
     **{f"inputs.{key}": rng for key, rng in {
         # {F}: N_m on an angle coordinate, N on a length coordinate (_INPUT_KEYS).
         "value_N_m": Range(-1e12, 1e12, "N m", why="far beyond any machine, far from overflow"),
@@ -101,6 +109,18 @@ RANGES = {
         "stiffness_N_per_m": Range(0, 1e12, "N/m"),
         "damping_N_m_s_per_rad": Range(0, 1e12, "N m s/rad"),
         "damping_N_s_per_m": Range(0, 1e12, "N s/m"),
+    }.items()},
+    **{f"prescribed.{key}": rng for key, rng in {
+        "Omega_rad_per_s": Range(-1e6, 1e6, "rad/s"),
+        "Omega_m_per_s": Range(-1e6, 1e6, "m/s"),
+        "T_s": Range(1e-9, 1e9, "s", why="a nanosecond to about 30 years"),
+        "q0_rad": Range(-1e4, 1e4, "rad"), "q0_m": Range(-1e6, 1e6, "m"),
+        "v_rad_per_s": Range(-1e6, 1e6, "rad/s"), "v_m_per_s": Range(-1e6, 1e6, "m/s"),
+        "q_a_rad": Range(-1e4, 1e4, "rad"), "q_a_m": Range(-1e6, 1e6, "m"),
+        "q_b_rad": Range(-1e4, 1e4, "rad"), "q_b_m": Range(-1e6, 1e6, "m"),
+        "t_a_s": Range(-1e9, 1e9, "s", why="about 30 years"), "t_b_s": Range(-1e9, 1e9, "s", why="about 30 years"),
+        "t_s": Range(-1e9, 1e9, "s", why="about 30 years"),
+        "q_rad": Range(-1e4, 1e4, "rad"), "q_m": Range(-1e6, 1e6, "m"),
     }.items()},
     "initial.center_of_mass_m": Range(-1e6, 1e6, "m"),
     "initial.center_of_mass_velocity_m_per_s": Range(-1e6, 1e6, "m/s"),
@@ -192,6 +212,7 @@ _TOP_KEYS = {
     "base": "[base] table: a fixed or free-flying base",
     "walls": "[[walls]] tables",
     "inputs": "[[inputs]] tables: applied torques and forces",
+    "prescribed": "[[prescribed]] tables: joint coordinates that follow a given motion",
     "initial": "[initial] table: initial state",
     "time": "[time] table: t_start_s, t_end_s",
     "solver": "[solver] table: integration settings",
@@ -210,6 +231,7 @@ _LINK_KEYS = {
     "geometric_stiffening": "true (default): the bent link foreshortens, so spinning stiffens it; false: the "
                             "linear beam of the source papers",
     "joint": "[links.joint] table: the joint that carries this link (default: revolute)",
+    "bodies": "[[links.bodies]] tables: rigid bodies attached to the link (payloads, a hub)",
 }
 #: Joint types of [links.joint] (gi.Revolute, gi.SlidingPrismatic, gi.FixedPrismatic) -> what each is.
 _JOINT_TYPES = {
@@ -273,25 +295,65 @@ _INPUT_TABLE_KEYS = {
     **{key: f"{kind} input parameter" for kind in INPUT_KINDS for angle in (True, False)
        for key in _input_keys(kind, angle)},
 }
+_BODY_KEYS = {
+    "mass_kg": "mass m of the body in kg",
+    "center_m": "offset [c_x, c_y, c_z] of its centre of mass from the centreline point, link axes, in m",
+    "inertia_kg_m2": "inertia about its centre [J_xx, J_yy, J_zz] in kg m^2 (link axes)",
+    "inertia_products_kg_m2": "products of inertia [J_xy, J_xz, J_yz] in kg m^2 (default 0)",
+    "at_m": "abscissa x_a on the link in m (default: the tip; 0: the joint, a hub)",
+}
+#: [[prescribed]] keys of each profile kind -> (parameter of gibbsimpact.profiles, required, default);
+#: ``{Q}`` is rad on an angle coordinate and m on a length; t_s and q_{Q} of "samples" are arrays.
+_PRESCRIBED_KEYS = {
+    "spin_up": {"Omega_{Q}_per_s": ("Omega_s", True, None), "T_s": ("T_s", True, None),
+                "q0_{Q}": ("q0", False, 0.0)},
+    "constant_speed": {"q0_{Q}": ("q0", False, 0.0), "v_{Q}_per_s": ("v", True, None)},
+    "point_to_point": {"q_a_{Q}": ("q_a", True, None), "q_b_{Q}": ("q_b", True, None), "t_a_s": ("t_a", True, None),
+                       "t_b_s": ("t_b", True, None)},
+    "samples": {"t_s": ("t", True, None), "q_{Q}": ("q", True, None)},
+}
+
+
+def _prescribed_keys(kind: str, angle: bool) -> dict:
+    """The [[prescribed]] keys of profile ``kind`` on an angle (True) or length (False) coordinate."""
+    return {k.format(Q="rad" if angle else "m"): v for k, v in _PRESCRIBED_KEYS[kind].items()}
+
+
+_PRESCRIBED_TABLE_KEYS = {
+    "coordinate": "joint coordinate that follows the profile, e.g. 'theta_1' or 'd_2'",
+    "profile": f"one of {', '.join(_PRESCRIBED_KEYS)}",
+    **{key: f"{kind} profile parameter" for kind in _PRESCRIBED_KEYS for angle in (True, False)
+       for key in _prescribed_keys(kind, angle)},
+}
 _MODE_KEYS = {
     "kind": f"boundary conditions, one of {', '.join(MODE_KINDS)}",
     "direction": "deflection direction, 'y' (in-plane v) or 'z' (out-of-plane w)",
     "number": "which eigenfunction, 1 = fundamental",
+}
+#: The compliant law's keys of every wall kind (gibbsimpact.contact.compliant; without stiffness: Newton's law).
+_COMPLIANT_KEYS = {
+    "stiffness": "k in N/m^p of the compliant (Hunt-Crossley) contact law; absent: Newton's impulse law",
+    "exponent": "p of the compliant law (default 1.5, Hertz)",
+    "damping": "chi(e) of the compliant law: 'flores' (default) or 'lankarani-nikravesh'",
 }
 _WALL_KEYS = {
     "circle": {
         "type": "wall type",
         "radius_m": "radius R in m",
         "center_m": "centre (c1, c2) in m",
+        "inside": "true: the chain stays inside (a container, the default); false: outside (an obstacle)",
         "restitution": "coefficient of restitution of this wall",
         "friction": "Coulomb friction coefficient of this wall (impacts and resting contact; default 0)",
+        **_COMPLIANT_KEYS,
     },
     "sphere": {
         "type": "wall type",
         "radius_m": "radius R in m",
         "center_m": "centre (c1, c2, c3) in m",
+        "inside": "true: the chain stays inside (a container, the default); false: outside (an obstacle)",
         "restitution": "coefficient of restitution of this wall",
         "friction": "Coulomb friction coefficient of this wall (impacts and resting contact; default 0)",
+        **_COMPLIANT_KEYS,
     },
     "plane": {
         "type": "wall type",
@@ -299,6 +361,7 @@ _WALL_KEYS = {
         "normal": "normal pointing into the free side (any length)",
         "restitution": "coefficient of restitution of this wall",
         "friction": "Coulomb friction coefficient of this wall (impacts and resting contact; default 0)",
+        **_COMPLIANT_KEYS,
     },
 }
 _INITIAL_KEYS = {

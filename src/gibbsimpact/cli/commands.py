@@ -111,7 +111,6 @@ def describe_case(case) -> str:
     import numpy as np
 
     from ..dynamics.inputs import describe_input, is_angle_coordinate
-    from ..model.modes import natural_frequency
     from ..contact.walls import describe
 
     m = case.model
@@ -131,24 +130,8 @@ def describe_case(case) -> str:
                      f" {case.qdot0[k]:>11.6g} {unit}/s")
     lines.append("")
     lines.append("links:")
-    for i, lk in enumerate(m.chain.links, start=1):
-        ei_y, ei_z = lk.EI
-        lines.append(f"  link {i}: l = {lk.length:g} m, mu = {lk.mass_per_length:g} kg/m, "
-                     f"EI_y = {ei_y:g} N m^2, EI_z = {ei_z:g} N m^2, rotary inertia (j_x, j_y, j_z) = "
-                     f"({', '.join(f'{j:g}' for j in lk.rotary_inertia)}) kg m")
-        if not lk.modes and not lk.elements:
-            lines.append("    rigid (no modes)")
-        for k, md in zip(m.delta_index[i - 1], lk.modes):
-            # A y-mode (deflection v) bends against EI_z, a z-mode (w) against EI_y.
-            ei = ei_z if md.direction == "y" else ei_y
-            w = natural_frequency(md, lk.length, lk.mass_per_length, ei)
-            lines.append(f"    {m.coordinate_names[k]}: {md.kind} mode {md.number} in {md.direction}, "
-                         f"beta l = {md.beta_l:.6f}, omega = {w:.6g} rad/s (f = {w / (2 * np.pi):.6g} Hz, "
-                         f"period {2 * np.pi / w:.4g} s)")
-        if lk.elements:
-            lines += _describe_elements(m, i, case.q0)
-        if lk.damping:
-            lines.append(_describe_damping(m, i))
+    for i in range(1, m.n_links + 1):
+        lines += _describe_link(m, i, case.q0)
     lines.append("")
     lines.append(f"gravity: ({', '.join(f'{g:g}' for g in m.gravity)}) m/s^2")
     lines.append(f"restitution (global): {case.restitution:g}")
@@ -170,7 +153,7 @@ def describe_case(case) -> str:
     lines.append(f"initial energy: kinetic {E.kinetic:.9g} J, gravitational {E.gravity:.9g} J, "
                  f"strain {E.strain:.9g} J, total {E.total:.9g} J")
     if case.walls:
-        lines.append("initial gaps g (distance inside the wall, m):")
+        lines.append("initial gaps g (distance on the free side of the wall, m):")
         G = case.initial_gaps()
         P = m.joint_positions(case.q0)
         header = "  joint   position [m]                      " + "".join(f"  walls[{k + 1}]" for k in range(len(case.walls)))
@@ -184,6 +167,47 @@ def describe_case(case) -> str:
     lines.append(f"time: {t0:g} -> {t1:g} s; solver: {solver or 'defaults of gibbsimpact.simulate'}")
     lines.append(f"cost: {case.estimate_cost().describe()}")
     return "\n".join(lines)
+
+
+def _describe_link(m, i: int, q0) -> list:
+    """The lines of link i (1-based): its section, modes or elements, damping and attached bodies."""
+    import numpy as np
+
+    from ..model.modes import natural_frequency
+
+    lk = m.chain.links[i - 1]
+    ei_y, ei_z = lk.EI
+    lines = [f"  link {i}: l = {lk.length:g} m, mu = {lk.mass_per_length:g} kg/m, "
+             f"EI_y = {ei_y:g} N m^2, EI_z = {ei_z:g} N m^2, rotary inertia (j_x, j_y, j_z) = "
+             f"({', '.join(f'{j:g}' for j in lk.rotary_inertia)}) kg m"]
+    if not lk.modes and not lk.elements:
+        lines.append("    rigid (no modes)")
+    for k, md in zip(m.delta_index[i - 1], lk.modes):
+        # A y-mode (deflection v) bends against EI_z, a z-mode (w) against EI_y.
+        ei = ei_z if md.direction == "y" else ei_y
+        w = natural_frequency(md, lk.length, lk.mass_per_length, ei)
+        lines.append(f"    {m.coordinate_names[k]}: {md.kind} mode {md.number} in {md.direction}, "
+                     f"beta l = {md.beta_l:.6f}, omega = {w:.6g} rad/s (f = {w / (2 * np.pi):.6g} Hz, "
+                     f"period {2 * np.pi / w:.4g} s)")
+    if lk.elements:
+        lines += _describe_elements(m, i, q0)
+    if lk.damping:
+        lines.append(_describe_damping(m, i))
+    return lines + _describe_bodies(m, i)
+
+
+def _describe_bodies(m, i: int) -> list:
+    """One line per rigid body attached to link i (1-based), and the link's omega_1 with them."""
+    lk, ld = m.chain.links[i - 1], m.link_data[i - 1]
+    lines = []
+    for k, b in enumerate(lk.bodies, start=1):
+        what = "hub" if b.at == 0.0 else ("payload at the tip" if b.at == lk.length else "body")
+        J = ", ".join(f"{b.inertia[a][a]:g}" for a in range(3))
+        lines.append(f"    bodies[{k}] ({what}): m = {b.mass:g} kg at x = {b.at:g} m, centre offset "
+                     f"({', '.join(f'{c:g}' for c in b.center)}) m, inertia (J_xx, J_yy, J_zz) = ({J}) kg m^2")
+    if lk.bodies and ld.K.size:
+        lines.append(f"    with its bodies, clamped at its frame: omega_1 = {ld.first_frequency:.6g} rad/s")
+    return lines
 
 
 def _describe_base(m) -> str:

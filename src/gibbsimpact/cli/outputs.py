@@ -138,10 +138,8 @@ def _write_file(report: OutputReport, name: str, write) -> None:
 def _data_files(result, case, report: OutputReport, pending: list, csv_every: int = 1) -> list:
     """[(name, write(path) -> Path)] of the data files, in the order they are written; csv_every: every K-th
     sample (and the last) in the per-sample CSV files (io.result_files.sample_rows)."""
-    import numpy as np
-
-    from ..io.result_files import (save_result, write_contact_forces_csv, write_episodes_csv, write_impacts_csv,
-                                   write_summary_json, write_timeseries_csv)
+    from ..io.result_files import (has_contact_forces, save_result, write_contact_forces_csv, write_episodes_csv,
+                                   write_impacts_csv, write_summary_json, write_timeseries_csv)
 
     source = case.path.read_text() if case.path is not None and case.path.exists() else None
     later = lambda: [n for n in pending if n != "summary.json"]  # noqa: E731
@@ -149,7 +147,7 @@ def _data_files(result, case, report: OutputReport, pending: list, csv_every: in
              ("result.npz", lambda p: save_result(result, p, metadata={"case": case.name, "case_toml": source})),
              ("impacts.csv", lambda p: write_impacts_csv(result, p)),
              ("episodes.csv", lambda p: write_episodes_csv(result, p))]
-    if result.contact_forces is not None and np.any(result.contact_forces):
+    if has_contact_forces(result):
         files.append(("contact_forces.csv", lambda p: write_contact_forces_csv(result, p, csv_every)))
     files.append(("timeseries.csv", lambda p: write_timeseries_csv(result, p, csv_every)))
     return files

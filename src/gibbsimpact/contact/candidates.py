@@ -13,12 +13,15 @@ Functions, all pure f(model, q, ...):
   contact/closest_points.py, on the per-model tables of contact/link_tables.py; re-exported
   here);
 * :func:`search_interval`, :func:`end_joints`, :func:`interior` -- what the event loop needs
-  to use x* as one more contact candidate without counting a joint twice.
+  to use x* as one more contact candidate without counting a joint twice;
+* :func:`body_candidates` -- the attached rigid bodies whose centre is a contact candidate of its
+  own (docs/theory.md §6.8).
 
 Search interval. x* minimises g_w(p(x)) over [a_i, b_i] = [0, l_i]; for a Pb link over the
 protruding part [l_i - d_i, l_i] (the part behind the guide is straight along the guide
-axis, so its gap is linear (plane) or concave (circle, sphere) along it: its minimum is at
-an end, the rear end O_i or the guide, which are candidates already).
+axis, so its gap is linear (plane) or concave (circle, sphere confining the chain) along it:
+its minimum is at an end, the rear end O_i or the guide, which are candidates already; on an
+obstacle, whose gap is convex along a line, that part is not searched: docs/theory.md §10.3).
 
 Contact candidate rule (for the event loop). The ends of the search interval are joint
 candidates already (:func:`end_joints` gives their index in
@@ -27,7 +30,7 @@ than ``end_tol`` (default 1e-6 l_i) from both ends of [a_i, b_i] (:func:`interio
 
 * event functions: one per (wall, flexible link), g*_wi(q) = gap[w, i] (continuous in q,
   never above the gaps of the link's end joints); rigid links need none (their minimum is
-  a joint);
+  a joint) unless a wall is an obstacle (simulation.contacts.link_columns);
 * impact stage: a link candidate enters the impulse problem only when it is interior;
   otherwise its end joint (end_joints) stands for it. The joint's gap exceeds g* by at most
   1/2 max|g''| end_tol^2 (about 5e-13 m for |g''| = 1 /m, l = 1 m), far below the contact band
@@ -48,8 +51,8 @@ from ..dynamics.link_points import material_jacobian, material_points
 from .closest_points import ClosestPoints, closest_points
 from .link_tables import _tables
 
-__all__ = ["ClosestPoints", "closest_points", "end_joints", "interior", "material_jacobian", "material_points",
-           "search_interval"]
+__all__ = ["ClosestPoints", "body_candidates", "closest_points", "end_joints", "interior", "material_jacobian",
+           "material_points", "search_interval"]
 
 #: Default end tolerance of :func:`interior`, relative to the link length.
 END_TOL = 1e-6
@@ -96,3 +99,14 @@ def interior(model, q, x, end_tol: float = END_TOL) -> np.ndarray:
     tol = end_tol * _tables(model).length
     x = np.asarray(x, dtype=float)
     return (x - a > tol) & (b - x > tol)
+
+
+def body_candidates(model) -> tuple:
+    """The attached rigid bodies whose centre is a contact candidate: (i, body) pairs, link by link.
+
+    A body with a centre offset c != 0 holds its centre off the link's centreline, where no joint or
+    link point is: its centre is a point candidate of its own (a point, no radius; docs/theory.md
+    §6.8). A body with c = 0 sits on the centreline, which the joints and link points cover already
+    (a payload at the tip is the tip point).
+    """
+    return tuple((i, b) for i, lk in enumerate(model.chain.links) for b in lk.bodies if any(b.center))

@@ -7,10 +7,12 @@ the links with are contact/link_tables.py.
 Method of :func:`closest_points` (it runs in every event function call, so it is vectorised
 over states, links, walls and samples, with one kernel call for all frames):
 
-1. *Rigid links* (no elastic coordinates): the link is a straight segment. g is linear along
-   it for a plane and concave for a circle or a sphere (|P (p - c)| is convex along a line),
-   so the minimum is at an end: the smaller of the two end gaps (ties: the proximal end).
-   Nothing else is done for them.
+1. *Rigid links* (no elastic coordinates): the link is a straight segment A + t (B - A),
+   t in [0, 1]. g is linear along it for a plane and concave for a circle or a sphere that
+   confines the chain (|P (p - c)| is convex along a line), so the minimum is at an end: the
+   smaller of the two end gaps (ties: the proximal end). On an obstacle (g = |P (p - c)| - R,
+   convex) the minimum is the projection of the centre, t* = clip(-P (A - c) . P (B - A) /
+   |P (B - A)|^2, 0, 1), in closed form (_rigid_obstacle_minima).
 2. *Flexible links*: g and g' = dg/ds are sampled at S points evenly spaced on the search
    interval, in the shape coordinate s (s = x, or s = xi = sigma / d on the protruding part
    of a Pb link). The local points r(s) and dr/ds at the samples are one product
@@ -72,7 +74,8 @@ class ClosestPoints(NamedTuple):
 # -- walls ------------------------------------------------------------------------------------
 
 class _WallParams(NamedTuple):
-    """Walls as arrays (W, ...): plane flag, normal and n.point; projector diagonal, centre, radius."""
+    """Walls as arrays (W, ...): plane flag, normal and n.point; projector diagonal, centre, radius, side
+    s (+1: g = R - rho, -1 an obstacle: g = rho - R; +1 for a plane)."""
 
     plane: np.ndarray
     normal: np.ndarray
@@ -80,12 +83,14 @@ class _WallParams(NamedTuple):
     proj: np.ndarray
     center: np.ndarray
     radius: np.ndarray
+    side: np.ndarray
 
 
 def _wall_params(walls) -> _WallParams:
     W = len(walls)
     plane = np.zeros(W, dtype=bool)
     nv, off, proj, c, R = np.zeros((W, 3)), np.zeros(W), np.zeros((W, 3)), np.zeros((W, 3)), np.zeros(W)
+    side = np.ones(W)
     for k, wl in enumerate(walls):
         # The wall kinds as the compiled code takes them (Wall.packed(): 0 plane, 1 circle, 2 sphere).
         kind, p = wl.packed()
@@ -98,7 +103,8 @@ def _wall_params(walls) -> _WallParams:
             proj[k] = (1.0, 1.0, 0.0) if kind == 1 else 1.0
             c[k, :2 if kind == 1 else 3] = p[1:3 if kind == 1 else 4]
             R[k] = p[0]
-    return _WallParams(plane, nv, off, proj, c, R)
+            side[k] = p[5]
+    return _WallParams(plane, nv, off, proj, c, R, side)
 
 
 _WALLS: dict = {}
@@ -134,12 +140,13 @@ def _sample_terms(wp: _WallParams, k: int, p, p1):
         d2 = p[..., 2] - c[2]
         rho = np.hypot(np.hypot(d0, d1), d2)
         dp += d2 * p1[..., 2]
-    # g' = n . p1 with n = -d / rho; on the axis or at the centre (d = 0) it is 0.
-    return wp.radius[k] - rho, dp / -np.maximum(rho, 1e-300)
+    # g' = n . p1 with n = -s d / rho; on the axis or at the centre (d = 0) it is 0.
+    s = wp.side[k]
+    return s * (wp.radius[k] - rho), dp / (-s * np.maximum(rho, 1e-300))
 
 
 def _normals(wp: _WallParams, k: int, p):
-    """Unit normal (..., 3) of wall k at the points p (..., 3): n, or -P (p - c) / |P (p - c)| (0 on the axis)."""
+    """Unit normal (..., 3) of wall k at the points p (..., 3): n, or -s P (p - c) / |P (p - c)| (0 on the axis)."""
     if wp.plane[k]:
         nrm = np.empty(p.shape)
         nrm[...] = wp.normal[k]
@@ -148,7 +155,7 @@ def _normals(wp: _WallParams, k: int, p):
     nrm = np.zeros(p.shape)
     d = p[..., :m] - wp.center[k, :m]
     rho = np.hypot(d[..., 0], d[..., 1]) if m == 2 else np.hypot(np.hypot(d[..., 0], d[..., 1]), d[..., 2])
-    nrm[..., :m] = d / -np.maximum(rho, 1e-300)[..., None]
+    nrm[..., :m] = d / (-wp.side[k] * np.maximum(rho, 1e-300))[..., None]
     return nrm
 
 
@@ -156,8 +163,8 @@ def _gap_terms(wp: _WallParams, p, p1=None, p2=None):
     """Gap g, unit normal n and, with p1 = dp/ds (and p2 = d2p/ds2), g' (and g'') along s.
 
     wp's arrays and p (P, 3) correspond row by row. Plane: g = n.p - n.p0, g' = n.p1,
-    g'' = n.p2. Circle, sphere: d = P (p - c), rho = |d|, g = R - rho, n = -d / rho (0 on
-    the axis or at the centre), g' = n.P p1, g'' = n.P p2 - (|P p1|^2 - (n.P p1)^2) / rho.
+    g'' = n.p2. Circle, sphere: d = P (p - c), rho = |d|, g = s (R - rho), n = -s d / rho (0 on
+    the axis or at the centre), g' = n.P p1, g'' = n.P p2 - s (|P p1|^2 - (n.P p1)^2) / rho.
     """
     plane = wp.plane
     if plane.all():
@@ -171,8 +178,8 @@ def _gap_terms(wp: _WallParams, p, p1=None, p2=None):
     dvec = wp.proj * (p - wp.center)
     rho = np.sqrt(np.einsum("pi,pi->p", dvec, dvec))
     safe = np.where(rho > 0.0, rho, 1.0)
-    nrm = dvec / -safe[:, None]
-    g = wp.radius - rho
+    nrm = dvec / (-wp.side * safe)[:, None]
+    g = wp.side * (wp.radius - rho)
     if plane.any():
         nrm = np.where(plane[:, None], wp.normal, nrm)
         g = np.where(plane, np.einsum("pi,pi->p", wp.normal, p) - wp.offset, g)
@@ -183,7 +190,7 @@ def _gap_terms(wp: _WallParams, p, p1=None, p2=None):
     if p2 is None:
         return g, nrm, g1
     curv = (np.einsum("pi,pi->p", pp1, pp1) - g1 * g1) / safe
-    g2 = np.einsum("pi,pi->p", nrm, wp.proj * p2) - np.where(plane, 0.0, curv)
+    g2 = np.einsum("pi,pi->p", nrm, wp.proj * p2) - np.where(plane, 0.0, wp.side * curv)
     return g, nrm, g1, g2
 
 
@@ -229,6 +236,8 @@ def closest_points(model, q, walls, refine_below: float = np.inf) -> ClosestPoin
     best_s, best_g, best_p = _end_minima(tab, p0, g, K, W)
     if tab.flex_links.size:
         _interior_minima(tab, wp, st, p0, g, g1, refine_below, best_s, best_g, best_p)
+    if tab.flex_links.size < n and (wp.side < 0.0).any():
+        _rigid_obstacle_minima(tab, wp, p0, best_s, best_g, best_p)
     x = _abscissa(tab, st, best_s)
     _foreshorten(model, wp, st, qs, x, best_g, best_p)
     best_n = np.empty((K, W, n, 3))
@@ -339,6 +348,32 @@ def _interior_minima(tab, wp: _WallParams, st, p0, g, g1, refine_below: float, b
     best_s[kv, wv, lv] = s_new[win]
     best_g[kv, wv, lv] = gs[win]
     best_p[kv, wv, lv] = ps[win]
+
+
+def _rigid_obstacle_minima(tab, wp: _WallParams, p0, best_s, best_g, best_p):
+    """Step 1 on obstacles: the closest point of every rigid link's segment A + t (B - A) (its first
+    and last samples in p0 (K, n, S, 3) [m]) to every obstacle, in closed form,
+
+        t* = clip(-P (A - c) . P (B - A) / |P (B - A)|^2, 0, 1),   g = |P (A + t* (B - A) - c)| - R,
+
+    replaces best_s, best_g (K, W, n) and best_p (K, W, n, 3) (in place) where it is lower than the
+    ends' beyond round-off (as _interior_minima; ties: the end)."""
+    rigid = np.flatnonzero(~tab.flexible)
+    A, B = p0[:, rigid, 0], p0[:, rigid, -1]                        # (K, r, 3)
+    tie = _TIE * (1.0 + np.abs(p0).max())
+    for k in np.flatnonzero(wp.side < 0.0):
+        P, c = wp.proj[k], wp.center[k]
+        d, e = P * (A - c), P * (B - A)
+        ee = np.einsum("kri,kri->kr", e, e)
+        t = np.clip(-np.einsum("kri,kri->kr", d, e) / np.where(ee > 0.0, ee, 1.0), 0.0, 1.0)
+        dt = d + t[..., None] * e
+        gt = np.sqrt(np.einsum("kri,kri->kr", dt, dt)) - wp.radius[k]
+        better = gt < best_g[:, k, rigid] - tie
+        kk, rr = np.nonzero(better)
+        ll = rigid[rr]
+        best_s[kk, k, ll] = t[kk, rr] * tab.Lc[ll]
+        best_g[kk, k, ll] = gt[kk, rr]
+        best_p[kk, k, ll] = A[kk, rr] + t[kk, rr, None] * (B[kk, rr] - A[kk, rr])
 
 
 def _keep_coarse(tab, p0, g, refine_below: float, brackets, best_s, best_g, best_p):
@@ -562,11 +597,12 @@ def _gap_derivatives(wp: _WallParams, p):
     if plane.any():
         g, _, g1, g2 = _gap_terms(wp, p[:, 0], p[:, 1], p[:, 2])
         return g, g1, g2
-    # g = R - rho, n = -d / rho, g' = n.P p', g'' = n.P p'' - (|P p'|^2 - g'^2) / rho (_gap_terms).
+    # g = s (R - rho), n = -s d / rho, g' = n.P p', g'' = n.P p'' - s (|P p'|^2 - g'^2) / rho (_gap_terms).
     d = (p[:, 0] - wp.center) * wp.proj
+    s = wp.side
     rho = np.maximum(np.hypot(np.hypot(d[:, 0], d[:, 1]), d[:, 2]), 1e-300)
     pp = p[:, 1:] * wp.proj[:, None, :]                            # P p', P p''
-    G = (pp @ d[:, :, None])[:, :, 0] / -rho[:, None]              # n.P p', n.P p''
+    G = (pp @ d[:, :, None])[:, :, 0] / (-s * rho)[:, None]        # n.P p', n.P p''
     q1 = pp[:, 0]
     q1q1 = (q1[:, None, :] @ q1[:, :, None])[:, 0, 0]
-    return wp.radius - rho, G[:, 0], G[:, 1] - (q1q1 - G[:, 0] * G[:, 0]) / rho
+    return s * (wp.radius - rho), G[:, 0], G[:, 1] - s * (q1q1 - G[:, 0] * G[:, 0]) / rho

@@ -163,3 +163,55 @@ def solve_impulses(
         v = v_new
     qdot_after = qdot_before + MinvW @ Lam
     return ImpulseSolution(qdot_after, Lam, v_before, W.T @ qdot_after, tuple(rounds))
+
+
+class HeldContactError(ValueError):
+    """An impact that the free coordinates cannot resolve: a contact moved by prescribed coordinates only."""
+
+
+def held_impulses(M: np.ndarray, W: np.ndarray, qdot_before: np.ndarray, prescribed: np.ndarray, solve):
+    """An impulse problem solved on the free coordinates, the prescribed ones holding their velocity (§16).
+
+    The actuators hold qdot_p, so only the free rows of M (qdot+ - qdot-) = W Lambda + (0, Lambda_p) are
+    Newton's problem: M_ff (qdot_f+ - qdot_f-) = W_f Lambda, with the velocities W^T qdot = W_f^T qdot_f +
+    W_p^T qdot_p. The solver sees them unchanged through the shifted free velocity qdot_f + u with
+    W_f^T u = W_p^T qdot_p (u by least squares; its residual must vanish, else some contact direction
+    is moved by prescribed coordinates only and HeldContactError is raised). Its change of velocity
+    does not depend on the shift, so qdot_f+ = (its qdot_after) - u.
+
+    Parameters
+    ----------
+    M : (N, N) mass matrix; W : (N, m) every direction the solver reads a velocity along (normal
+    columns J^T n, then tangential ones for friction); qdot_before : (N,); prescribed : (n_p,) int
+    solve : solve(M_ff, rows, qdot_shifted) -> a solution with ``qdot_after`` (n_f,): the plain or
+        frictional solver given M_ff, the free rows ``rows`` (boolean (N,)) to take of its W's, and
+        the shifted velocity (n_f,)
+
+    Returns
+    -------
+    (solution, qdot_after (N,) with qdot_after[prescribed] = qdot_before[prescribed])
+    """
+    free = np.ones(qdot_before.size, dtype=bool)
+    free[prescribed] = False
+    target = W[prescribed].T @ qdot_before[prescribed]  # (m,) [m/s]
+    Wf = W[free]
+    u = np.linalg.lstsq(Wf.T, target, rcond=None)[0] if free.any() else np.zeros(0)
+    if not free.any():
+        raise HeldContactError("every coordinate is prescribed: their actuators drive the chain into the wall and "
+                               "nothing can take an impulse")
+    scale = float(np.abs(W).max(initial=0.0)) * float(np.abs(qdot_before).max(initial=0.0)) + 1e-300
+    if not np.all(np.abs(Wf.T @ u - target) <= 1e-10 * scale):
+        raise HeldContactError("a contact point is moved by prescribed coordinates only: their actuators drive it "
+                               "into the wall and no impulse of the free coordinates can stop it")
+    sol = solve(M[np.ix_(free, free)], free, qdot_before[free] + u)
+    qdot_after = qdot_before.copy()
+    qdot_after[free] = sol.qdot_after - u
+    return sol, qdot_after
+
+
+def actuator_impulses(M: np.ndarray, qdot_before: np.ndarray, qdot_after: np.ndarray, generalized_impulse: np.ndarray,
+                      prescribed: np.ndarray) -> np.ndarray:
+    """Lambda_p (n_p,) [N m s or N s]: what the prescribed rows of M (qdot+ - qdot-) = W Lambda + (0, Lambda_p) leave
+    over, Lambda_p = M_pf (qdot_f+ - qdot_f-) - W_p Lambda (formulation §16); generalized_impulse (N,) = W Lambda
+    (with friction, the tangential impulses' too)."""
+    return M[prescribed] @ (qdot_after - qdot_before) - generalized_impulse[prescribed]

@@ -234,9 +234,11 @@ class RestingContacts:
         # v_tol / 1000 for a pair that started to slip from rest (module docstring).
         self.slip_offset = np.zeros((len(walls), P))
         self.mu = np.array([w.friction for w in walls], dtype=float)
-        # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves.
+        # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves when
+        # joint 1 is revolute (J = 0 there), but it does as a carriage on the base rail (Pa) or as the
+        # rear end of a link sliding through the base guide (Pb): then it rests like any joint.
         restable = np.arange(P) <= model.n_links  # link columns (contacts.py) never rest
-        if not isinstance(model.chain.base, str):
+        if not isinstance(model.chain.base, str) and model.joint_kinds[0] == "R":
             restable[0] = False
         self.can_rest = np.broadcast_to(restable[None, :], self.active.shape)  # (W, P): the same for every wall
         grav = float(np.linalg.norm(getattr(model, "gravity", (0.0, 0.0, 0.0))))

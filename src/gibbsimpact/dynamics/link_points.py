@@ -38,6 +38,87 @@ def link_points(model, q, n_points: int = 41) -> np.ndarray:
                      for i, lk in enumerate(model.chain.links)]) if model.n_links else np.zeros((0, n_points, 3))
 
 
+def _body_local(model, q, i: int, body) -> tuple[np.ndarray, np.ndarray]:
+    """r (4,) and dr/dq (N, 4) of the centre of ``body`` on link i (0-based) in the link frame
+    (docs/theory.md §6.8): r = (x_a + c_x, v(x_a) + c_x v'(x_a) + c_y, w(x_a) + c_x w'(x_a) + c_z, 1),
+    dr/d delta_k = e_(a_k) (psi_k(x_a) + c_x psi_k'(x_a)); at = None is the tip. (No body rides a Pb link:
+    Chain refuses it.) On a stiffened link (formulation §15) the centre turns with its section to second
+    order: r_x gains -1/2 delta^T H_b delta, H_b = H(x_a) + c_x psi'(x_a) psi'(x_a)^T (same directions),
+    and dr_x/d delta = -H_b delta (the points of model.shapes.mass_points foreshorten alike)."""
+    c, lk = body.center, model.chain.links[i]
+    at = lk.length if body.at is None else body.at
+    (v,), (w,) = link_deflection(model, q, i, [at])
+    (dv,), (dw,) = link_deflection(model, q, i, [at], derivative=1)
+    r = np.array([at + c[0], v + c[0] * dv + c[1], w + c[0] * dw + c[2], 1.0])
+    dr = np.zeros((model.n_dof, 4))
+    idx = model.delta_index[i]
+    if idx.size:
+        directions, psi = shape_functions(lk, [at], 0)
+        dpsi = shape_functions(lk, [at], 1)[1]
+        for k, (col, d) in enumerate(zip(idx, directions)):
+            dr[col, 1 if d == "y" else 2] = psi[k, 0] + c[0] * dpsi[k, 0]
+        if lk.stiffened:
+            same = np.equal.outer(np.array(directions), np.array(directions))
+            Hb = foreshortening_matrix(lk, [at])[0] + c[0] * np.outer(dpsi[:, 0], dpsi[:, 0]) * same
+            delta = np.asarray(q, dtype=float)[idx]
+            r[0] -= 0.5 * delta @ Hb @ delta
+            dr[idx, 0] = -Hb @ delta
+    return r, dr
+
+
+def body_tables(model, owner) -> list:
+    """(r(0) (4,), dr/dq (N, 4)) of the centre of every (i, body) in ``owner`` (_body_local at q = 0): the centre
+    is r(q) = r(0) + q dr/dq in its link's frame, linear in q (only the link's deltas move it)."""
+    zero = np.zeros(model.n_dof)
+    return [_body_local(model, zero, i, b) for i, b in owner]
+
+
+def body_centers(model, q, owner=None, tables=None) -> tuple[np.ndarray, tuple]:
+    """World positions of the centres of the rigid bodies attached to the links (docs/theory.md §6.8).
+
+    The centre of a body at abscissa x_a with offset c, in its link's frame T_i:
+    r = (x_a + c_x, v(x_a) + c_x v'(x_a) + c_y, w(x_a) + c_x w'(x_a) + c_z, 1), p = (T_i r)[:3].
+
+    Parameters
+    ----------
+    model : Model
+    q : (N,) coordinates, or (K, N) states
+    owner : pairs (i, body) to place, or None for every body, link by link in the order of ``Link.bodies``
+    tables : body_tables(model, owner), or None to compute them (a caller that places the same bodies
+        at many states computes them once)
+
+    Returns
+    -------
+    p : (B, 3) [m], one row per body ((K, B, 3) for q (K, N))
+    owner : tuple of B pairs (i, body): the link index (0-based) and the RigidBody
+    """
+    q = np.asarray(q, dtype=float)
+    if owner is None:
+        owner = tuple((i, b) for i, lk in enumerate(model.chain.links) for b in lk.bodies)
+    qs = q.reshape(-1, model.n_dof)
+    K, n = len(qs), model.n_links
+    p = np.zeros((K, len(owner), 3))
+    if owner:
+        # r(q) = r(0) + q dr/dq (body_tables); the frames of all the states in one kernel call.
+        job = _k.JOB_FRAMES
+        T = section(model, run_kernel(model, states(qs), job), K, job, "frames").reshape(K, n + 1, 3, 4, 4)[:, :, 0]
+        for m, ((i, b), (r0, dr)) in enumerate(zip(owner, tables or body_tables(model, owner))):
+            r = r0 + qs @ dr
+            if model.chain.links[i].stiffened:  # the quadratic foreshortening (_body_local), per state
+                r[:, 0] = [_body_local(model, qk, i, b)[0][0] for qk in qs]
+            p[:, m] = np.einsum("kab,kb->ka", T[:, i, :3], r)
+    return (p if q.ndim == 2 else p[0]), tuple(owner)
+
+
+def body_jacobian(model, q, i: int, body) -> tuple[np.ndarray, np.ndarray]:
+    """Centre p (3,) [m] of ``body`` on link i (0-based) and its Jacobian J = dp/dq (3, N) [m per unit of q_c]:
+    J[:, c] = (dT_i/dq_c r + T_i dr/dq_c)[:3] with r, dr of the body's centre (body_centers)."""
+    q = model.check_state(q)
+    T, _, _, dT = _frame_derivatives(model, q, np.zeros(model.n_dof), _check_link(model, i))
+    r, dr = _body_local(model, q, i, body)
+    return (T @ r)[:3], (dT @ r)[:, :3].T + (T[:3] @ dr.T)
+
+
 def _check_link(model, i):
     if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < model.n_links:
         raise ValueError(f"link index i={i!r} must be an integer in [0, {model.n_links - 1}] (0-based)")
@@ -122,6 +203,18 @@ def _local_derivatives(model, q, qdot, i, x):
     return r, dr, dr.T @ qdot, rddot0
 
 
+def _frame_derivatives(model, q, qdot, i: int):
+    """T_i, Tdot_i, Tddot0_i (4, 4) and dT_i/dq (N, 4, 4) of link i (0-based) at (q, qdot), exact: the kernel's
+    Tdot is linear in qdot, so the frames of the states (q, e_c) give Tdot = dT_i/dq_c (material_jacobian)."""
+    N, n = model.n_dof, model.n_links
+    K = N + 1
+    qs = np.tile(q, K)
+    qds = np.concatenate([qdot, np.eye(N).ravel()])
+    job = _k.JOB_FRAMES
+    F = section(model, run_kernel(model, states(qs, qds), job), K, job, "frames").reshape(K, n + 1, 3, 4, 4)
+    return F[0, i, 0], F[0, i, 1], F[0, i, 2], F[1:, i, 1]
+
+
 def material_jacobian(model, q, qdot, i: int, x: float):
     """Position, Jacobian and velocity-product acceleration of link i's material point at x.
 
@@ -148,14 +241,7 @@ def material_jacobian(model, q, qdot, i: int, x: float):
     xa = _check_abscissae(model, i, x)
     if xa.size != 1:
         raise ValueError(f"x={x!r} must be one abscissa [m]; call material_jacobian once per point")
-    N, n = model.n_dof, model.n_links
-    K = N + 1
-    qs = np.tile(q, K)
-    qds = np.concatenate([qdot, np.eye(N).ravel()])
-    job = _k.JOB_FRAMES
-    F = section(model, run_kernel(model, states(qs, qds), job), K, job, "frames").reshape(K, n + 1, 3, 4, 4)
-    T, Td, Tdd0 = F[0, i, 0], F[0, i, 1], F[0, i, 2]
-    dT = F[1:, i, 1]                                      # (N, 4, 4): dT_i/dq_c
+    T, Td, Tdd0, dT = _frame_derivatives(model, q, qdot, i)
     r, dr, rdot, rddot0 = _local_derivatives(model, q, qdot, i, float(xa[0]))
     J = (dT @ r)[:, :3].T + (T[:3] @ dr.T)
     a0 = (Tdd0 @ r + 2.0 * Td @ rdot + T @ rddot0)[:3]

@@ -20,14 +20,15 @@ EPISODE_COLUMNS = [
     "episode", "start_s", "end_s", "duration_s", "ended", "walls", "contact_points", "first_contact_point",
     "n_impacts", "first_impact", "last_impact", "impulse_N_s", "max_impulse_N_s", "max_force_N", "resting_time_s",
     "energy_before_J", "energy_after_J", "energy_lost_J", "restitution", "non_contact_share", "max_penetration_m",
+    "damping_work_J", "friction_work_J",
 ]
 
 
 def _point_name(result, c: int) -> str:
-    """'O2' or 'link 1' for the 1-based gap-matrix column c (Contacts.names)."""
+    """'O2', 'link 1' or 'body 1' for the 1-based gap-matrix column c (Contacts.names)."""
     from ..simulation.contact_points import contact_points
 
-    points = contact_points(result.model, bool(result.settings.get("link_contacts", True)))
+    points = contact_points(result.model, bool(result.settings.get("link_contacts", True)), result.walls)
     return points[c - 1].name if 0 < c <= len(points) else f"point {c}"
 
 
@@ -48,6 +49,7 @@ def episode_rows(result) -> list[dict] | None:
             "resting_time_s": ep.resting_time, "energy_before_J": ep.energy_before,
             "energy_after_J": ep.energy_after, "energy_lost_J": ep.energy_lost, "restitution": ep.restitution,
             "non_contact_share": ep.non_contact_share, "max_penetration_m": ep.max_penetration,
+            "damping_work_J": ep.damping_work, "friction_work_J": ep.friction_work,
         })
     return rows
 

@@ -6,7 +6,7 @@ Numbers from 1 in the files; a model with a callable mass_per_length or EI canno
 from __future__ import annotations
 
 from ..contact.walls import WALL_KINDS
-from ..model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
+from ..model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, RigidBody, SlidingPrismatic
 from ..model.modes import Mode
 
 __all__ = ["model_from_dict", "model_to_dict", "wall_from_dict", "wall_to_dict"]
@@ -30,6 +30,8 @@ def model_to_dict(model: Model) -> dict:
             "rotary_inertia": list(lk.rotary_inertia),
             "elements": int(lk.elements), "element_directions": list(lk.element_directions),
             "damping": float(lk.damping), "geometric_stiffening": bool(lk.geometric_stiffening),
+            "bodies": [{"mass": b.mass, "center": list(b.center), "inertia": [list(r) for r in b.inertia], "at": b.at}
+                       for b in lk.bodies],
         })
     d = {"links": links, "gravity": [float(g) for g in model.gravity]}
     base = model.chain.base
@@ -59,6 +61,7 @@ def model_from_dict(d: dict) -> Model:
              modes=tuple(Mode(k, dr, n) for k, dr, n in lk["modes"]), rotary_inertia=tuple(lk["rotary_inertia"]),
              elements=int(lk.get("elements", 0)), element_directions=tuple(lk.get("element_directions", ("y",))),
              damping=float(lk.get("damping", 0.0)),
+             bodies=tuple(RigidBody(b["mass"], tuple(b["center"]), b["inertia"], b["at"]) for b in lk.get("bodies", ())),
              # files written before foreshortening existed hold linear beams
              geometric_stiffening=bool(lk.get("geometric_stiffening", False)))
         for lk in d["links"]
@@ -90,6 +93,8 @@ def wall_to_dict(w) -> dict:
     d = {"type": w.kind, **w.parameters(), "restitution": w.restitution}
     if w.friction:
         d["friction"] = w.friction
+    if getattr(w, "stiffness", None) is not None:  # the compliant law (contact.compliant)
+        d.update(stiffness=w.stiffness, exponent=w.exponent, damping=w.damping)
     return d
 
 

@@ -9,9 +9,12 @@ Files (docs/case-format.md, "Output files"):
 * ``episodes.csv``: one row per collision episode (Result.episodes): its times, walls,
   contact points, impacts, impulse, energy lost, effective restitution, maximum force and
   penetration (io.episode_files).
-* ``contact_forces.csv`` (when some pair rested): one row per sample: t, phase, and the
-  normal force [N] of every (wall, contact point) pair in resting contact (0 elsewhere),
-  then (with friction on a wall) the friction force of each pair, world components.
+* ``contact_forces.csv`` (when some pair rested or pressed on a compliant wall): one row per sample:
+  t, phase, and the normal force [N] of every (wall, contact point) pair in resting contact (0
+  elsewhere), then (with friction on a wall) the friction force of each pair, world components,
+  then (with compliant walls) the compliant normal force Fc_w<wall>_<point>_N of every (wall,
+  contact column) pair: the joints, then the closest point of each flexible link ("link<i>"),
+  and where that closest point is in contact, Xc_w<wall>_link<i>_X<a>_m (NaN out of contact).
 * ``summary.json``: versions, settings, impacts, energies, status.
 * ``result.npz``: everything in a :class:`~gibbsimpact.results.Result`
   (trajectory, every field of every impact, status, settings, counters, the
@@ -44,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from ..dynamics.gibbs_appell import Energy
+from ..simulation.compliant import CompliantContact
 from ..simulation.results import ImpactRecord, Result
 from ..contact.walls import describe
 from .episode_files import EPISODE_COLUMNS, episode_rows, episode_cell
@@ -135,6 +139,12 @@ def velocity_columns(model) -> list[str]:
     return [f"{c}_dot_{u}_per_s" for c, u in zip(model.coordinate_names, model.coordinate_units)]
 
 
+def effort_columns(result) -> list[str]:
+    """Column names of the actuators' efforts (Result.effort): ``effort_theta_1_N_m``, ``effort_d_2_N``."""
+    units = dict(zip(result.model.coordinate_names, result.model.coordinate_units))
+    return [f"effort_{c}_{'N_m' if units[c] == 'rad' else 'N'}" for c in result.prescribed]
+
+
 def _fmt(x) -> str:
     """Shortest text that reads back to the same double (Python's repr)."""
     return repr(float(x))
@@ -164,12 +174,15 @@ def write_timeseries_csv(result: Result, path, every: int = 1) -> Path:
     header += [f"O{j + 1}_X{a + 1}_m" for j in range(P.shape[1]) for a in range(3)]
     header += ["kinetic_J", "gravity_J", "strain_J", "total_J"]
     if result.work is not None:
-        header += ["work_inputs_J", "work_damping_J"]
+        header += ["work_inputs_J", "work_damping_J"] + (["work_actuators_J"] if result.work.shape[1] > 2 else [])
+    header += effort_columns(result)
     K = len(r)
     cols = [result.q[r], result.qdot[r], P.reshape(K, 3 * P.shape[1]),
             np.column_stack((E.kinetic, E.gravity, E.strain, E.total))[r]]
     if result.work is not None:
-        cols.append(result.work[r, :2])
+        cols.append(result.work[r])
+    if result.effort is not None:
+        cols.append(result.effort[r])
     # One (K, C) table of Python floats, formatted by _fmt row by row (case 1's 1014 rows: 55 ms
     # against 68 ms when indexing numpy scalars one by one; repr of the floats is most of it).
     rows = np.column_stack(cols).tolist()
@@ -204,9 +217,11 @@ def _friction_columns(rec, c) -> np.ndarray:
 def write_impacts_csv(result: Result, path) -> Path:
     """One row per contact: impact number, time, joint, wall, normal, impulse, normal velocities, energies."""
     path = Path(path)
+    # With prescribed coordinates each impact's actuator impulses (Lambda_p), repeated on its contacts' rows.
+    held = [c.replace("effort_", "actuator_impulse_", 1) + "_s" for c in effort_columns(result)]
     with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(IMPACT_COLUMNS)
+        w.writerow(IMPACT_COLUMNS + held)
         for i, rec in enumerate(result.impacts, start=1):
             for c, (joint, wall) in enumerate(zip(rec.joints, rec.wall)):
                 w.writerow(
@@ -218,6 +233,7 @@ def write_impacts_csv(result: Result, path) -> Path:
                     + [_fmt(v) for v in rec.energy_after]
                     + [_fmt(v) for v in (np.asarray(rec.points)[c] if rec.points is not None else [math.nan] * 3)]
                     + [_fmt(v) for v in _friction_columns(rec, c)]
+                    + ([_fmt(v) for v in rec.actuator_impulses] if held else [])
                 )
     return path
 
@@ -228,10 +244,25 @@ def contact_force_columns(result: Result) -> list[str]:
     return [f"F_w{w + 1}_{names[j]}_N" for w in range(len(result.walls)) for j in range(len(names))]
 
 
+def compliant_force_columns(result: Result) -> list[str]:
+    """Column names Fc_w<wall>_<column>_N of the compliant forces (Result.compliant_forces (K, W, C)): the joints,
+    then link<i> for the closest point of flexible link i (walls, points and links from 1)."""
+    from ..simulation.contacts import flexible_links
+
+    C = np.shape(result.compliant_forces)[2]
+    names = list(result.model.contact_point_names) + [f"link{i + 1}" for i in flexible_links(result.model)]
+    return [f"Fc_w{w + 1}_{names[c]}_N" for w in range(len(result.walls)) for c in range(C)]
+
+
+def has_contact_forces(result: Result) -> bool:
+    """Whether contact_forces.csv is written: some pair rested, or pressed on a compliant wall."""
+    return any(F is not None and np.any(F) for F in (result.contact_forces, result.compliant_forces))
+
+
 def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
     """Write t, phase and the resting-contact force of every (wall, contact point) pair, one row per sample
     (with ``every`` > 1 those of sample_rows); with friction on a wall also the friction force
-    Ft_w<wall>_<point>_X<a>_N (world components)."""
+    Ft_w<wall>_<point>_X<a>_N (world components); with compliant walls their normal forces Fc_w<wall>_<column>_N."""
     path = Path(path)
     r = sample_rows(len(result.t), every)
     K = len(result.t)
@@ -241,6 +272,16 @@ def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
     if result.friction_forces is not None:
         F = np.hstack((F, np.asarray(result.friction_forces).reshape(K, -1)))
         header += [c.replace("F_", "Ft_", 1)[:-2] + f"_X{a + 1}_N" for c in contact_force_columns(result) for a in range(3)]
+    if result.compliant_forces is not None:
+        F = np.hstack((F, np.asarray(result.compliant_forces).reshape(K, -1)))
+        header += compliant_force_columns(result)
+        # Where a link's closest point touches (a joint's position is in timeseries.csv): NaN out of contact.
+        P = result.model.n_joints
+        X = np.asarray(result.compliant_points)[:, :, P:]
+        if X.size:
+            F = np.hstack((F, X.reshape(K, -1)))
+            header += [c.replace("Fc_", "Xc_", 1)[:-2] + f"_X{a + 1}_m" for c in compliant_force_columns(result)
+                       if "_link" in c for a in range(3)]
     with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
@@ -277,7 +318,7 @@ def to_csv(result: Result, directory, every: int = 1) -> dict:
         "impacts": write_impacts_csv(result, d / "impacts.csv"),
         "episodes": write_episodes_csv(result, d / "episodes.csv"),
     }
-    if result.contact_forces is not None and np.any(result.contact_forces):
+    if has_contact_forces(result):
         out["contact_forces"] = write_contact_forces_csv(result, d / "contact_forces.csv", every)
     return out
 
@@ -414,6 +455,11 @@ def summary(result: Result, case=None) -> dict:
     d["n_steps_examined_for_dips"] = int(result.n_examined)
     if result.work is not None:
         d["work_final_J"] = {"inputs": float(result.work[-1, 0]), "damping": float(result.work[-1, 1])}
+        if result.work.shape[1] > 2:
+            d["work_final_J"]["actuators"] = float(result.work[-1, 2])
+    if result.prescribed:
+        d["prescribed_coordinates"] = list(result.prescribed)
+        d["effort_final"] = dict(zip(effort_columns(result), (float(v) for v in result.effort[-1])))
     d["n_samples"] = int(len(result.t))
     return _json_safe(d)
 
@@ -524,10 +570,19 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
     }
     if result.work is not None:
         arrays["work"] = np.asarray(result.work, dtype=float)
+    if result.effort is not None:
+        arrays["effort"] = np.asarray(result.effort, dtype=float)
+        arrays["impact_actuator_impulses"] = np.array([r.actuator_impulses for r in imps], dtype=float).reshape(
+            len(imps), len(result.prescribed))
     if result.contact_forces is not None:
         arrays["contact_forces"] = np.asarray(result.contact_forces, dtype=float)
     if result.friction_forces is not None:
         arrays["friction_forces"] = np.asarray(result.friction_forces, dtype=float)
+    if result.compliant_forces is not None:
+        arrays["compliant_forces"] = np.asarray(result.compliant_forces, dtype=float)
+        arrays["compliant_points"] = np.asarray(result.compliant_points, dtype=float)
+        arrays["compliant_integrals"] = np.asarray(result.compliant_integrals, dtype=float)
+        arrays["compliant_contacts"] = np.array(result.compliant_contacts, dtype=float).reshape(-1, 5)
     meta = {
         "format": "gibbsimpact.Result",
         "format_version": FORMAT_VERSION,
@@ -544,6 +599,7 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         "energy_error": _tag(float(result.energy_error)),
         "energy_error_whole_run_J": _tag(float(result.energy_error_whole_run_J)),
         "resting_time": _tag(float(result.resting_time)),
+        "prescribed": list(result.prescribed),
         "metadata": _tag(metadata or {}),
     }
     arrays["meta"] = np.array(json.dumps(meta))
@@ -594,6 +650,7 @@ def load_result(path, with_metadata: bool = False):
             **({"friction_impulses": a["contact_friction"][s, 0:3], "slip_before": a["contact_friction"][s, 3:6],
                 "slip_after": a["contact_friction"][s, 6:9]}
                if "impact_frictional" in a and a["impact_frictional"][i] else {}),
+            **({"actuator_impulses": a["impact_actuator_impulses"][i]} if "impact_actuator_impulses" in a else {}),
         ))
     res = Result(
         model=model, walls=walls, t=a["t"], q=a["q"], qdot=a["qdot"], phase=a["phase"], impacts=impacts,
@@ -603,6 +660,11 @@ def load_result(path, with_metadata: bool = False):
         energy_error_whole_run_J=float(_untag(meta.get("energy_error_whole_run_J", float("nan")))),
         work=a.get("work"), contact_forces=a.get("contact_forces"), friction_forces=a.get("friction_forces"),
         resting_time=float(_untag(meta.get("resting_time", 0.0))),
+        prescribed=tuple(meta.get("prescribed", ())), effort=a.get("effort"),
+        compliant_forces=a.get("compliant_forces"), compliant_points=a.get("compliant_points"),
+        compliant_integrals=a.get("compliant_integrals"),
+        compliant_contacts=[CompliantContact(int(r[0]), int(r[1]), *map(float, r[2:]))
+                            for r in a.get("compliant_contacts", np.zeros((0, 5)))],
     )
     if with_metadata:
         return res, _untag(meta.get("metadata", {}))

@@ -15,7 +15,7 @@ def _wall_gap(wk, wp, w, p0, p1, p2):
     """Gap g [m] of the point (p0, p1, p2) [m] on wall w of the packed walls (wk, wp: contact_terms),
     with d = p - c (its X1-X2 part for a circle; 0 for a plane) and r = |d| [m]:
 
-        g = n_w . (p - p_w) (plane),   g = R - |d| (circle, sphere)
+        g = n_w . (p - p_w) (plane),   g = s (R - |d|) (circle, sphere; s = wp[w, 5]: +1 inside, -1 obstacle)
     """
     kind = wk[w]
     if kind == WALL_PLANE:
@@ -24,10 +24,10 @@ def _wall_gap(wk, wp, w, p0, p1, p2):
     d1 = p1 - wp[w, 2]
     if kind == WALL_CIRCLE:
         r = math.hypot(d0, d1)
-        return wp[w, 0] - r, d0, d1, 0.0, r
+        return wp[w, 5] * (wp[w, 0] - r), d0, d1, 0.0, r
     d2 = p2 - wp[w, 3]
     r = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-    return wp[w, 0] - r, d0, d1, d2, r
+    return wp[w, 5] * (wp[w, 0] - r), d0, d1, d2, r
 
 
 def _skip_pair(kind, R, gA, gB, lam, D2, r, pts, oa, ob):
@@ -61,6 +61,32 @@ def _skip_pair(kind, R, gA, gB, lam, D2, r, pts, oa, ob):
     return S * S + L2 > T2 * lam
 
 
+def _skip_obstacle(kind, wp, w, gA, gB, lam, r, pts, oa, ob):
+    """The skip rule of a (wall, link) pair on an obstacle (wp[w, 5] = -1: g = |P (p - c)| - R, convex
+    along a line, so rules (1), (3), (4) of contacts.Contacts do not hold; its rule (5)).
+
+    With the chord c(s) between the end joints A, B (offsets oa, ob in pts) and rho_min =
+    min over s in [0, 1] of |P (c(s) - c_w)| [m] (the projection of c_w onto the chord, clipped),
+    the Lipschitz bound (2) gives G(s) >= rho_min - R - Lam u >= rho_min - R - Lam / 4; the pair
+    is skipped when that exceeds t = min(g_A, g_B, r).
+    """
+    d0 = pts[oa] - wp[w, 1]
+    d1 = pts[oa + 1] - wp[w, 2]
+    e0 = pts[ob] - pts[oa]
+    e1 = pts[ob + 1] - pts[oa + 1]
+    d2 = 0.0
+    e2 = 0.0
+    if kind == WALL_SPHERE:
+        d2 = pts[oa + 2] - wp[w, 3]
+        e2 = pts[ob + 2] - pts[oa + 2]
+    ee = e0 * e0 + e1 * e1 + e2 * e2
+    s = 0.0
+    if ee > 0.0:
+        s = min(max(-(d0 * e0 + d1 * e1 + d2 * e2) / ee, 0.0), 1.0)
+    rho = math.sqrt((d0 + s * e0) ** 2 + (d1 + s * e1) ** 2 + (d2 + s * e2) ** 2)
+    return rho - wp[w, 0] - 0.25 * lam > min(gA, gB, r)
+
+
 def event_gaps(pts, P, wk, wp, E, rules, refine):
     """The event layer's gaps of K states (contacts.Contacts.gaps_batch): every joint point on
     every wall, and the link skip rule of every (link, wall) pair.
@@ -90,8 +116,13 @@ def event_gaps(pts, P, wk, wp, E, rules, refine):
             b = rules[i, 3]
             if a >= 0 and b >= 0:
                 o = (k * W + w) * P
-                if _skip_pair(wk[w], wp[w, 0], res[o + a], res[o + b], E[k, f], E[k, F + f], refine, pts,
-                              3 * (P * k + a), 3 * (P * k + b)):
+                if wk[w] != WALL_PLANE and wp[w, 5] < 0.0:
+                    skip = _skip_obstacle(wk[w], wp, w, res[o + a], res[o + b], E[k, f], refine, pts,
+                                          3 * (P * k + a), 3 * (P * k + b))
+                else:
+                    skip = _skip_pair(wk[w], wp[w, 0], res[o + a], res[o + b], E[k, f], E[k, F + f], refine, pts,
+                                      3 * (P * k + a), 3 * (P * k + b))
+                if skip:
                     res[K * W * P + k * R + i] = 1.0
                     continue
             res[K * W * P + K * R + k] = 1.0
@@ -198,16 +229,18 @@ def _pair_terms(out, off, qd, w, j, wk, wp, vel, a, k, res, o):
 @inline
 def _wall_normal(kind, wp, w, d0, d1, d2, dist, v0, v1, v2):
     """(n, pd^T H pd) at a point of wall w with d = p - c, dist = |d| [m] (_wall_gap) and point
-    velocity v [m/s]: n = n_w, 0 (plane); n = -d / |d| (0 at d = 0),
-    pd^T H pd = -(|v|^2 - (d . v)^2 / |d|^2) / |d| (circle: the X1-X2 parts of d and v; sphere)."""
+    velocity v [m/s]: n = n_w, 0 (plane); n = -s d / |d| (0 at d = 0),
+    pd^T H pd = -s (|v|^2 - (d . v)^2 / |d|^2) / |d| (circle: the X1-X2 parts of d and v; sphere),
+    s = wp[w, 5] (+1 inside, -1 obstacle)."""
     if kind == WALL_PLANE:
         return wp[w, 3], wp[w, 4], wp[w, 5], 0.0
     if not dist > 0.0:
         return 0.0, 0.0, 0.0, 0.0
+    s = wp[w, 5]
     vz = v2 if kind == WALL_SPHERE else 0.0
     dv = d0 * v0 + d1 * v1 + d2 * vz
-    curv = -((v0 * v0 + v1 * v1 + vz * vz) - dv * dv / (dist * dist)) / dist
-    return -(d0 / dist), -(d1 / dist), -(d2 / dist), curv
+    curv = -s * ((v0 * v0 + v1 * v1 + vz * vz) - dv * dv / (dist * dist)) / dist
+    return -s * (d0 / dist), -s * (d1 / dist), -s * (d2 / dist), curv
 
 
 @inline

@@ -331,7 +331,7 @@ def _fs_moments(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, fo):
         s_l = sum W eta_l r,  sd_l = sum W eta_l rdot,  Mfs_kl = sum W eta_k eta_l,
         hfs_l = sum W eta_l beta,  qa = -sum W beta r  (and q_l, qd_l: _fs_own)
 
-    The rule is the one of the modal integrals (link_quadrature): the model is the exact
+    The points are those of the modal integrals (model.shapes.mass_points): the model is the exact
     holonomic system of these material points, so energy is conserved to round-off.
     """
     base = _H + _CI * idat[1] + _LI * link

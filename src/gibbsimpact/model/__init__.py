@@ -1,6 +1,7 @@
 """What is simulated: links, modes, finite elements, the chain and the immutable Model."""
 
 # The public names of gibbsimpact.model as it was one module (documented paths keep working).
+from .bodies import RigidBody
 from .chain import Chain, Link
 from .joints import JOINT_TYPES, FixedBase, FixedPrismatic, Revolute, SlidingPrismatic
 from .model import Model
@@ -8,7 +9,7 @@ from .shapes import (DEFAULT_QUADRATURE, LinkData, gauss_legendre, link_deflecti
                      shape_functions)
 
 __all__ = [
-    "DEFAULT_QUADRATURE", "Link", "Revolute", "FixedBase", "SlidingPrismatic", "FixedPrismatic",
+    "DEFAULT_QUADRATURE", "Link", "RigidBody", "Revolute", "FixedBase", "SlidingPrismatic", "FixedPrismatic",
     "JOINT_TYPES", "Chain", "gauss_legendre", "LinkData", "shape_functions", "link_deflection", "link_foreshortening",
     "link_integrals", "Model",
 ]

@@ -11,6 +11,7 @@ from typing import Callable
 
 import numpy as np
 
+from .bodies import check_bodies
 from .elements import MAX_ELEMENTS
 from .joints import JOINT_TYPES, FixedBase, Revolute
 from .modes import MODE_DIRECTIONS, Mode
@@ -58,6 +59,9 @@ class Link:
         ``(j_x, j_y, j_z)`` [kg m]: rotary inertia of the cross-section per unit
         length about the link-frame axes. The link frame then carries
         ``J = l diag(j_x, j_y, j_z)`` [kg m^2] (docs/theory.md §6).
+    bodies : sequence of RigidBody
+        Rigid bodies attached to the link (payloads, a hub at ``at=0``), docs/theory.md §6.8;
+        each body's ``at=None`` is resolved to the tip l.
     geometric_stiffening : bool
         True (default): the bent centreline foreshortens, a point at x sits at
         ``x + u_f(x)`` along the link axis, ``u_f = -1/2 int_0^x (v'^2 + w'^2)``
@@ -75,6 +79,7 @@ class Link:
     elements: int = 0
     element_directions: tuple = ("y",)
     damping: float = 0.0
+    bodies: tuple = ()
     geometric_stiffening: bool = True
 
     def __post_init__(self):
@@ -138,6 +143,7 @@ class Link:
                 f"Link rotary_inertia={self.rotary_inertia!r} must be three non-negative numbers (j_x, j_y, j_z) in kg m"
             )
         object.__setattr__(self, "rotary_inertia", tuple(float(v) for v in j))
+        object.__setattr__(self, "bodies", check_bodies(self.bodies, self.length, bool(modes or ne)))
         if not isinstance(self.geometric_stiffening, (bool, np.bool_)):
             raise ValueError(f"Link geometric_stiffening={self.geometric_stiffening!r} must be True (foreshortening, "
                              "the default) or False (the linear beam)")
@@ -268,6 +274,11 @@ def _check_joints(links, joints, base):
                     f"Chain links[{k}] (link {k + 1}) slides through a FixedPrismatic guide with geometric_stiffening=True: "
                     "the foreshortening of material flowing through a guide is not modelled (docs/theory.md, "
                     "foreshortening); give this link geometric_stiffening=False (the linear beam)")
+            if lk.bodies:
+                raise ValueError(
+                    f"Chain links[{k}] (link {k + 1}) slides through a FixedPrismatic guide and carries bodies: a Pb link's "
+                    "material moves along it with d, which the attached-body model does not cover; attach the body to the "
+                    "next link (at=0) or to a link on a revolute or SlidingPrismatic joint")
             if lk.modes:
                 raise ValueError(
                     f"Chain links[{k}] (link {k + 1}) slides through a FixedPrismatic guide and has assumed modes; a Pb link "

@@ -3,7 +3,7 @@
 * :func:`shape_functions` -- assumed modes or Hermite element functions of one link;
 * :func:`link_deflection` -- v, w of link i in a state q (also behind a Pb guide, §7.4);
 * :func:`link_integrals` -- the modal integrals of one link (:class:`LinkData`), with the
-  composite Gauss-Legendre rule of :func:`gauss_legendre` (:func:`link_quadrature`);
+  composite Gauss-Legendre rule of :func:`gauss_legendre`;
 * :func:`foreshortening_matrix` -- H(x) of a stiffened link, u_f(x) = -1/2 delta^T H(x) delta;
   :func:`link_foreshortening` -- u_f and its delta-derivatives in a state q.
 """
@@ -144,27 +144,11 @@ def link_deflection(model, q, i: int, x, derivative: int = 0) -> tuple[np.ndarra
     return v, w
 
 
-def _basis(link: Link, x: np.ndarray):
-    """The link's shape functions: directions (m,), psi and psi'' at x (m, K), psi and psi' at l (m,)."""
-    l = [link.length]
-    directions, psi = shape_functions(link, x, 0)
-    return (list(directions), psi, shape_functions(link, x, 2)[1],
-            shape_functions(link, l, 0)[1][:, 0], shape_functions(link, l, 1)[1][:, 0])
-
-
-def link_quadrature(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE):
-    """The link's material as weighted points: abscissae x (G,) [m], weights w (G,) [m] and
-    w mu(x) (G,) [kg], so that int_0^l mu f dx = sum (w mu) f(x).
-
-    Composite Gauss-Legendre (``quadrature`` = (panels, points)); a finite-element link uses a
-    rule aligned with its element nodes (elements.element_quadrature). Every integral over a
-    link's material (link_integrals, and the kernel's per-call foreshortening moments) uses it.
-    """
-    x, w = gauss_legendre(link.length, *(element_quadrature(link.elements) if link.elements else quadrature))
-    mu = np.asarray(_as_function(link.mass_per_length)(x), dtype=float) * np.ones_like(x)
-    if np.any(~np.isfinite(mu)) or np.any(mu <= 0):
-        raise ValueError("Link mass_per_length(x) must be positive and finite on [0, length]")
-    return x, w, w * mu
+def line_quadrature(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE) -> tuple[np.ndarray, np.ndarray]:
+    """The link's quadrature rule on [0, l]: nodes x (G,) [m] and weights w (G,) [m]; composite
+    Gauss-Legendre with ``quadrature`` = (panels, points), or for a finite-element link the rule
+    aligned with its element nodes (elements.element_quadrature)."""
+    return gauss_legendre(link.length, *(element_quadrature(link.elements) if link.elements else quadrature))
 
 
 def foreshortening_matrix(link: Link, x) -> np.ndarray:
@@ -207,34 +191,101 @@ def link_foreshortening(model, q, i: int, x) -> tuple[np.ndarray, np.ndarray]:
     return -0.5 * eta @ delta, -eta
 
 
-def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE) -> LinkData:
-    """Precompute the modal integrals of ``link`` with composite Gauss-Legendre (link_quadrature).
+def mass_points(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE):
+    """The link's mass as weighted points: x (G+2B,) [m], w mu (G+2B,) [kg], lever (G+2B,) [m].
 
-    A finite-element link uses a rule aligned with its element nodes
-    (elements.element_quadrature) instead of ``quadrature``.
+    A point at section x with axial lever s lies at (x + s, 0, 0) in the undeformed link frame
+    and moves with the section at x: its displacement per delta_k is
+    e_(a_k) (psi_k(x) + s psi_k'(x)) (docs/theory.md §6.8). The line's points (the quadrature
+    of :func:`line_quadrature`, weights w mu(x)) have s = 0. Each attached body (B of them)
+    adds two points of mass m/2 at its section x_a with levers c_x +- a, a = sqrt(s_b / m),
+    s_b = RigidBody.section_inertia: they carry its mass, its first moment along the axis and the
+    bending inertia s_b that turns with the section; the rest of its pseudo-inertia is
+    :func:`body_remainder`. Every link table that integrates over the mass (P0, C, D, m_r0,
+    m_psi) sums over these points.
+    """
+    x, w = line_quadrature(link, quadrature)
+    mu = np.asarray(_as_function(link.mass_per_length)(x), dtype=float) * np.ones_like(x)
+    if np.any(~np.isfinite(mu)) or np.any(mu <= 0):
+        raise ValueError("Link mass_per_length(x) must be positive and finite on [0, length]")
+    xs, ms, levers = [x], [w * mu], [np.zeros_like(x)]
+    for b in link.bodies:
+        a = np.sqrt(b.section_inertia / b.mass)
+        xs.append(np.full(2, b.at))
+        ms.append(np.full(2, 0.5 * b.mass))
+        levers.append(b.center[0] + np.array([a, -a]))
+    return np.concatenate(xs), np.concatenate(ms), np.concatenate(levers)
+
+
+def body_remainder(link: Link) -> tuple[np.ndarray, np.ndarray]:
+    """What the attached bodies add to P0 (4, 4) [kg m^2, kg m, kg] and m_r0 (4,) [kg m] beyond
+    their points in :func:`mass_points`: with c = (c_x, c_y, c_z), X = x_a + c_x,
+    Sigma = tr(J)/2 I - J, the body's pseudo-inertia about the link frame is
+    P_b = m (X, c_y, c_z, 1)(X, c_y, c_z, 1)^T + [[Sigma, 0], [0, 0]]; its points carry
+    m (X, 0, 0, 1)(X, 0, 0, 1)^T + s_b e_x e_x^T (mass_points). The rest is constant in delta: the
+    lateral offset (on a flexible link c_y = c_z = 0) and Sigma - s_b e_x e_x^T, the pseudo-inertia
+    of the rotary inertia J - s_b (I - e_x e_x^T) that keeps the link frame's orientation.
+    """
+    P, m_r = np.zeros((4, 4)), np.zeros(4)
+    for b in link.bodies:
+        rc = np.array([b.at + b.center[0], b.center[1], b.center[2], 1.0])
+        on_axis = rc * np.array([1.0, 0.0, 0.0, 1.0])
+        P += b.mass * (np.outer(rc, rc) - np.outer(on_axis, on_axis))
+        S = b.second_moments
+        S[0, 0] -= b.section_inertia
+        P[:3, :3] += S
+        m_r += b.mass * (rc - on_axis)
+    return P, m_r
+
+
+def _stiffness(link: Link, quadrature, directions) -> np.ndarray:
+    """K[k, l] = int EI psi_k'' psi_l'' dx (m, m) [N/m], over the link's line quadrature."""
+    x, w = line_quadrature(link, quadrature)
+    EI_fun = {"y": _as_function(link.EI_z), "z": _as_function(link.EI_y)}
+    psi2 = shape_functions(link, x, 2)[1]
+    m = len(directions)
+    K = np.zeros((m, m))
+    for d in set(directions):
+        ei = np.asarray(EI_fun[d](x), dtype=float) * np.ones_like(x)
+        if np.any(~np.isfinite(ei)) or np.any(ei <= 0):
+            raise ValueError("Link EI(x) must be positive and finite on [0, length]")
+        sel = np.array([dk == d for dk in directions])
+        K[np.ix_(sel, sel)] = (psi2[sel] * (w * ei)) @ psi2[sel].T
+    return K
+
+
+def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE) -> LinkData:
+    """Precompute the modal integrals of ``link`` (:class:`LinkData`) over its mass points.
+
+    The sums run over :func:`mass_points` (the line quadrature and the attached bodies), with
+    position X = x + s and shape Psi_k = psi_k(x) + s psi_k'(x) at each point; the bodies'
+    off-axis parts add :func:`body_remainder`. A finite-element link uses a rule aligned with
+    its element nodes (elements.element_quadrature) instead of ``quadrature``.
     """
     l = link.length
-    x, w, wm = link_quadrature(link, quadrature)
-    EI_fun = {"y": _as_function(link.EI_z), "z": _as_function(link.EI_y)}
-    directions, psi, psi2, end_v, end_dv = _basis(link, x)
+    x, wm, lever = mass_points(link, quadrature)
+    directions, psi = shape_functions(link, x, 0)
+    directions = list(directions)
+    psi = psi + lever * shape_functions(link, x, 1)[1]
+    x = x + lever
+    K = _stiffness(link, quadrature, directions)
+    end_v = shape_functions(link, [l], 0)[1][:, 0]
+    end_dv = shape_functions(link, [l], 1)[1][:, 0]
     m = len(directions)
     axes = [_AXIS[d] for d in directions]
-    ei = {}
-    for d in set(directions):
-        ei[d] = np.asarray(EI_fun[d](x), dtype=float) * np.ones_like(x)
-        if np.any(~np.isfinite(ei[d])) or np.any(ei[d] <= 0):
-            raise ValueError("Link EI(x) must be positive and finite on [0, length]")
+    P_b, m_rb = body_remainder(link)
+
     mass = wm.sum()
     s1 = wm @ x
     s2 = wm @ (x * x)
     P0 = np.zeros((4, 4))
     P0[0, 0], P0[0, 3], P0[3, 0], P0[3, 3] = s2, s1, s1, mass
-    m_r0 = np.array([s1, 0.0, 0.0, mass])
+    P0 += P_b
+    m_r0 = np.array([s1, 0.0, 0.0, mass]) + m_rb
 
     C = np.zeros((m, 4, 4))
     m_psi = np.zeros((m, 4))
     D = np.zeros((m, m, 4, 4))
-    K = np.zeros((m, m))
     int_psi = psi @ wm
     int_xpsi = psi @ (wm * x)
     int_psipsi = (psi * wm) @ psi.T
@@ -244,9 +295,6 @@ def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE)
     C[km, 3, ax] = int_psi
     m_psi[km, ax] = int_psi
     D[km[:, None], km[None, :], ax[:, None], ax[None, :]] = int_psipsi
-    for d in set(directions):
-        sel = np.array([dk == d for dk in directions])
-        K[np.ix_(sel, sel)] = (psi2[sel] * (w * ei[d])) @ psi2[sel].T
     M_dd = np.einsum("klaa->kl", D)
 
     end_t = np.zeros((m, 3))

@@ -7,10 +7,11 @@ import textwrap
 import numpy as np
 
 from ..dynamics.kinematics import transforms
+from ..dynamics.link_points import body_centers
 from .geometry import (_link_parts, _prismatic_marks, _run_camera, _scene_extent_2d, _scene_extent_3d,
                        _scene_points, _stop_point, _to3, is_planar)
 from .labels import _split_contacts, _status_line
-from .scene import _draw_walls_2d, _draw_walls_3d, _setup_3d, _shadow_points
+from .scene import _body_style, _draw_walls_2d, _draw_walls_3d, _setup_3d, _shadow_points
 from .style import _MARK_STYLE, _SHADOW_STYLE, _STOP_MARKER, _figure, _link_colour
 
 
@@ -50,7 +51,7 @@ def _stage(result, rows, n_points: int, planar: bool):
 
 def _actors(ax, model, q0, planar: bool) -> dict:
     """The artists a frame updates, empty: links, their parts behind a guide, the prismatic joint symbols,
-    the 3D shadows, the joints, the impact stars and end-stop diamonds."""
+    the attached bodies, the 3D shadows, the joints, the impact stars and end-stop diamonds."""
     empty = ([], []) if planar else ([], [], [])
     n = model.n_links
     out = {
@@ -58,6 +59,8 @@ def _actors(ax, model, q0, planar: bool) -> dict:
                   for i in range(n)],
         "rears": [ax.plot(*empty, lw=1.1, color=_link_colour(i), zorder=3)[0] for i in range(n)],
         "symbols": [ax.plot(*empty, **_MARK_STYLE[kind][1])[0] for kind, _, _ in _prismatic_marks(model, q0)],
+        "bodies": [ax.plot(*empty, **_body_style(i, b)[1])[0] for i, lk in enumerate(model.chain.links)
+                   for b in lk.bodies],
         "shadows": [] if planar else [ax.plot(*empty, **_SHADOW_STYLE)[0] for _ in range(n)],
         "joints": ax.plot(*empty, "o", ms=4, color="k", ls="none")[0],
         "stars": ax.plot(*empty, "*", ms=14, color="red", mec="darkred", ls="none")[0],
@@ -90,6 +93,8 @@ def _pose(actors, result, q, time: float, flash: float, n_points: int, floor, pl
         _put(rear, back if back is not None else np.zeros((0, 3)), planar)
     for sym, (_, _, P) in zip(actors["symbols"], _prismatic_marks(model, q)):
         _put(sym, P, planar)
+    for art, p in zip(actors["bodies"], body_centers(model, q)[0]):
+        _put(art, p, planar)
     _put(actors["joints"], O, planar)
     _put(actors["stars"], O[[j - 1 for j in hit]] if hit else np.zeros((0, 3)), planar)
     _put(actors["diamonds"], [_stop_point(model, q, i) for i in stopped], planar)

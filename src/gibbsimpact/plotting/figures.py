@@ -11,8 +11,8 @@ import sys
 
 from .animation import animate
 from .configurations import plot_configurations, plot_trajectory
-from .time_histories import (plot_angles, plot_contact_forces, plot_deflection, plot_energy, plot_joint_positions,
-                             plot_joint_velocities, plot_modes)
+from .time_histories import (plot_angles, plot_contact_forces, plot_deflection, plot_effort, plot_energy,
+                             plot_joint_positions, plot_joint_velocities, plot_modes)
 
 __all__ = ["FIGURES", "OPTIONAL_FIGURES", "animate", "plot_one", "plot_result", "save_figures"]
 
@@ -20,7 +20,7 @@ __all__ = ["FIGURES", "OPTIONAL_FIGURES", "animate", "plot_one", "plot_result", 
 FIGURES = ("angles", "modes", "deflection", "joint_positions", "joint_velocities", "energy", "configurations",
            "trajectory")
 #: Figures drawn (and saved) besides FIGURES only when the run has what they show.
-OPTIONAL_FIGURES = ("contact_forces",)  # a run with resting contact
+OPTIONAL_FIGURES = ("contact_forces", "effort")  # a run with resting contact; with prescribed coordinates
 
 
 def plot_result(result, kinds=None, case_name=None, n_points: int = 41) -> dict:
@@ -58,7 +58,7 @@ def plot_one(result, which: str, ax=None, case_name=None, n_points: int = 41):
         "angles": plot_angles, "modes": plot_modes, "deflection": plot_deflection,
         "joint_positions": plot_joint_positions,
         "joint_velocities": plot_joint_velocities, "energy": plot_energy,
-        "contact_forces": plot_contact_forces,
+        "contact_forces": plot_contact_forces, "effort": plot_effort,
     }
     if which in makers:
         return makers[which](result, case_name, ax=ax)

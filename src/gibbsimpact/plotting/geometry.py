@@ -6,9 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contact.walls import Circle, Plane, Sphere
 from ..dynamics.kinematics import transforms
-from ..dynamics.link_points import link_points, points_on_link
+from ..dynamics.link_points import body_centers, link_points, points_on_link
 
 
 _PLANAR_TOL = 1e-9  # m or rad: out-of-plane motion below this counts as planar
@@ -101,17 +100,10 @@ def _prismatic_marks(model, q) -> list:
 
 
 def _scene_points(model, q, n_points: int = 41) -> np.ndarray:
-    """Every point a configuration drawing shows (links and prismatic joint symbols), (m, 3) [m]."""
-    pts = [link_points(model, q, n_points).reshape(-1, 3)] + [P for _, _, P in _prismatic_marks(model, q)]
+    """Every point a configuration drawing shows (links, prismatic joint symbols, attached bodies), (m, 3) [m]."""
+    pts = [link_points(model, q, n_points).reshape(-1, 3), body_centers(model, q)[0]] + \
+        [P for _, _, P in _prismatic_marks(model, q)]
     return np.concatenate(pts)
-
-
-def _wall_is_2d(w) -> bool:
-    if isinstance(w, Circle):
-        return True
-    if isinstance(w, Sphere):
-        return abs(w.center[2]) < _PLANAR_TOL
-    return abs(w.normal_vector[2]) < _PLANAR_TOL
 
 
 def is_planar(result) -> bool:
@@ -122,7 +114,7 @@ def is_planar(result) -> bool:
     idx = [2, 3, 4] if model.chain.base == "free" else []
     idx += [k for k, d in enumerate(model.bending_directions) if d == "z"]
     planar = np.all(np.abs(result.q[:, idx]) < _PLANAR_TOL) and np.all(np.abs(result.qdot[:, idx]) < _PLANAR_TOL)
-    return bool(planar) and all(_wall_is_2d(w) for w in result.walls)
+    return bool(planar) and all(w.in_plane(_PLANAR_TOL) for w in result.walls)
 
 
 def _clip_polygon(poly: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
@@ -146,8 +138,8 @@ def _wall_curves_2d(walls, extent, n_samples: int = 721) -> list:
     """[(wall index, (m, 2) polyline)]: each wall's section with the X1-X2 plane, clipped to the
     view box and to the free side of every other wall (NaN rows break a polyline).
 
-    A plane is a straight segment: the box and the other planes clip it exactly (so two
-    planes meet in a V, not an X); circles and spheres are sampled and masked.
+    A flat wall (a plane) is a straight segment: the box and the other flat walls clip it exactly
+    (so two planes meet in a V, not an X); the others are their sampled section(), masked.
     """
     x0, x1, y0, y1 = extent
     tol = 1e-9 * max(x1 - x0, y1 - y0)
@@ -155,7 +147,7 @@ def _wall_curves_2d(walls, extent, n_samples: int = 721) -> list:
            (np.array([0.0, 1.0]), y0), (np.array([0.0, -1.0]), -y1)]
     out = []
     for k, w in enumerate(walls):
-        if isinstance(w, Plane):
+        if w.flat:
             n3, p3 = np.asarray(w.normal_vector), np.asarray(w.point)
             n = n3[:2] / np.linalg.norm(n3[:2])
             # Points with n12 . p12 = n . point (the section at X3 = 0), along the tangent.
@@ -164,7 +156,7 @@ def _wall_curves_2d(walls, extent, n_samples: int = 721) -> list:
             big = 4.0 * max(x1 - x0, y1 - y0) + 4.0 * np.linalg.norm(c - [0.5 * (x0 + x1), 0.5 * (y0 + y1)])
             s_lo, s_hi = -big, big
             cuts = box + [(np.asarray(o.normal_vector)[:2], np.asarray(o.normal_vector) @ np.asarray(o.point))
-                          for i, o in enumerate(walls) if i != k and isinstance(o, Plane)]
+                          for i, o in enumerate(walls) if i != k and o.flat]
             for a, b in cuts:
                 # a . (c + s t) >= b
                 at, rhs = a @ t, b - a @ c
@@ -181,14 +173,12 @@ def _wall_curves_2d(walls, extent, n_samples: int = 721) -> list:
             s = np.linspace(s_lo, s_hi, n_samples)
             seg = c + s[:, None] * t
         else:
-            R = w.radius if isinstance(w, Circle) else np.sqrt(max(w.radius ** 2 - w.center[2] ** 2, 0.0))
-            s = np.linspace(0.0, 2.0 * np.pi, n_samples)
-            seg = np.asarray(w.center[:2]) + R * np.stack([np.cos(s), np.sin(s)], axis=-1)
+            seg = w.section(n_samples)
         P = np.column_stack([seg, np.zeros(len(seg))])
         # Planes clipped a plane's segment exactly; the rest are sampled.
         ok = np.ones(len(seg), dtype=bool)
         for i, o in enumerate(walls):
-            if i != k and not (isinstance(w, Plane) and isinstance(o, Plane)):
+            if i != k and not (w.flat and o.flat):
                 ok &= o.gap(P) >= -tol
         seg = seg.copy()
         seg[~ok] = np.nan
@@ -213,19 +203,19 @@ def _plane_polygon_3d(walls, k: int, lo, hi) -> np.ndarray:
         poly = _clip_polygon(poly, e, lo[d])
         poly = _clip_polygon(poly, -e, -hi[d])
     for i, o in enumerate(walls):
-        if i != k and isinstance(o, Plane):
+        if i != k and o.flat:
             no = np.asarray(o.normal_vector)
             poly = _clip_polygon(poly, no, no @ np.asarray(o.point))
     return poly
 
 
 def _scene_extent_2d(result, points):
-    """(xmin, xmax, ymin, ymax) covering the curved walls, or the chain when only planes bound it."""
+    """(xmin, xmax, ymin, ymax) covering the bounded walls (Wall.bounds), or the chain when only planes bound it."""
     lo, hi = points[..., :2].reshape(-1, 2).min(0), points[..., :2].reshape(-1, 2).max(0)
-    curved = [w for w in result.walls if isinstance(w, (Circle, Sphere))]
+    curved = [w for w in result.walls if not w.flat]
     for w in curved:
-        c = np.asarray(w.center[:2])
-        lo, hi = np.minimum(lo, c - w.radius), np.maximum(hi, c + w.radius)
+        b_lo, b_hi = w.bounds()
+        lo, hi = np.minimum(lo, b_lo[:2]), np.maximum(hi, b_hi[:2])
     span = max(hi - lo)
     pad = 0.08 * span if curved else 0.25 * max(span, 1e-3)
     mid = 0.5 * (lo + hi)
@@ -241,15 +231,10 @@ def _to3(p):
 
 def _scene_extent_3d(result, points):
     lo, hi = points.reshape(-1, 3).min(0), points.reshape(-1, 3).max(0)
-    curved = False
+    curved = any(not w.flat for w in result.walls)
     for w in result.walls:
-        if isinstance(w, Sphere):
-            c = np.asarray(w.center)
-            lo, hi, curved = np.minimum(lo, c - w.radius), np.maximum(hi, c + w.radius), True
-        elif isinstance(w, Circle):
-            c = np.append(w.center, 0.5 * (lo[2] + hi[2]))
-            r = np.array([w.radius, w.radius, 0.0])
-            lo, hi, curved = np.minimum(lo, c - r), np.maximum(hi, c + r), True
+        b_lo, b_hi = w.bounds()    # a plane: none; a circle: none along X3
+        lo, hi = np.minimum(lo, b_lo), np.maximum(hi, b_hi)
     span = max(hi - lo)
     half = 0.5 * span * (1.05 if curved else 1.4) + 1e-3
     mid = 0.5 * (lo + hi)

@@ -60,15 +60,15 @@ def _stop_label(result, joint: int, q) -> str:
     return f"stop {joint}"
 
 
-def _point_name(model, j: int) -> str:
+def _point_name(model, j: int, walls=()) -> str:
     """'O2' for contact point j (1-based) of model.contact_point_names; 'link 1' for the closest point
-    of a flexible link (contacts.Contacts: the columns after the P points)."""
-    from ..simulation.contacts import flexible_links
+    of a link (contacts.Contacts: the columns after the P points, contacts.link_columns of walls)."""
+    from ..simulation.contacts import link_columns
 
     P = model.n_joints
     if j <= P:
         return f"O{j}"
-    flex = flexible_links(model)
+    flex = link_columns(model, walls)
     return f"link {flex[j - P - 1] + 1}" if j - P - 1 < len(flex) else f"point {j}"
 
 
@@ -84,7 +84,7 @@ def _contacts_text(result, rec) -> str:
     if not any(_is_stop(w) for w in walls) and all(j <= result.model.n_joints for j in rec.joints):
         return _joint_list(rec.joints)
     q = _sample_at(result, rec.time)
-    return "+".join(_stop_label(result, int(j), q) if _is_stop(w) else _point_name(result.model, int(j))
+    return "+".join(_stop_label(result, int(j), q) if _is_stop(w) else _point_name(result.model, int(j), result.walls)
                     for j, w in zip(rec.joints, walls))
 
 

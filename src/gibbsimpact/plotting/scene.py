@@ -4,18 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contact.walls import Circle, Sphere
 from ..dynamics.kinematics import joint_positions, transforms
-from ..dynamics.link_points import link_points
+from ..dynamics.link_points import body_centers, link_points
 from .geometry import _link_parts, _plane_polygon_3d, _prismatic_marks, _stop_point, _to3, _wall_curves_2d
-from .style import _MARK_STYLE, _SHADOW_STYLE, _STOP_MARKER, _link_colour
+from .style import _BODY_STYLE, _MARK_STYLE, _SHADOW_STYLE, _STOP_MARKER, _link_colour
 
 
 def _draw_walls_2d(ax, walls, extent):
     """Shade the region outside the walls and draw the boundary of the free region in the X1-X2 plane.
 
     Each wall is drawn only where it bounds the free region (inside the view and on the
-    free side of the other walls): two planes make a V, not an X.
+    free side of the other walls): two planes make a V, not an X. An obstacle (inside=False) is
+    also filled as a solid body (a Polygon patch of its section, gid "obstacle k").
     """
     if not walls:
         return
@@ -24,6 +24,10 @@ def _draw_walls_2d(ax, walls, extent):
     P = np.stack([X, Y, np.zeros_like(X)], axis=-1)
     G = np.min([w.gap(P) for w in walls], axis=0)
     ax.contourf(X, Y, G, levels=[-np.inf, 0.0], colors=["0.85"], zorder=0)
+    for k, w in enumerate(walls):
+        if w.obstacle and len(w.section()):
+            patch, = ax.fill(*w.section().T, facecolor=_OBSTACLE_FACE, edgecolor="none", zorder=0.5)
+            patch.set_gid(f"obstacle {k + 1}")
     for k, seg in _wall_curves_2d(walls, extent):
         ln, = ax.plot(seg[:, 0], seg[:, 1], color="0.15", lw=1.6, zorder=1)
         ln.set_gid(f"wall {k + 1}")
@@ -46,9 +50,30 @@ def _draw_links(plot, model, q, n_points, lw=2.4, colour=None, label=True, **kw)
         seen.add(kind)
 
 
+def _draw_bodies(plot, model, q, label=True, colour=None, **kw):
+    """Draw the attached rigid bodies through ``plot(points (1, 3), **style)``: a hub as an open disc
+    on its joint, a payload as a square at its centre (style._BODY_STYLE), in its link's colour."""
+    P, owner = body_centers(model, q)
+    seen = set()
+    for p, (i, b) in zip(P, owner):
+        text, style = _body_style(i, b, colour)
+        plot(p[None, :], label=text if label and text not in seen else None, **{**style, **kw})
+        seen.add(text)
+
+
+def _body_style(i: int, body, colour=None) -> tuple[str, dict]:
+    """(legend text, marker style) of a body on link i (0-based): a hub (at = 0, no offset) an open disc,
+    any other body a filled square, in the link's colour (style._BODY_STYLE)."""
+    kind = "hub" if body.at == 0.0 and not any(body.center) else "payload"
+    text, style = _BODY_STYLE[kind]
+    c = colour or _link_colour(i)
+    return text, dict(style, color=c, mfc="none" if kind == "hub" else c)
+
+
 def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, arrow=0.25, stops=()):
     _draw_links(lambda P, **st: ax.plot(P[:, 0], P[:, 1], solid_capstyle="round", **st), model, q, n_points,
                 zorder=3)
+    _draw_bodies(lambda P, **st: ax.plot(P[:, 0], P[:, 1], **st), model, q, label=labels, zorder=4.5)
     T = transforms(model, np.asarray(q, dtype=float))
     # Contact points: the frame origins, then the tips of hosts of prismatic joints (Model.n_joints).
     O = np.vstack((T[:, :3, 3], joint_positions(model, np.asarray(q, dtype=float))[T.shape[0]:]))
@@ -78,33 +103,61 @@ def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, ar
                         arrowprops={"arrowstyle": "->", "color": "red", "lw": 1.2}, zorder=5)
 
 
-def _draw_walls_3d(ax, walls, lo, hi):
-    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 37), np.linspace(0, np.pi, 19))
-    for k, w in enumerate(walls):
-        if isinstance(w, Sphere):
-            c, R = np.asarray(w.center), w.radius
-            P = np.stack([c[0] + R * np.cos(u) * np.sin(v), c[1] + R * np.sin(u) * np.sin(v),
-                          c[2] + R * np.cos(v)], axis=-1)
-            ax.plot_wireframe(*_to3(P), color="0.6", lw=0.3, alpha=0.45, rstride=3, cstride=3)
-            # Equator and the X1-X2 great circle, a little darker, for orientation.
-            s = np.linspace(0, 2 * np.pi, 121)
-            for ring in (np.stack([np.cos(s), np.zeros_like(s), np.sin(s)], -1),
-                         np.stack([np.cos(s), np.sin(s), np.zeros_like(s)], -1)):
-                ax.plot(*_to3(c + R * ring), color="0.45", lw=0.6, alpha=0.7)
-        elif isinstance(w, Circle):
-            s = np.linspace(0, 2 * np.pi, 121)
-            for z in np.linspace(lo[2], hi[2], 3):
-                P = np.stack([w.center[0] + w.radius * np.cos(s), w.center[1] + w.radius * np.sin(s),
-                              np.full_like(s, z)], axis=-1)
-                ax.plot(*_to3(P), color="0.45", lw=0.8)
-        else:
-            from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+#: Fill colour of an obstacle's body (2D patch, 3D surface).
+_OBSTACLE_FACE = "0.55"
 
-            poly = _plane_polygon_3d(walls, k, lo, hi)
-            if len(poly) >= 3:
-                X3, X1, X2 = _to3(poly)
-                ax.add_collection3d(Poly3DCollection([np.column_stack([X3, X1, X2])], facecolor="0.7",
-                                                     alpha=0.35, edgecolor="0.3", lw=0.8))
+
+def _draw_sphere_3d(ax, walls, k, lo, hi):
+    """A container sphere as a light wireframe with two darker great circles; an obstacle as a solid surface."""
+    w = walls[k]
+    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 37), np.linspace(0, np.pi, 19))
+    c, R = np.asarray(w.center), w.radius
+    P = np.stack([c[0] + R * np.cos(u) * np.sin(v), c[1] + R * np.sin(u) * np.sin(v), c[2] + R * np.cos(v)], axis=-1)
+    if w.obstacle:
+        ax.plot_surface(*_to3(P), color=_OBSTACLE_FACE, alpha=0.9, linewidth=0, shade=True).set_gid(f"obstacle {k + 1}")
+        return
+    ax.plot_wireframe(*_to3(P), color="0.6", lw=0.3, alpha=0.45, rstride=3, cstride=3)
+    # Equator and the X1-X2 great circle, a little darker, for orientation.
+    s = np.linspace(0, 2 * np.pi, 121)
+    for ring in (np.stack([np.cos(s), np.zeros_like(s), np.sin(s)], -1),
+                 np.stack([np.cos(s), np.sin(s), np.zeros_like(s)], -1)):
+        ax.plot(*_to3(c + R * ring), color="0.45", lw=0.6, alpha=0.7)
+
+
+def _draw_circle_3d(ax, walls, k, lo, hi):
+    """A container cylinder (along X3, over the view's X3 range) as three rings; an obstacle as a solid surface."""
+    w = walls[k]
+    s = np.linspace(0, 2 * np.pi, 121)
+    if w.obstacle:
+        S, Z = np.meshgrid(s, np.linspace(lo[2], hi[2], 2))
+        P = np.stack([w.center[0] + w.radius * np.cos(S), w.center[1] + w.radius * np.sin(S), Z], axis=-1)
+        ax.plot_surface(*_to3(P), color=_OBSTACLE_FACE, alpha=0.9, linewidth=0, shade=True).set_gid(f"obstacle {k + 1}")
+        return
+    for z in np.linspace(lo[2], hi[2], 3):
+        P = np.stack([w.center[0] + w.radius * np.cos(s), w.center[1] + w.radius * np.sin(s), np.full_like(s, z)],
+                     axis=-1)
+        ax.plot(*_to3(P), color="0.45", lw=0.8)
+
+
+def _draw_plane_3d(ax, walls, k, lo, hi):
+    """A plane as a translucent polygon, clipped to the box [lo, hi] and to the free side of the other planes."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    poly = _plane_polygon_3d(walls, k, lo, hi)
+    if len(poly) >= 3:
+        X3, X1, X2 = _to3(poly)
+        ax.add_collection3d(Poly3DCollection([np.column_stack([X3, X1, X2])], facecolor="0.7", alpha=0.35,
+                                             edgecolor="0.3", lw=0.8))
+
+
+#: How each wall kind (Wall.kind, walls.WALL_KINDS) is drawn in 3D axes: the one place figures dispatch on kinds.
+_DRAW_3D = {"sphere": _draw_sphere_3d, "circle": _draw_circle_3d, "plane": _draw_plane_3d}
+
+
+def _draw_walls_3d(ax, walls, lo, hi):
+    """Draw every wall into 3D axes over the box [lo, hi] (3,) [m] (_DRAW_3D by kind)."""
+    for k, w in enumerate(walls):
+        _DRAW_3D[w.kind](ax, walls, k, lo, hi)
 
 
 def _shadow_points(model, q, n_points, floor: float) -> np.ndarray:
@@ -122,6 +175,7 @@ def _draw_shadow(ax, model, q, n_points, floor: float, label: bool = False):
 
 def _draw_chain_3d(ax, model, q, n_points, hit=(), normals=None, labels=True, floor=None, arrow=0.25, stops=()):
     _draw_links(lambda P, **st: ax.plot(*_to3(P), **st), model, q, n_points)
+    _draw_bodies(lambda P, **st: ax.plot(*_to3(P), **st), model, q, label=labels)
     if floor is not None:
         _draw_shadow(ax, model, q, n_points, floor, label=labels)
     T = transforms(model, np.asarray(q, dtype=float))

@@ -101,6 +101,14 @@ _MARK_STYLE = {
 }
 
 
+#: Markers of the rigid bodies attached to links (docs/theory.md §6.8), by kind: a hub (at = 0) is an
+#: open disc on its joint, any other body (a payload) a square at its centre, both in the link's colour.
+_BODY_STYLE = {
+    "hub": ("hub (body at a joint)", {"marker": "o", "ms": 11, "mfc": "none", "mew": 1.6, "ls": "none"}),
+    "payload": ("payload (attached body)", {"marker": "s", "ms": 8, "mec": "k", "mew": 0.8, "ls": "none"}),
+}
+
+
 #: Marker of an end-stop impact (a prismatic joint at an end of its range); stars are wall impacts.
 _STOP_MARKER = {"marker": "D", "ms": 8, "color": "red", "mec": "darkred", "ls": "none"}
 

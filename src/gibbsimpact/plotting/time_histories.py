@@ -9,7 +9,7 @@ from ..model.shapes import link_deflection
 from .geometry import is_planar
 from .decimate import COLUMNS_PER_INCH, DENSE_TURNS, envelope, minmax_decimate, visible_turns
 from .impacts import _impact_lines, _impact_note, _number_impacts
-from .labels import _point_label, _status_box, _tex, _title, _wrap_note
+from .labels import _point_label, _point_name, _status_box, _tex, _title, _wrap_note
 from .style import _P_STYLES, _RANGE_STYLE, _STYLES, _figure, _given_axes, _joint_colour, _legend, _link_colour, _style
 
 
@@ -289,15 +289,17 @@ def plot_deflection(result, case_name=None, ax=None):
 
 def plot_contact_forces(result, case_name=None, ax=None):
     """Normal force [N] of every (wall, contact point) pair that was ever in resting contact
-    (Result.contact_forces), against time; None when no pair rested.
+    (Result.contact_forces) or pressed on a compliant wall (Result.compliant_forces: joints and closest
+    points of flexible links), against time; None when there was neither.
 
     ax : None (a new figure), one Axes (the normal forces) or two (and the friction forces |F_t|, with friction).
     """
-    F = result.contact_forces
-    if F is None or not np.any(F):
+    F, Fc = result.contact_forces, getattr(result, "compliant_forces", None)
+    rested = F is not None and np.any(F)
+    if not rested and (Fc is None or not np.any(Fc)):
         return None
     Ft = result.friction_forces
-    n_panels = 2 if Ft is not None and np.any(Ft) else 1
+    n_panels = 2 if rested and Ft is not None and np.any(Ft) else 1
     own = ax is None
     if own:
         fig = _figure((9.5, 4.2 if n_panels == 1 else 6.4))
@@ -307,8 +309,13 @@ def plot_contact_forces(result, case_name=None, ax=None):
         fig = axes[0].figure
     names = [_point_label(result.model, j + 1) for j in range(result.model.n_joints)]
     c = 0
-    for w, j in np.argwhere(np.any(F != 0.0, axis=0)):
+    for w, j in (np.argwhere(np.any(F != 0.0, axis=0)) if rested else ()):
         _curve(axes[0], result.t, F[:, w, j], label=f"{names[j]} on wall {w + 1}", **_style(c, _joint_colour(int(j))))
+        c += 1
+    for w, j in (np.argwhere(np.any(Fc != 0.0, axis=0)) if Fc is not None else ()):
+        point = names[j] if j < len(names) else _point_name(result.model, int(j) + 1)
+        label = f"{point} on wall {w + 1} (compliant)"
+        _curve(axes[0], result.t, Fc[:, w, j], label=label, **_style(c, _joint_colour(int(j))))
         c += 1
     axes[0].set_ylabel("contact force [N]")
     if n_panels == 2:
@@ -320,6 +327,8 @@ def plot_contact_forces(result, case_name=None, ax=None):
         axes[1].set_ylabel("friction force\n|F_t| [N]")
     _legend(axes[0], outside=own)
     what = "normal force of each wall on each contact point in resting contact (0 in flight; impacts are impulses)"
+    if Fc is not None and np.any(Fc):
+        what = what.replace("in resting contact", "in resting contact or on a compliant wall")
     if n_panels == 2:
         what += "; below: the friction force |F_t|"
     _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
@@ -385,7 +394,7 @@ def plot_energy(result, case_name=None, ax=None):
         # A work that stays zero (no inputs, or no damped link) is left out of the legend and the plot.
         dissipation = ("work of damping and friction" if any(getattr(w, "friction", 0.0) > 0 for w in result.walls)
                        else "work of damping")
-        for c, text in enumerate(("work of inputs", dissipation)):
+        for c, text in enumerate(("work of inputs", dissipation, "work of actuators")[:result.work.shape[1]]):
             if np.any(result.work[:, c] != 0.0) or not np.any(result.work != 0.0) and c == 0:
                 _curve(axes[0], result.t, result.work[:, c], label=text, **_style(3 + c))
         balance = balance - result.work.sum(axis=1)
@@ -404,4 +413,29 @@ def plot_energy(result, case_name=None, ax=None):
                            f"{result.energy_error_whole_run:.1e}, max per flight phase {result.energy_error:.1e})",
                    case_name)
     _finish_time_figure(fig, axes, result, title, own)
+    return fig
+
+
+def plot_effort(result, case_name=None, ax=None):
+    """The effort Q_p of each prescribed coordinate's actuator [N m on an angle, N on a length] (Result.effort),
+    one panel each, against time; None for a run without prescribed coordinates.
+
+    ax : None (a new figure), or one Axes per prescribed coordinate.
+    """
+    if not result.prescribed or result.effort is None:
+        return None
+    n = len(result.prescribed)
+    own = ax is None
+    if own:
+        fig = _figure((9.5, 2.3 * n + 1.2))
+        axes = list(fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0])
+    else:
+        axes = _given_axes(ax, n, "plot_effort")
+        fig = axes[0].figure
+    units = dict(zip(result.model.coordinate_names, result.model.coordinate_units))
+    for c, (a, name) in enumerate(zip(axes, result.prescribed)):
+        _curve(a, result.t, result.effort[:, c], label=name, **_style(c))
+        a.set_ylabel(f"effort on {name}\n[{'N m' if units[name] == 'rad' else 'N'}]")
+    what = "generalised force each actuator applies to follow its prescribed motion (impulses at impacts not shown)"
+    _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
     return fig

@@ -66,7 +66,9 @@ class Accumulation:
         d = np.diff(times)
         if np.max(self.streak) >= k:
             w_i, j = np.unravel_index(int(np.argmax(self.streak)), self.streak.shape)
-            what = f"joint {self.names[j]}" if self.names[j].startswith("O") else f"the span of {self.names[j]}"
+            name = self.names[j]
+            what = f"joint {name}" if name.startswith("O") else (f"the span of {name}" if name.startswith("link")
+                                                                  else f"the centre of {name}")
             why = (f"{what} stayed within {1.5 * self.band:.3g} m of wall {w_i + 1} through {k} consecutive "
                    "impacts (its rebounds no longer leave the contact band)")
         elif d.size >= k and np.all(d[-k:] < self.interval):

@@ -1,12 +1,14 @@
 """What each contact point of the event loop is on the chain (docs/theory.md §11.4, §14.7).
 
 The columns of the gap matrix (simulation.contacts.Contacts) are the points O_1 ... O_P
-(Model.contact_point_names) and, with link contacts, the closest point of every flexible link.
+(Model.contact_point_names), with link contacts the closest point of every flexible link, then the
+centre of every attached body with a centre offset (contact.candidates.body_candidates).
 For each, :func:`contact_points` says which link's shape functions move it relative to that link's
 frame and whether another body is attached there. Two rules of the package follow from it:
 
 * **Newton's law is ill-posed** at a point that a link's shape functions move and to which no
-  other body is attached (a span point, the free tip of a finite-element or clamped-free link):
+  other body is attached (a span point, the free tip of a finite-element or clamped-free link; a
+  tip that carries a RigidBody, or a body's centre, is held by that body's mass):
   its instantaneous effective mass ``1 / (n^T J M^-1 J^T n)`` tends to 0 as the link is refined
   (the impulse halves with every doubling of elements), so the impulse has no limit.
   (simulation.validity warns at the first impact there.)
@@ -22,7 +24,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .contacts import flexible_links
+from ..contact.candidates import body_candidates
+from .contacts import link_columns
 
 __all__ = ["ContactPoint", "contact_points", "describe_point", "rebound_period"]
 
@@ -77,15 +80,22 @@ def _end_moves(model, i: int) -> bool:
     return bool(np.any(model.link_data[i].end_t))
 
 
+def _tip_body(model, i: int) -> bool:
+    """Whether a RigidBody is attached to link i (0-based) at its tip x = l_i."""
+    lk = model.chain.links[i]
+    return any(b.at == lk.length for b in lk.bodies)
+
+
 def _joint_point(model, j: int) -> ContactPoint:
     """ContactPoint of O_j (1-based)."""
     n, kinds = model.n_links, model.joint_kinds
     name, text = f"O{j}", describe_point(model, j)
-    if j == n + 1:  # the chain's tip
-        return ContactPoint(name, text, n - 1 if _end_moves(model, n - 1) else None, True)
+    if j == n + 1:  # the chain's tip (held by a body attached there)
+        return ContactPoint(name, text, n - 1 if _end_moves(model, n - 1) else None, not _tip_body(model, n - 1))
     if j > n + 1:  # a host's tip: a guide holds the next link there (Pb), a carriage rides elsewhere (Pa)
         host = _tip_joint(model, j) - 2
-        return ContactPoint(name, text, host if _end_moves(model, host) else None, kinds[host + 1] == "Pa")
+        return ContactPoint(name, text, host if _end_moves(model, host) else None,
+                            kinds[host + 1] == "Pa" and not _tip_body(model, host))
     if j == 1 or kinds[j - 1] == "Pb":  # the base, or a Pb link's rear end: its own frame's origin
         return ContactPoint(name, text, None, False)
     host = j - 2
@@ -94,12 +104,19 @@ def _joint_point(model, j: int) -> ContactPoint:
     return ContactPoint(name, text, host if _end_moves(model, host) else None, False)
 
 
-def contact_points(model, link_contacts: bool = True) -> list[ContactPoint]:
-    """The ContactPoint of every gap-matrix column: O_1 ... O_P, then (link_contacts) one per flexible
-    link (Contacts.flex), as in simulation.contacts.Contacts with walls."""
+def contact_points(model, link_contacts: bool = True, walls=()) -> list[ContactPoint]:
+    """The ContactPoint of every gap-matrix column: O_1 ... O_P, then (link_contacts) one per link with a
+    link column (Contacts.flex: contacts.link_columns of ``walls``), then one per body candidate
+    (Contacts.bodies: "body k", held by its own mass), as in simulation.contacts.Contacts."""
     points = [_joint_point(model, j) for j in range(1, model.n_joints + 1)]
     if link_contacts:
-        points += [ContactPoint(f"link {i + 1}", f"span of link {i + 1}", i, True) for i in flexible_links(model)]
+        # A rigid link's span point (obstacles) moves with the frame only: Newton's law is well posed there.
+        points += [ContactPoint(f"link {i + 1}", f"span of link {i + 1}", i if model.delta_index[i].size else None,
+                                True) for i in link_columns(model, walls)]
+    for k, (i, b) in enumerate(body_candidates(model), start=1):
+        where = "its tip" if b.at == model.chain.links[i].length else f"x = {b.at:g} m"
+        points.append(ContactPoint(f"body {k}", f"centre of a body on link {i + 1} at {where}",
+                                   i if model.delta_index[i].size else None, False))
     return points
 
 

@@ -12,15 +12,24 @@ from .. import kernel as _k
 from ..dynamics.gibbs_appell import energy, mass_matrix
 from .flight import EventSpec
 from ..contact.friction import solve_frictional_impulses
-from ..contact.impact import solve_impulses
+from ..contact.impact import actuator_impulses, held_impulses, solve_impulses
 from ..dynamics.kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
 from .results import ImpactRecord
-from ..contact.walls import packed_walls, tangent_basis
+from ..contact.walls import has_obstacle, packed_walls, tangent_basis
+from ..contact.candidates import body_candidates
+from ..dynamics.link_points import body_centers, body_jacobian, body_tables
 
 
 def flexible_links(model) -> list:
-    """0-based indices of the links with elastic coordinates: the link columns of Contacts, in order."""
+    """0-based indices of the links with elastic coordinates, in order."""
     return [i for i in range(model.n_links) if model.delta_index[i].size]
+
+
+def link_columns(model, walls=()) -> list:
+    """0-based indices of the links with a link column in Contacts, in order: the flexible links, or every
+    link when one of ``walls`` is an obstacle (its gap is convex along a line: a rigid link's closest
+    point to it can lie between the link's ends, and a rigid rod can strike a post with its span)."""
+    return list(range(model.n_links)) if has_obstacle(walls) else flexible_links(model)
 
 
 #: Gap [m] of a link candidate whose closest point is at an end of the link (its end joint stands for it).
@@ -31,14 +40,20 @@ class Contacts:
     """Gaps, normals and Jacobians of every (wall, contact point) pair (docs/theory.md §10; issue 9 item 2).
 
     Columns c = 0 .. C-1 of the (W, C) gap matrix: the P joint points (model.contact_point_names),
-    then one column per flexible link i (``flex``): the material point of link i closest to
-    wall w (gibbsimpact.linkpoints), deflection included. A link column holds that point's gap
+    then one column per flexible link i (``flex``; every link when a wall is an obstacle:
+    link_columns): the material point of link i closest to wall w (gibbsimpact.linkpoints),
+    deflection included. A link column holds that point's gap
     when it is *interior* (farther than 1e-6 l_i from the link's ends), else NOT_INTERIOR: at
     an end, the end joint's own column is the candidate, so nothing is counted twice. Its
     event fires where a link bulges into a wall between its joints. Rigid links have no column
-    (their closest point is always an end). Link columns cannot rest (resting.py).
+    unless a wall is an obstacle (else their closest point is always an end). Link columns
+    cannot rest (resting.py).
 
-    link_contacts=False: joints only (C = P), the model of the published case studies.
+    Then one column per attached body with a centre offset (contact.candidates.body_candidates,
+    ``bodies``): the gap of its centre, a point candidate like a joint (docs/theory.md §6.8); it
+    cannot rest either.
+
+    link_contacts=False: joints (and bodies) only (C = P + B), the model of the published case studies.
 
     Cost: a link is searched (gibbsimpact.linkpoints.closest_points) only where its column can
     hold a gap <= refine_below; elsewhere it gets NOT_INTERIOR without a search (skip rule
@@ -47,9 +62,9 @@ class Contacts:
     G(s) = g(p(s)) [m] on one wall, the end joints A = p(0), B = p(1) (linkpoints.end_joints;
     every mode and element shape is 0 at x = 0) with gaps g_A, g_B [m].
 
-    * Walls: every gap is concave along a straight line (Plane: linear; Circle, Sphere: the
-      inside, g = R - |P (p - c)| with |P (.)| convex; walls.py has no other kind) and
-      1-Lipschitz (|grad g| = 1).
+    * Walls: every gap is 1-Lipschitz (|grad g| = 1) and, except on obstacles, concave along a
+      straight line (Plane: linear; Circle, Sphere: the inside, g = R - |P (p - c)| with |P (.)|
+      convex). Rules (1), (3), (4) below use the concavity; an obstacle's pairs take rule (5).
     * Chord c(s) = (1 - s) A + s B [m]. The axial coordinate of p(s) in the link frame is
       linear in s, so p(s) - c(s) = R_i (0, phi(s)), phi = (v, w)(s) - (1 - s) (v, w)(0)
       - s (v, w)(1) = sum_k e_k phi_k(s), linear in the elastic coordinates (e_k = delta_k; on
@@ -84,6 +99,9 @@ class Contacts:
 
       as T^2 - rho_A^2 = h_A (2 T - h_A). (With both joints on the wall: the chord's sagitta
       L^2 / (8 R) exceeds the largest offset Lam / 4 of the link from its chord.)
+    * (5) Obstacle (g = |P (p - c)| - R): rho_min - R - Lam / 4 > t, rho_min the distance of
+      the chord from the centre (projected by P): by (2), G(s) >= g(c(s)) - Lam u >= rho_min
+      - R - Lam / 4 (kernel.contact._skip_obstacle).
 
     Why a skip never hides a contact: the search returns an interior point s* with
     G(s*) <= refine_below only as a refined minimum that beats both end samples (linkpoints:
@@ -102,8 +120,10 @@ class Contacts:
     def __init__(self, model, walls, link_contacts=True):
         self.model, self.walls = model, walls
         self.N, self.n_joints = model.n_dof, model.n_joints
-        self.flex = flexible_links(model) if (walls and link_contacts) else []
-        self.n_cols = self.n_joints + len(self.flex)
+        self.flex = link_columns(model, walls) if (walls and link_contacts) else []
+        self.bodies = body_candidates(model) if walls else ()
+        self._body_tables = body_tables(model, self.bodies)
+        self.n_cols = self.n_joints + len(self.flex) + len(self.bodies)
         # Link minima farther than this from a wall are not refined (a sample's gap: sign exact).
         self.refine_below = 0.01 * (1.0 + sum(ld.length for ld in model.link_data))
         self._key, self._g = None, None
@@ -240,8 +260,10 @@ class Contacts:
 
     @property
     def names(self) -> list:
-        """Names of the C columns: the joint points, then "link i" for the closest point of link i."""
-        return [f"O{j + 1}" for j in range(self.n_joints)] + [f"link {i + 1}" for i in self.flex]
+        """Names of the C columns: the joint points, "link i" for the closest point of link i, then
+        "body k" for the k-th body candidate (contact_points.body_name)."""
+        return [f"O{j + 1}" for j in range(self.n_joints)] + [f"link {i + 1}" for i in self.flex] + \
+            [f"body {k + 1}" for k in range(len(self.bodies))]
 
     def gaps(self, q: np.ndarray) -> np.ndarray:
         """g (W, C) [m]; cached per q (every event function of a step sees the same q)."""
@@ -257,17 +279,20 @@ class Contacts:
         if not self.walls:
             return np.zeros((len(qs), 0, self.n_cols))
         pts = joint_positions_batch(self.model, qs)  # (K, P, 3)
-        P = self.n_joints
+        P, F = self.n_joints, len(self.flex)
         g_joints, rest = self._event_gaps(qs, pts)
-        if not self.flex:
+        if not (self.flex or self.bodies):
             return g_joints
         g = np.empty((len(qs), len(self.walls), self.n_cols))
         g[:, :, :P] = g_joints
         search = rest[len(qs) * len(self._rules):] != 0.0  # (K,) states that need a link search
-        if search.any():
-            self._link_gaps(qs, search, out=g[:, :, P:])
+        if F and search.any():
+            self._link_gaps(qs, search, out=g[:, :, P:P + F])
         else:
-            g[:, :, P:] = NOT_INTERIOR
+            g[:, :, P:P + F] = NOT_INTERIOR
+        if self.bodies:
+            pb = body_centers(self.model, qs, self.bodies, self._body_tables)[0]  # (K, B, 3)
+            g[:, :, P + F:] = np.stack([w.gap(pb) for w in self.walls], axis=1)
         return g
 
     def full(self, q: np.ndarray):
@@ -292,6 +317,14 @@ class Contacts:
             g, nrm = np.concatenate((g, gl), axis=1), np.concatenate((nrm, nl), axis=1)
             J, pts = np.concatenate((J, Jl), axis=1), np.concatenate((pts, pl), axis=1)
             valid = np.concatenate((valid, inside), axis=1)
+        if self.bodies:
+            pb, Jb = zip(*(body_jacobian(self.model, q, i, b) for i, b in self.bodies))
+            pb, Jb = np.array(pb), np.array(Jb)  # (B, 3), (B, 3, N)
+            g = np.concatenate((g, np.array([w.gap(pb) for w in self.walls])), axis=1)
+            nrm = np.concatenate((nrm, np.array([w.normal(pb) for w in self.walls])), axis=1)
+            J = np.concatenate((J, np.broadcast_to(Jb, (W,) + Jb.shape)), axis=1)
+            pts = np.concatenate((pts, np.broadcast_to(pb, (W,) + pb.shape)), axis=1)
+            valid = np.concatenate((valid, np.ones((W, len(pb)), dtype=bool)), axis=1)
         return g, nrm, J, pts, valid
 
 
@@ -309,16 +342,23 @@ def contact_band(contact_tol: float, lipschitz: float, rtol: float, atol: float,
     return max(2.0 * contact_tol, lipschitz * (atol + rtol * float(np.abs(q).max(initial=0.0))))
 
 
-def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink_pair, resting=None):
+def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink_pair, resting=None,
+                 prescribed=None, compliant=None):
     """The impact at (t, q, qd), if there is one.
 
     resting : None or (W, J) bool, the pairs in resting contact: they take e = 0 (gibbsimpact.resting).
+    prescribed : None or (n_p,) int, coordinates whose actuators hold their velocity (formulation §16): the
+        impulse problem is solved on the free ones, the record carries the actuators' impulses.
+    compliant : None or (W,) bool, the walls of the compliant law: never candidates (simulation.compliant).
+    Raises contact.impact.HeldContactError when a contact is moved by prescribed coordinates only.
     Returns (record or None, near (W, J) bool: the pairs in the contact band g <= band [m]).
     """
     g, nrm, Jac, pts, valid = contacts.full(q)
     # Candidates: every pair within the contact band (a pair caught by its "sink"
     # event sits just below its phase-start gap); a link column only with an interior point.
     near = g <= band
+    if compliant is not None:
+        near &= ~compliant[:, None]
     if not np.any(near & valid):
         return None, near
     pairs = np.argwhere(near & valid)  # (k, 2): wall, column
@@ -338,27 +378,42 @@ def impact_stage(model, contacts, e_wall, t, q, qd, band, grazing_velocity, sink
     if resting is not None:
         e_k = np.where(resting[pairs[:, 0], pairs[:, 1]], 0.0, e_k)
     mu_k = np.array([contacts.walls[w].friction for w in pairs[:, 0]])
-    friction = {}
+    friction, held = {}, {}
     if np.any(mu_k > 0):
         # Moreau's law with Coulomb's cone (friction.py): tangents t1, t2 of each contact.
         T = tangent_basis(normals)  # (k, 2, 3)
         Wt = np.einsum("kac,kcn->nka", T, Jk)
-        sol = solve_frictional_impulses(M, Wmat, Wt, qd, e_k, mu_k)
+        sol, qdot_after = _solve(M, Wmat, qd, prescribed, lambda M_, r, v: solve_frictional_impulses(
+            M_, Wmat[r], Wt[r], v, e_k, mu_k), Wt)
         world = lambda a: np.einsum("ka,kac->kc", a, T)  # noqa: E731
         friction = dict(friction_impulses=world(sol.tangential_impulses), slip_before=world(sol.slip_before),
                         slip_after=world(sol.slip_after))
         rounds = sol.rounds
+        impulse = Wmat @ sol.impulses + np.einsum("nka,ka->n", Wt, sol.tangential_impulses)
     else:
-        sol = solve_impulses(M, Wmat, qd, e_k)
+        sol, qdot_after = _solve(M, Wmat, qd, prescribed, lambda M_, r, v: solve_impulses(M_, Wmat[r], v, e_k))
         rounds = len(sol.rounds)
+        impulse = Wmat @ sol.impulses
+    if prescribed is not None:
+        held = dict(actuator_impulses=actuator_impulses(M, qd, qdot_after, impulse, prescribed))
     rec = ImpactRecord(
         time=t, joints=tuple(int(j) + 1 for j in pairs[:, 1]), wall=tuple(int(w) for w in pairs[:, 0]),
         normals=normals, impulses=sol.impulses, v_before=sol.v_before, v_after=sol.v_after,
-        restitution=e_k, qdot_before=qd.copy(), qdot_after=sol.qdot_after.copy(),
-        energy_before=energy(model, q, qd), energy_after=energy(model, q, sol.qdot_after),
-        rounds=rounds, points=pts[pairs[:, 0], pairs[:, 1]].copy(), **friction,
+        restitution=e_k, qdot_before=qd.copy(), qdot_after=qdot_after.copy(),
+        energy_before=energy(model, q, qd), energy_after=energy(model, q, qdot_after),
+        rounds=rounds, points=pts[pairs[:, 0], pairs[:, 1]].copy(), **friction, **held,
     )
     return rec, near
+
+
+def _solve(M, W, qd, prescribed, solve, Wt=None):
+    """(solution, qdot_after (N,)) of solve(M, rows, qdot) on every coordinate, or on the free ones with the
+    prescribed (n_p,) holding their velocity (contact.impact.held_impulses; W (N, k), Wt (N, k, 2) or None)."""
+    if prescribed is None:
+        sol = solve(M, slice(None), qd)
+        return sol, sol.qdot_after
+    W_all = W if Wt is None else np.hstack((W, Wt.reshape(W.shape[0], -1)))
+    return held_impulses(M, W_all, qd, prescribed, solve)
 
 
 def phase_events(near, g_start, band, sink_depth, row0=0, skip=None):

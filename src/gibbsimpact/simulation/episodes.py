@@ -4,9 +4,10 @@
 Rules, with the symbols of the docs (b the contact band, §14.2):
 
 * **A pair is engaged** from an impact of it, or a sample where it carries a contact force
-  (resting contact, Result.contact_forces), until the first later sample where its gap is above the
-  band, ``g > b``, and it carries no force: the loop's "leave" event (§14.3), whose time is always a
-  sample. That sample ends the pair's engagement.
+  (resting contact, Result.contact_forces; a compliant wall's force, Result.compliant_forces, from the
+  sample before its force rises from zero: its start event, where the gap closes), until the first
+  later sample where its gap is above the band, ``g > b``, and it carries no force: the loop's
+  "leave" event (§14.3), whose time is always a sample. That sample ends the pair's engagement.
 * **The body is the chain**: one impact couples every link through M, so contacts of several
   links, simultaneous or not, and of several walls belong to one episode while they overlap.
   Episodes are disjoint in time, and their energies add up.
@@ -26,11 +27,14 @@ Rules, with the symbols of the docs (b the contact band, §14.2):
       e_eff = - w_R^T M_RR^-1 (p^- + P)_R / (w_R^T M_RR^-1 p^-_R)
 
   w_R^T M_RR^-1 p_R is the normal velocity of the first contact for the chain made rigid with the
-  same momenta p_R; p^- + P keeps the momenta the contacts gave and leaves out what gravity, the
-  inputs and the velocity terms did during the episode. For one impact of a rigid chain it is
+  same momenta p_R. An episode that starts with a compliant contact (its start event: no impact) takes p^- at
+  that sample, P from the integrated generalised impulse of the compliant forces (Result.compliant_integrals,
+  exact to the integrator's tolerance) and w = J_j^T n_j of its first compliant pair there.
+  p^- + P keeps the momenta the contacts gave and leaves out what gravity, the inputs and the
+  velocity terms did during the episode. For one impact of a rigid chain it is
   -v_n^+ / v_n^- = e exactly; for an arm on a fixed pivot (R = {theta_1}) it is the ratio of the
   angular momenta about the pivot, after (gravity removed) over before. NaN for an episode that
-  did not start with an impact (it started resting: nothing approached). It presumes an impulsive
+  did not start with an impact or a compliant contact (it started resting: nothing approached). It presumes an impulsive
   collision: ``non_contact_share``, the change of w_R^T M_RR^-1 p_R that the other forces made during
   the episode over its value before, says how far that holds (e_eff moves by up to that much if they
   are counted).
@@ -74,6 +78,10 @@ class Episode(NamedTuple):
         impulsive collision when it is small (0.005 for the arm of issue 26), and it moves e_eff by up to that
         much; large when the wall also carried a load for long (a driven arm pressed onto a floor)
     max_penetration : [m] max(0, -g) over its pairs and samples, the deepest gap recorded
+    damping_work, friction_work : [J] the work of the compliant contacts' damping and regularised friction over
+        the episode (<= 0; 0 without compliant walls): with nothing else dissipating, energy_lost is
+        -(damping_work + friction_work) to the integrator's tolerance (the contact's elastic energy is zero
+        at both ends)
     """
 
     start: float
@@ -93,6 +101,8 @@ class Episode(NamedTuple):
     restitution: float
     non_contact_share: float
     max_penetration: float
+    damping_work: float = 0.0
+    friction_work: float = 0.0
 
     @property
     def duration(self) -> float:
@@ -130,21 +140,24 @@ def _run_settings(result) -> tuple[float, float, float, bool]:
     return float(s["contact_tol"]), float(s["rtol"]), float(s["atol"]), bool(s.get("link_contacts", True))
 
 
-def dwell_times(model, link_contacts: bool = True) -> np.ndarray:
+def dwell_times(model, link_contacts: bool = True, walls=()) -> np.ndarray:
     """The dwell [s] of every gap-matrix column (C,): rebound_period of the link whose shape functions
     move the point, 0 where none does (contact_points.ContactPoint.link)."""
     return np.array([0.0 if p.link is None else rebound_period(model, p.link)
-                     for p in contact_points(model, link_contacts)])
+                     for p in contact_points(model, link_contacts, walls)])
 
 
 class _Samples(NamedTuple):
     """What the rules read at every sample: gaps g (K, W, C) [m], band b (K,) [m], normal forces (K, W, C) [N]
-    (zero in the columns that cannot rest), and, per impact, its sample after (n_impacts,)."""
+    (zero in the columns that cannot rest), and, per impact, its sample after (n_impacts,); compliant
+    normal forces (K, W, C) [N] and their integrals (K, 3 + N) (zeros without compliant walls)."""
 
     gap: np.ndarray
     band: np.ndarray
     force: np.ndarray
     after: np.ndarray
+    compliant: np.ndarray
+    integrals: np.ndarray
 
 
 def _samples(result) -> _Samples:
@@ -161,13 +174,19 @@ def _samples(result) -> _Samples:
         force[:, :F.shape[1], :F.shape[2]] = F[:, :gap.shape[1], :gap.shape[2]]
     # Impact i starts flight phase i + 1: its state after is the first sample of that phase.
     after = np.minimum(np.searchsorted(np.asarray(result.phase), np.arange(1, len(result.impacts) + 1)), K - 1)
-    return _Samples(gap, band, force, after)
+    if getattr(result, "compliant_forces", None) is None:
+        compliant, integrals = np.zeros(gap.shape), np.zeros((K, 3 + model.n_dof))
+    else:
+        compliant, integrals = np.asarray(result.compliant_forces), np.asarray(result.compliant_integrals)
+    return _Samples(gap, band, force, after, compliant, integrals)
 
 
 def _seeds(result, s: _Samples) -> np.ndarray:
     """(K, W, C) bool: the samples where a pair starts or renews an engagement (an impact of it: the
     samples before and after; a contact force)."""
-    seed = s.force > 0.0
+    seed = (s.force > 0.0) | (s.compliant > 0.0)
+    # A compliant force rises from zero after its start event (the gap closing): that sample seeds too.
+    seed[:-1] |= (s.compliant[1:] > 0.0) & (s.compliant[:-1] == 0.0)
     for i, rec in enumerate(result.impacts):
         k = int(s.after[i])
         for c, w in zip(rec.joints, rec.wall):
@@ -180,7 +199,7 @@ def _engagements(result, s: _Samples) -> list[tuple]:
     """Every engagement of a pair: (k_seed, k_end, ended, w, c), k_seed its first seed sample, k_end the sample
     where it left (g > b without force) or the last sample (ended False)."""
     seed = _seeds(result, s)
-    engaged = seed | (s.gap <= s.band[:, None, None]) | (s.force > 0.0)
+    engaged = seed | (s.gap <= s.band[:, None, None]) | (s.force > 0.0) | (s.compliant > 0.0)
     K = engaged.shape[0]
     out = []
     for w, c in zip(*np.nonzero(seed.any(axis=0))):
@@ -231,24 +250,43 @@ def _resting_impulse(result, s: _Samples, k0: int, k1: int) -> np.ndarray:
     return _trapezoid(result.t[k0:k1 + 1], Q)
 
 
+def _first_contact(result, s: _Samples, k0: int, impacts: list):
+    """(M (N, N), p^- (N,), w (N,)) at the first sample k0 of an episode (module docstring): the mass matrix, the
+    momenta before, and the generalised direction of the first contact (an impact's W Lambda / sum Lambda, or
+    J_j^T n_j of the compliant pair whose force rises first); None when the episode starts otherwise."""
+    model, q0 = result.model, result.q[k0]
+    if impacts and int(s.after[impacts[0]]) == k0 + 1:
+        first = result.impacts[impacts[0]]
+        total = float(np.sum(first.impulses))
+        if not total > 0.0:
+            return None
+        M0 = mass_matrix(model, q0)
+        return M0, M0 @ first.qdot_before, M0 @ (first.qdot_after - first.qdot_before) / total
+    F = s.compliant[k0 + 1] if k0 + 1 < len(result.t) else None
+    if F is None or not F.any() or s.compliant[k0].any():
+        return None
+    w, c = np.unravel_index(np.argmax(F), F.shape)
+    _, nrm, J, _, _ = Contacts(model, tuple(result.walls), _run_settings(result)[3]).full(q0)
+    M0 = mass_matrix(model, q0)
+    return M0, M0 @ result.qdot[k0], J[w, c].T @ nrm[w, c]
+
+
 def _restitution(result, s: _Samples, k0: int, k1: int, impacts: list) -> tuple[float, float]:
     """(e_eff, non-contact share) of the episode of samples k0 ... k1 and impacts (module docstring); NaN, NaN
-    when its first sample is not the state before an impact, or the first impact carried no impulse."""
+    when its first sample is not the state before an impact or a compliant contact's start, or the first
+    impact carried no impulse."""
     nan = (float("nan"), float("nan"))
-    if not impacts or int(s.after[impacts[0]]) != k0 + 1:
+    first = _first_contact(result, s, k0, impacts)
+    if first is None:
         return nan
-    model, first = result.model, result.impacts[impacts[0]]
-    total = float(np.sum(first.impulses))
-    if not total > 0.0:
-        return nan
-    M0 = mass_matrix(model, result.q[k0])
-    p_before = M0 @ first.qdot_before
-    # P: the impacts' M (qdot+ - qdot-) (exact, no Jacobian needed), then the resting forces' integral.
+    model, (M0, p_before, w_full) = result.model, first
+    # P: the impacts' M (qdot+ - qdot-) (exact, no Jacobian needed), the resting forces' integral, and the
+    # compliant forces' (integrated with the state).
     P = sum(mass_matrix(model, result.q[s.after[i]]) @ (result.impacts[i].qdot_after - result.impacts[i].qdot_before)
-            for i in impacts) + _resting_impulse(result, s, k0, k1)
+            for i in impacts) + _resting_impulse(result, s, k0, k1) + (s.integrals[k1, 3:] - s.integrals[k0, 3:])
     elastic = np.concatenate([np.zeros(0, dtype=int)] + [np.asarray(d, dtype=int) for d in model.delta_index])
     R = np.setdiff1d(np.arange(model.n_dof), elastic)
-    w = (M0 @ (first.qdot_after - first.qdot_before))[R] / total  # W Lambda / sum Lambda, rows R
+    w = w_full[R]
     M_RR = M0[np.ix_(R, R)]
 
     def v(p):  # the rigid chain's normal velocity of the first contact with the momenta p_R [m/s]
@@ -270,21 +308,28 @@ def _episode(result, s: _Samples, group: list, energy: np.ndarray) -> Episode:
     F = s.force[k0:k1 + 1]
     t = result.t[k0:k1 + 1]
     points = tuple(dict.fromkeys(c + 1 for _, _, _, _, c in group))
+    C = s.compliant[k0:k1 + 1]
     if impacts and s.after[impacts[0]] == k0 + 1:
         rec = result.impacts[impacts[0]]
         first = int(rec.joints[int(np.argmax(rec.impulses))])
-    else:
-        first = int(np.unravel_index(np.argmax(F[0]), F[0].shape)[1]) + 1 if F[0].any() else points[0]
+    elif F[0].any():
+        first = int(np.unravel_index(np.argmax(F[0]), F[0].shape)[1]) + 1
+    else:  # the compliant pair whose force rises first, else the first point
+        k = int(np.argmax(C.any(axis=(1, 2)))) if C.any() else 0
+        first = int(np.unravel_index(np.argmax(C[k]), C[k].shape)[1]) + 1 if C.any() else points[0]
     depth = max(-float(s.gap[k0:k1 + 1, w, c].min()) for _, _, _, w, c in group)
     e_eff, share = _restitution(result, s, k0, k1, impacts)
     return Episode(
         start=float(result.t[k0]), end=float(result.t[k1]), ended=all(g[2] for g in group),
         walls=tuple(sorted({w for _, _, _, w, _ in group})), points=points, first_point=first,
-        impacts=tuple(impacts), samples=(k0, k1), impulse=sum(lam) + float(_trapezoid(t, F.sum(axis=(1, 2)))),
-        max_impulse=max(lam, default=0.0), max_force=float(F.max(initial=0.0)),
+        impacts=tuple(impacts), samples=(k0, k1),
+        impulse=sum(lam) + float(_trapezoid(t, F.sum(axis=(1, 2)))) + float(s.integrals[k1, 2] - s.integrals[k0, 2]),
+        max_impulse=max(lam, default=0.0), max_force=max(float(F.max(initial=0.0)), float(C.max(initial=0.0))),
         resting_time=float(np.sum(np.diff(t) * F[:-1].any(axis=(1, 2)))),
         energy_before=float(energy[k0]), energy_after=float(energy[k1]),
         restitution=e_eff, non_contact_share=share, max_penetration=max(depth, 0.0),
+        damping_work=float(s.integrals[k1, 0] - s.integrals[k0, 0]),
+        friction_work=float(s.integrals[k1, 1] - s.integrals[k0, 1]),
     )
 
 
@@ -304,7 +349,7 @@ def episodes(result, dwell: float | None = None) -> list[Episode]:
         return []
     s = _samples(result)
     C = s.gap.shape[2]
-    times = dwell_times(result.model, _run_settings(result)[3]) if dwell is None else np.full(C, float(dwell))
+    times = dwell_times(result.model, _run_settings(result)[3], result.walls) if dwell is None else np.full(C, float(dwell))
     groups = _group(result.t, _engagements(result, s), times)
     energy = result.energy().total
     return [_episode(result, s, g, energy) for g in groups]

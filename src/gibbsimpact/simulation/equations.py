@@ -8,6 +8,12 @@ gibbsimpact.dynamics.forces):
 
 In a contact phase (pairs resting on walls) qddot comes from the constrained equations of
 gibbsimpact.contact.resting, and the power of friction joins the damping's.
+
+With prescribed coordinates q_p (gibbsimpact.simulation.prescribed) y has a third work state, the
+actuator's: W_act' = qdot_p . Q_p, Q_p the effort of gibbsimpact.dynamics.prescribed, and qddot
+comes from the free rows M_ff qddot_f = Q_f - h_f - dV/dq_f - M_fp qddot_p (:meth:`Equations.partitioned`).
+With compliant walls (gibbsimpact.simulation.compliant) their contact force joins Q_damp, and y ends
+with the 3 + N states of that module (Settings refuses compliant walls with prescribed coordinates).
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ import numpy as np
 
 from ..dynamics.forces import CallbackError, damping_depends_on_q, damping_matrix, generalized_force
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics
+from ..dynamics.prescribed import partitioned_dynamics
 from .budget import Budget
 
 
@@ -25,9 +32,10 @@ class Equations:
     resting : the run's RestingContacts (asked for the constrained accelerations in a contact phase)
     clock : a progress throttle with ``tick(t)`` (gibbsimpact.simulation.progress.Clock)
     budget : the run's limits (gibbsimpact.simulation.budget), checked when nfev reaches check_at
+    compliant : None, or the run's CompliantContacts (simulation.compliant): its force and extra states
     """
 
-    def __init__(self, model, settings, q0, qdot0, resting, clock):
+    def __init__(self, model, settings, q0, qdot0, resting, clock, compliant=None):
         self.model, self.resting, self.clock = model, resting, clock
         self.N = N = model.n_dof
         self.Q_in = generalized_force(model, settings.inputs, settings.t0, q0, qdot0)
@@ -35,7 +43,14 @@ class Equations:
         self.C_damp = damping_matrix(model, q0)
         self.damped = bool(np.any(self.C_damp))
         # Friction in resting contact does work too: a frictional wall makes the run keep its work.
-        self.driven = self.Q_in is not None or self.damped or any(w.friction > 0 for w in settings.walls)
+        self.prescribed = settings.prescribed  # None, or the Prescribed coordinates (their work is the third state)
+        self.compliant = compliant
+        self.driven = (self.Q_in is not None or self.damped or any(w.friction > 0 for w in settings.walls)
+                       or compliant is not None or self.prescribed is not None)
+        self.n_work = 0 if not self.driven else 2 if self.prescribed is None else 3  # work states after (q, qdot)
+        #: States after (q, qdot): the work states, then the compliant contacts' own.
+        self.n_extra = self.n_work + (0 if compliant is None else compliant.n_extra)
+        self._compliant_rates = None
         self.zeros = np.zeros(N)
         self.nfev = 0
         self.budget = Budget(settings.max_rhs_calls, settings.max_cpu_time)
@@ -48,15 +63,39 @@ class Equations:
         if not self.driven:
             return None
         Qi = self.Q_in(t, q, qd) if self.Q_in is not None else self.zeros
-        if not self.damped:
-            return Qi, self.zeros
-        C = damping_matrix(self.model, q) if self.C_varies else self.C_damp
-        return Qi, -(C @ qd)
+        Qd = self.zeros
+        if self.damped:
+            C = damping_matrix(self.model, q) if self.C_varies else self.C_damp
+            Qd = -(C @ qd)
+        if self.compliant is not None:
+            Qc, self._compliant_rates = self.compliant.generalized_force(q, qd)
+            Qd = Qd + Qc
+        return Qi, Qd
+
+    def _extra(self, *rates):
+        """The extra states' rates: W_in', W_damp' (rates), then the compliant contacts' of the last forces()."""
+        return rates if self.compliant is None else (*rates, *self._compliant_rates)
 
     def applied(self, t, q, qd):
         """Q = Q_in + Q_damp (N,) of the equations of motion, or None (gibbsimpact.contact.resting)."""
         f = self.forces(t, q, qd)
         return None if f is None else f[0] + f[1]
+
+    def partitioned(self, t, q, qd):
+        """The prescribed run's dynamics at t: (qdot (N,) with the prescribed entries from f(t), qddot (N,),
+        Q_in, Q_damp (N,), effort Q_p (n_p,) [N m or N], qdot_p (n_p,)); q, qd (N,) are not modified."""
+        P = self.prescribed
+        q_p, qd_p, qdd_p = P.at(t)
+        q, qd = q.copy(), qd.copy()
+        q[P.index], qd[P.index] = q_p, qd_p
+        Qi, Qd = self.forces(t, q, qd)
+        qdd, effort = partitioned_dynamics(self.model, q, qd, P.index, qdd_p, Qi + Qd)
+        return qd, qdd, Qi, Qd, effort, qd_p
+
+    def efforts(self, T, Q, Qdot) -> np.ndarray:
+        """The actuators' efforts Q_p (K, n_p) [N m or N] at the samples T (K,), Q, Qdot (K, N)."""
+        return np.array([self.partitioned(t, q, qd)[4] for t, q, qd in zip(T, Q, Qdot)]).reshape(
+            len(T), len(self.prescribed.index))
 
     def __call__(self, t, y):
         """y' (y.shape) at (t, y); NaN where M is singular, so that the solver rejects the step.
@@ -71,12 +110,16 @@ class Equations:
             if self.resting_phase:
                 f = self.forces(t, q, qd)
                 qdd, _, _, power, *_ = self.resting.acceleration(q, qd, None if f is None else f[0] + f[1])
-                return np.concatenate((qd, qdd) if f is None else (qd, qdd, [qd @ f[0], qd @ f[1] + power.sum()]))
+                return np.concatenate((qd, qdd) if f is None else
+                                      (qd, qdd, self._extra(qd @ f[0], qd @ f[1] + power.sum())))
             if not self.driven:
                 return np.concatenate((qd, forward_dynamics(self.model, q, qd)))
+            if self.prescribed is not None:
+                qd, qdd, Qi, Qd, effort, qd_p = self.partitioned(t, q, qd)
+                return np.concatenate((qd, qdd, [qd @ Qi, qd @ Qd, qd_p @ effort]))
             Qi, Qd = self.forces(t, q, qd)
             qdd = forward_dynamics(self.model, q, qd, Qi + Qd)
-            return np.concatenate((qd, qdd, [qd @ Qi, qd @ Qd]))
+            return np.concatenate((qd, qdd, self._extra(qd @ Qi, qd @ Qd)))
         except SingularMassMatrixError as exc:
             # A trial stage of a too-long step can land on a meaningless state (e.g. right
             # after an impact that excites high modes): NaN makes the solver reject the

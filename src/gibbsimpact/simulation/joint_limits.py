@@ -25,7 +25,7 @@ import numpy as np
 
 from ..dynamics.gibbs_appell import energy, mass_matrix
 from .flight import EventSpec
-from ..contact.impact import solve_impulses
+from ..contact.impact import actuator_impulses, held_impulses, solve_impulses
 from .results import ImpactRecord
 
 JOINT_LIMIT_MODES = ("stop", "impact")
@@ -122,8 +122,9 @@ class EndStops:
         lim, lim_kinds = phase_events(self.near[None, :], g[None, :], band, sink_depth, row0=self.W)
         return EventSpec(*(np.concatenate((a, b)) for a, b in zip(events, lim))), list(kinds) + lim_kinds
 
-    def impact(self, model, t, q, qd, k, e_stop, grazing_velocity, sinking):
-        """End-stop impact of limit k (Newton's law with W = n), or None when it does not approach."""
+    def impact(self, model, t, q, qd, k, e_stop, grazing_velocity, sinking, prescribed=None):
+        """End-stop impact of limit k (Newton's law with W = n), or None when it does not approach;
+        with prescribed (n_p,) coordinates, on the free ones (contact.impact.held_impulses)."""
         n = self.limits[k].n
         # consecutive impacts of this stop without a "leave" event in between
         self.streak[k] = self.streak[k] + 1 if self.near[k] else 1
@@ -131,13 +132,20 @@ class EndStops:
         v = float(n @ qd)
         if not (v < -grazing_velocity or (sinking and v < 0)):
             return None
-        sol = solve_impulses(mass_matrix(model, q), n[:, None], qd, np.array([e_stop]))
+        M, W, e = mass_matrix(model, q), n[:, None], np.array([e_stop])
+        held = {}
+        if prescribed is None:
+            sol = solve_impulses(M, W, qd, e)
+            qdot_after = sol.qdot_after
+        else:
+            sol, qdot_after = held_impulses(M, W, qd, prescribed, lambda M_, r, v: solve_impulses(M_, W[r], v, e))
+            held = dict(actuator_impulses=actuator_impulses(M, qd, qdot_after, W @ sol.impulses, prescribed))
         return ImpactRecord(
             time=t, joints=(self.limits[k].joint,), wall=(-1,), normals=np.zeros((1, 3)),
             impulses=sol.impulses, v_before=sol.v_before, v_after=sol.v_after, restitution=np.array([e_stop]),
-            qdot_before=qd.copy(), qdot_after=sol.qdot_after.copy(),
-            energy_before=energy(model, q, qd), energy_after=energy(model, q, sol.qdot_after),
-            rounds=len(sol.rounds),
+            qdot_before=qd.copy(), qdot_after=qdot_after.copy(),
+            energy_before=energy(model, q, qd), energy_after=energy(model, q, qdot_after),
+            rounds=len(sol.rounds), **held,
         )
 
     def accumulation(self, t, k, count, interval):

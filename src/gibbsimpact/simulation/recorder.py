@@ -17,13 +17,15 @@ class Chunk(NamedTuple):
     q: np.ndarray  # (k, N)
     qdot: np.ndarray  # (k, N)
     phase: np.ndarray  # (k,) int
-    work: np.ndarray  # (k, 2) [J]
+    work: np.ndarray  # (k, 2) [J], (k, 3) with prescribed coordinates (their actuators' work)
     energy: Energy  # each field (k,) [J]
     error: float  # energy balance error of these samples (relative)
     impact: ImpactRecord | None
     forces: np.ndarray | None = None  # (k, W, P) [N] resting-contact forces; None: all zero
     friction: np.ndarray | None = None  # (k, W, P, 3) [N] their tangential forces; None: all zero
     balance: float = 0.0  # [J] signed change of E - W from the sample before, counted in the whole-run error
+    compliant: tuple | None = None  # compliant normal forces (k, W, C) [N], their points (k, W, C, 3) [m] and
+    # integrals (k, 3 + N) (simulation.compliant); None: no compliant force on these samples
 
 
 def one_sample(E: Energy) -> Energy:
@@ -35,9 +37,10 @@ class Recorder:
     """Stored samples (t, q, qdot, phase, work), their energies, the impacts, and the flight-phase energy balance.
 
     work : (K, 2) [J] the work of the inputs and of the damping since t0 (zeros
-    for an undriven, undamped run). In a flight phase E(t) - E(start) equals
-    W(t) - W(start) up to the integration error, which is what energy_error measures per
-    phase; balance_J adds up those errors, signed, with the energy jumps of the impacts that
+    for an undriven, undamped run), and with prescribed coordinates a third column, the work of
+    their actuators: int qdot_p . Q_p dt, plus Lambda_p . qdot_p at each impact (qdot_p does not
+    jump). In a flight phase E(t) - E(start) equals W(t) - W(start) up to the integration error,
+    which is what energy_error measures per phase; balance_J adds up those errors, signed, with the energy jumps of the impacts that
     should conserve E (e = 1, no friction impulse) into the error of the whole run.
 
     Everything is kept as a list of Chunk, each added by one ``list.append``:
@@ -46,45 +49,55 @@ class Recorder:
     every impact with the sample after it).
     """
 
-    def __init__(self, model, t0, q0, qdot0, n_walls=0):
+    def __init__(self, model, t0, q0, qdot0, n_walls=0, prescribed=None):
         self.model = model
+        self.prescribed = prescribed  # (n_p,) indices of the prescribed coordinates, or None
+        n_work = 2 if prescribed is None else 3
         self.force_shape = (n_walls, model.n_joints)
         # Energy of every stored sample: needed for the flight-phase drift, then handed
         # to the Result so res.energy() does not evaluate M at every sample again.
-        self.chunks = [Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, 2)),
+        self.chunks = [Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, n_work)),
                               one_sample(energy(model, q0, qdot0)), 0.0, None)]
         self.n_impacts = 0
 
     def impact(self, rec, q, phase):
         last = self.chunks[-1]
+        work = last.work[-1:].copy()
+        if rec.actuator_impulses is not None:  # the actuators' impulses work at the (unchanged) qdot_p
+            work[0, 2] += float(rec.actuator_impulses @ rec.qdot_after[self.prescribed])
         # An impact with e = 1 and no friction impulse should keep E: its jump is an error of the run.
         # Others dissipate by design (Newton's law with e < 1, Coulomb friction), and do not count.
         conserving = np.all(np.asarray(rec.restitution) == 1.0) and (
             rec.friction_impulses is None or not np.any(rec.friction_impulses))
-        jump = float(rec.energy_after.total - last.energy.total[-1]) if conserving else 0.0
+        jump = float(rec.energy_after.total - last.energy.total[-1] - (work[0].sum() - last.work[-1].sum())) \
+            if conserving else 0.0
         self.chunks.append(Chunk(np.array([rec.time]), q[None, :].copy(), rec.qdot_after[None, :].copy(),
-                                  np.array([phase]), last.work[-1:].copy(), one_sample(rec.energy_after), 0.0, rec,
+                                  np.array([phase]), work, one_sample(rec.energy_after), 0.0, rec,
                                   balance=jump))
         self.n_impacts += 1
 
-    def flight(self, T, Y, phase, forces=None, friction=None):
-        """Samples T (K,), Y (K, 2N [+ 2]) of a flight phase that started at the last stored sample.
+    def flight(self, T, Y, phase, forces=None, friction=None, compliant=None):
+        """Samples T (K,), Y (K, 2N [+ 2 or 3 [+ 3 + N]]) of a flight phase that started at the last stored sample.
 
         forces : None or (K, W, P) [N], the resting-contact forces at the samples;
-        friction : None or (K, W, P, 3) [N], their tangential (friction) forces.
+        friction : None or (K, W, P, 3) [N], their tangential (friction) forces;
+        compliant : None or ((K, W, C) [N], (K, W, C, 3) [m]), the compliant contacts' normal forces and points
+        (simulation.compliant), whose integrals are Y's last 3 + N columns.
         """
         N = self.model.n_dof
         last = self.chunks[-1]
         E_start = Energy(*(float(a[-1]) for a in last.energy))
         W_start = last.work[-1].sum()
-        W = Y[:, 2 * N:2 * N + 2] if Y.shape[1] > 2 * N else np.zeros((T.size, 2))
+        nw = last.work.shape[1]  # 2 work states, 3 with prescribed coordinates
+        W = Y[:, 2 * N:2 * N + nw] if Y.shape[1] > 2 * N else np.zeros((T.size, nw))
         scale = energy_scale(self.model, E_start, float(np.max(np.abs(W.sum(axis=1) - W_start), initial=0.0)))
         # All samples in one kernel call; the balance E(t) - E(start) - (W(t) - W(start)) per sample.
         E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
         balance = E.total - E_start.total - (W.sum(axis=1) - W_start)
         err = float(np.abs(balance).max() / scale) if T.size else 0.0
+        extra = None if compliant is None else (*compliant, Y[:, 2 * N + nw:])
         self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces,
-                                  friction, float(balance[-1]) if T.size else 0.0))
+                                  friction, float(balance[-1]) if T.size else 0.0, extra))
 
     def mode(self, t, q, qdot, phase, forces, friction):
         """After a contact-mode decision at t: its contact forces (W, P) and friction forces (W, P, 3) [N]
@@ -120,8 +133,27 @@ class Recorder:
     def impacts(self) -> list:
         return [c.impact for c in self.chunks if c.impact is not None]
 
+    def compliant_arrays(self, shape: tuple):
+        """Compliant normal forces (K, W, C) [N], their points (K, W, C, 3) [m] and integrals (K, 3 + N)
+        (simulation.compliant) at every sample; shape = (W, C). Samples of an impact or a mode change hold
+        no compliant force (points NaN) and the integrals of the sample before."""
+        F, X, I = [], [], []
+        last = np.zeros(3 + self.model.n_dof)
+        for c in self.chunks:
+            if c.compliant is None:
+                F.append(np.zeros((c.t.size,) + shape))
+                X.append(np.full((c.t.size,) + shape + (3,), np.nan))
+                I.append(np.tile(last, (c.t.size, 1)))
+            else:
+                F.append(c.compliant[0])
+                X.append(c.compliant[1])
+                I.append(c.compliant[2])
+                if c.t.size:
+                    last = c.compliant[2][-1]
+        return np.concatenate(F), np.concatenate(X), np.concatenate(I)
+
     def arrays(self):
-        """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2), Energy of (K,) arrays,
+        """t (K,), q (K, N), qdot (K, N), phase (K,), work (K, 2 or 3), Energy of (K,) arrays,
         contact forces (K, W, P) [N], friction forces (K, W, P, 3) [N]."""
         cs = self.chunks
         cat = np.concatenate

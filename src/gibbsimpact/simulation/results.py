@@ -36,7 +36,8 @@ class ImpactRecord(NamedTuple):
 
     time : float [s]
     joints : tuple of int, length k, 1-based contact numbers: O_1 ... O_P (model.contact_point_names),
-        then P + 1 + f for the closest point of the f-th flexible link (contacts.Contacts.names)
+        then P + 1 + f for the closest point of the f-th flexible link, then the centres of the attached
+        bodies with a centre offset (contacts.Contacts.names)
     wall : tuple of int, length k, index of each contact's wall in Result.walls;
         -1 for an end-stop impact of a prismatic joint (joints then holds the joint number i)
     normals : (k, 3) unit wall normals into the free region
@@ -49,6 +50,8 @@ class ImpactRecord(NamedTuple):
     friction_impulses, slip_before, slip_after : (k, 3) or None: with friction on a wall
         (gibbsimpact.friction), the tangential impulse of each contact [N s] and its tangential
         velocity before and after [m/s], world vectors; None for a frictionless impact
+    actuator_impulses : (n_p,) or None: with prescribed coordinates (Result.prescribed), the impulse each
+        actuator takes to hold its qdot_p, Lambda_p = M_pf (qdot_f+ - qdot_f-) - W_p Lambda [N m s or N s]
     rounds : int, rounds of Newton's law the impact took (gibbsimpact.impact): 1
         when every contact carrying an impulse approached; more when an impulse
         pushed a contact that was moving away back into the wall
@@ -71,6 +74,7 @@ class ImpactRecord(NamedTuple):
     friction_impulses: np.ndarray | None = None
     slip_before: np.ndarray | None = None
     slip_after: np.ndarray | None = None
+    actuator_impulses: np.ndarray | None = None
 
 
 @dataclass(eq=False)
@@ -105,7 +109,11 @@ class Result:
         no friction count (they should conserve E). Equal to E(end) - E(t0) - (W(end) - W(t0)) when
         every impact has e = 1 and no pair rests. NaN for results of files written before it existed.
     work : (K, 2) [J] or None: work of the inputs and of the structural damping
-        since t_span[0] at every sample (None for an undriven, undamped run)
+        since t_span[0] at every sample (None for an undriven, undamped run); (K, 3) with prescribed
+        coordinates, the third column their actuators' work (int qdot_p . Q_p dt and Lambda_p . qdot_p at impacts)
+    prescribed : tuple of str, the prescribed coordinates (simulate's ``prescribed``; () for none)
+    effort : (K, n_p) or None: the generalised force Q_p each prescribed coordinate's actuator applies at
+        every sample [N m on an angle, N on a length] (formulation §16), columns in ``prescribed``'s order
     contact_forces : (K, W, P) [N] or None: the normal force of wall w on contact point
         O_(j+1) at every sample while the pair is in resting contact (gibbsimpact.resting),
         0 elsewhere (impulses of impacts are in ``impacts``); None for results of older files
@@ -113,6 +121,18 @@ class Result:
         O_(j+1) while the pair rests on a wall with friction (sticking or slipping); None when
         no wall has friction
     resting_time : float [s], the simulated time spent with at least one pair in resting contact
+    compliant_forces : (K, W, C) [N] or None: the normal force F_n of compliant wall w (a wall with a
+        stiffness: gibbsimpact.simulation.compliant) on contact column c (the joints O_1 .. O_P, then the
+        closest point of each flexible link, as ImpactRecord.joints numbers them) at every sample; None
+        for a run without compliant walls
+    compliant_points : (K, W, C, 3) [m] or None: where each pair's contact point is while the pair is in
+        compliant contact (for a link column: the link's material point closest to the wall, deflection
+        included), NaN elsewhere
+    compliant_integrals : (K, 3 + N) or None: since t_span[0], the work of the compliant contacts'
+        damping [J] and friction [J] (both <= 0), their normal impulse sum_j int F_n dt [N s], and their
+        generalised impulse int sum_j J_j^T (n F_n + F_t) dt (N,)
+    compliant_contacts : list of CompliantContact (gibbsimpact.simulation.compliant): every contact of a
+        pair on a compliant wall, its start and end events and approach speed v_0; [] without compliant walls
     episodes : list of Episode (property, computed from the above at its first use;
         gibbsimpact.simulation.episodes, docs/theory.md §14.7): the collision episodes, each the
         impacts and resting phases of one meeting of the chain with the walls. The chain is the body
@@ -147,6 +167,12 @@ class Result:
     contact_forces: np.ndarray | None = None
     friction_forces: np.ndarray | None = None
     resting_time: float = 0.0
+    prescribed: tuple = ()
+    effort: np.ndarray | None = None
+    compliant_forces: np.ndarray | None = None
+    compliant_points: np.ndarray | None = None
+    compliant_integrals: np.ndarray | None = None
+    compliant_contacts: list = field(default_factory=list)
     _energy_cache: Energy | None = field(default=None, repr=False)
     # Not an __init__ argument: dataclasses.replace (new samples or forces) must not carry it over.
     _episodes_cache: list | None = field(default=None, init=False, repr=False)

@@ -7,9 +7,10 @@ from numbers import Real
 
 import numpy as np
 
-from ..contact.walls import WALL_TYPES
+from ..contact.walls import WALL_TYPES, is_compliant
 from .flight import SOLVERS
 from .joint_limits import JOINT_LIMIT_MODES
+from .prescribed import prescription
 
 ACCUMULATION_MODES = ("rest", "stop")
 
@@ -88,13 +89,22 @@ class Settings:
     in_step_check: bool
     max_cpu_time: float | None = None  # [s] of CPU; None: no limit
     max_rhs_calls: int | None = None  # right-hand sides; None: no limit
+    prescribed: object = None  # simulation.prescribed.Prescribed, or None: every coordinate free
 
     @classmethod
     def from_arguments(cls, t_span, walls, restitution, method, output_dt, progress, inputs, zeno_count,
-                       max_impacts, joint_limit, joint_restitution, accumulation, link_contacts, **positive) -> Settings:
-        """Validate simulate's options (each error names the argument and what it must be)."""
+                       max_impacts, joint_limit, joint_restitution, accumulation, link_contacts, prescribed=None,
+                       state=None, **positive) -> Settings:
+        """Validate simulate's options (each error names the argument and what it must be).
+
+        prescribed : simulate's ``prescribed``, checked against state = (model, q0, qdot0)
+        (simulation.prescribed)."""
         t0, t_end = _t_span(t_span)
+        prescribed = None if prescribed is None else prescription(*state[:1], prescribed, (t0, t_end), *state[1:])
         walls = _walls(walls)
+        if prescribed is not None and any(map(is_compliant, walls)):
+            raise ValueError("simulate prescribed=... with a compliant wall (stiffness=...) is not supported yet: "
+                             "give the walls no stiffness (Newton's law) or drive the joints by inputs")
         restitution = _fraction("restitution", restitution)
         _choice("method", method, SOLVERS, f"a solve_ivp method; use one of {', '.join(SOLVERS)}")
         in_step_check = bool(positive.pop("in_step_check", True))
@@ -119,7 +129,7 @@ class Settings:
                    progress=progress, inputs=inputs, zeno_count=zeno_count, max_impacts=max_impacts, joint_limit=joint_limit,
                    joint_restitution=joint_restitution, accumulation=accumulation,
                    link_contacts=bool(link_contacts), in_step_check=in_step_check, max_cpu_time=max_cpu_time,
-                   max_rhs_calls=max_rhs_calls, **values)
+                   max_rhs_calls=max_rhs_calls, prescribed=prescribed, **values)
 
     @property
     def wall_restitution(self) -> np.ndarray:
@@ -128,6 +138,7 @@ class Settings:
 
     def record(self) -> dict:
         """The options as Result.settings stores them (plain values; inputs and progress are not kept)."""
+        extra = {} if self.prescribed is None else {"prescribed": list(self.prescribed.names)}
         return dict(
             method=self.method, rtol=self.rtol, atol=self.atol, restitution=self.restitution,
             wall_restitution=[w.restitution for w in self.walls], output_dt=self.output_dt, max_step=self.max_step,
@@ -136,4 +147,5 @@ class Settings:
             max_impacts=self.max_impacts, t_span=[self.t0, self.t_end], joint_limit=self.joint_limit,
             joint_restitution=self.joint_restitution, accumulation=self.accumulation,
             link_contacts=self.link_contacts, max_cpu_time=self.max_cpu_time, max_rhs_calls=self.max_rhs_calls,
+            **extra,
         )

@@ -12,10 +12,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..contact.impact import HeldContactError
 from ..contact.resting import RestingContacts
-from ..contact.walls import describe
+from ..contact.walls import describe, is_compliant
+from ..dynamics.forces import CallbackError
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .accumulation import Accumulation
+from .compliant import COMPLIANT_EVENTS, CompliantContacts, compliant_event, compliant_gap_functions
 from .contacts import Contacts, contact_band, event_spec, gap_lipschitz, impact_stage as solve_impact, phase_events
 from .equations import Equations
 from .flight import integrate_phase
@@ -66,6 +69,7 @@ class Run:
     stalled: int = 0  # consecutive phases that made no progress in time
     newton_warned: bool = False  # the warning of validity.check_impact was issued (once per run)
     flown: object = None  # the last flight phase's outcome until its samples are recorded
+    compliant: CompliantContacts | None = None  # the compliant walls' pairs (simulation.compliant), or None
     counters: dict = field(default_factory=lambda: {"n_steps": 0, "n_examined": 0, "resting_time": 0.0,
                                                     "mode_events": 0})
 
@@ -89,12 +93,14 @@ def _check_inside(model, q, walls, contact_tol, link_contacts=True):
     lines = []
     for o in bad:
         w, at = f"wall {o.wall + 1} ({describe(walls[o.wall])})", np.round(o.point, 6).tolist()
+        how = "passes" if walls[o.wall].obstacle else "bends"   # through an obstacle a straight link can pass
         lines.append(f"{point_name(model, o)} at {at} m is {o.depth:.3g} m outside {w}" if o.link is None else
-                     f"link {o.link + 1} bends {o.depth:.3g} m beyond {w} between its joints: its point at "
+                     f"link {o.link + 1} {how} {o.depth:.3g} m beyond {w} between its joints: its point at "
                      f"x = {o.x:.6g} m (of {model.chain.links[o.link].length:.6g} m) is at {at} m")
-    kinds = {"a joint" if o.link is None else "a link" for o in bad}
+    kinds = {"a link" if o.link is not None else ("an attached body" if o.body is not None else "a joint") for o in bad}
     what = " and ".join(sorted(kinds))
-    raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(lines) + ". Move the chain inside.")
+    fix = "out of the obstacle" if any(walls[o.wall].obstacle for o in bad) else "inside"
+    raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(lines) + f". Move the chain {fix}.")
 
 
 def _check_start(model, q0, qdot0, settings, limits):
@@ -114,24 +120,45 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     s, walls = settings, settings.walls
     limits = joint_limits(model)
     _check_start(model, q0, qdot0, s, limits)
+    limits = _watched(limits, s.prescribed)
     contacts = Contacts(model, walls, s.link_contacts)
     stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
     lipschitz = gap_lipschitz(model)
     band = contact_band(s.contact_tol, lipschitz, s.rtol, s.atol, q0)
     resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols)
-    equations = Equations(model, s, q0, qdot0, resting, clock)
+    compliant = (CompliantContacts(model, contacts, s.wall_restitution, lipschitz)
+                 if any(map(is_compliant, walls)) else None)
+    equations = Equations(model, s, q0, qdot0, resting, clock, compliant)
     return Run(
         model=model, settings=s, contacts=contacts, limits=limits, stops=stops, resting=resting,
         monitor=Accumulation((len(walls), contacts.n_cols), s.zeno_count, s.zeno_interval, band, contacts.names),
-        recorder=Recorder(model, s.t0, q0, qdot0, len(walls)), equations=equations, clock=clock,
-        lipschitz=lipschitz, t=s.t0, y=np.concatenate((q0, qdot0, np.zeros(2 if equations.driven else 0))),
-        band=band, near=np.zeros((len(walls), contacts.n_cols), dtype=bool),
+        recorder=Recorder(model, s.t0, q0, qdot0, len(walls), _index(s.prescribed)), equations=equations,
+        clock=clock, lipschitz=lipschitz, t=s.t0, y=np.concatenate((q0, qdot0, np.zeros(equations.n_extra))),
+        band=band, near=np.zeros((len(walls), contacts.n_cols), dtype=bool), compliant=compliant,
     )
 
 
+def _index(prescribed):
+    """(n_p,) indices of the prescribed coordinates, or None."""
+    return None if prescribed is None else prescribed.index
+
+
+def _watched(limits, prescribed) -> tuple:
+    """The joint limits the run watches: all, less those of a prescribed coordinate alone (its profile is the
+    user's; checked at t0 by _check_start). A limit that moves free coordinates too is kept."""
+    if prescribed is None or not limits:
+        return limits
+    free = np.ones(limits[0].n.size, dtype=bool)
+    free[prescribed.index] = False
+    return tuple(lim for lim in limits if np.any(lim.n[free]))
+
+
 def gap_functions(run):
-    """(gap matrix g(q) -> (R, J), batch g(qs) -> (K, R, J)) [m]: the walls' rows, and the joint limits' row."""
+    """(gap matrix g(q) -> (R, J), batch g(qs) -> (K, R, J)) [m]: the walls' rows (the active compliant pairs'
+    shifted: simulation.compliant), and the joint limits' row."""
     g, batch = run.contacts.gaps, run.contacts.gaps_batch
+    if run.compliant is not None:
+        g, batch = compliant_gap_functions(run.compliant, g, batch)
     if run.stops is None:
         return g, batch
     return run.stops.wrap(g), run.stops.wrap_batch(batch)
@@ -144,8 +171,9 @@ def _accumulation(run, accumulation) -> None:
     rest = run.settings.accumulation == "rest" and bool(run.settings.walls)
     run.forced = run.monitor.recent_pairs() & run.resting.can_rest
     why = ("accumulation='stop'" if not rest else
-           "resting contact is modelled for joints only, not for a link's span or the "
-           "tip of a prismatic host" if not run.forced.any() else
+           "resting contact is not modelled with prescribed coordinates" if run.settings.prescribed is not None else
+           "resting contact is modelled for joints only, not for a link's span, the "
+           "tip of a prismatic host or a body's centre" if not run.forced.any() else
            "resting contact did not resolve it" if run.settled_at == run.t else None)
     if why is not None:
         run.end("zeno", accumulation=accumulation, why=why)
@@ -161,8 +189,13 @@ def impact(run) -> None:
         q, qd = run.y[:N], run.y[N:2 * N]
         in_band_before = run.near
         run.band = run.monitor.band = contact_band(s.contact_tol, run.lipschitz, s.rtol, s.atol, q)
-        rec, run.near = solve_impact(run.model, run.contacts, s.wall_restitution, run.t, q, qd, run.band,
-                                     s.grazing_velocity, run.sink_pair, run.resting.active)
+        try:
+            rec, run.near = solve_impact(run.model, run.contacts, s.wall_restitution, run.t, q, qd, run.band,
+                                         s.grazing_velocity, run.sink_pair, run.resting.active, _index(s.prescribed),
+                                         None if run.compliant is None else run.compliant.rows)
+        except HeldContactError as exc:
+            run.end("held_contact", t=run.t, error=exc)
+            return
         if rec is not None:
             _record_impact(run, rec, q)
             if not run.newton_warned:
@@ -176,16 +209,19 @@ def impact(run) -> None:
             if run.recorder.n_impacts >= s.max_impacts:
                 run.end("max_impacts", max_impacts=s.max_impacts, t=run.t)
                 return
-        run.pending_mode = s.accumulation == "rest" and bool(s.walls)
+        run.pending_mode = s.accumulation == "rest" and bool(s.walls) and s.prescribed is None
     run.pending_impact = False
 
 
 def _record_impact(run, rec, q) -> None:
     """The state after an impact (the record's qdot_after), recorded as the start of a new phase."""
-    N = run.N
-    run.y = np.concatenate((q, rec.qdot_after, run.y[2 * N:]))
     run.phase += 1
     run.recorder.impact(rec, q, run.phase)
+    # The work states go on from the recorded ones: the actuators' impulses did work (Recorder.impact).
+    # The compliant contacts' states (after the work states) go on unchanged.
+    N, nw = run.N, run.equations.n_work
+    run.y = np.concatenate((q, rec.qdot_after, run.recorder.chunks[-1].work[-1] if run.equations.driven else [],
+                            run.y[2 * N + nw:]))
     run.clock.n_impacts = run.recorder.n_impacts
 
 
@@ -199,6 +235,8 @@ def mode(run) -> None:
     t, q, qd = run.t, run.y[:N], run.y[N:2 * N]
     g, nrm, Jac, _, _ = run.contacts.full(q)
     v = np.einsum("wjc,wjcn,n->wj", nrm, Jac, qd)
+    if run.compliant is not None:  # no resting mode on a compliant wall: its contact is a force
+        g = np.where(run.compliant.rows[:, None], np.inf, g)
     cand = resting.candidates(g, v, run.band, s.grazing_velocity, run.release, run.forced)
     if len(cand) or resting.any():
         applied = run.equations.applied
@@ -219,7 +257,13 @@ def _phase_events(run):
     s, N, resting = run.settings, run.N, run.resting
     g_start = run.contacts.gaps(run.y[:N])
     sink_depth = max(1e-6 * s.contact_tol, 64 * np.finfo(float).eps * (1.0 + float(np.abs(run.y[:3]).max())))
-    events, kinds = phase_events(run.near, g_start, run.band, sink_depth, skip=resting.active)
+    compliant = run.compliant
+    skip = resting.active if compliant is None else resting.active | compliant.rows[:, None]
+    events, kinds = phase_events(run.near, g_start, run.band, sink_depth, skip=skip)
+    if compliant is not None:
+        rows, compliant_kinds = compliant.events(g_start)
+        events = type(events)(*(np.concatenate((a, b)) for a, b in zip(events, event_spec(rows))))
+        kinds = kinds + compliant_kinds
     extra = None
     if resting.any():
         rows, drift_kinds = resting.drift_events()
@@ -253,16 +297,21 @@ def flight(run):
             run.equations, run.t, run.y, s.t_end, events, gap_matrix, method=s.method, rtol=s.rtol, atol=s.atol,
             max_step=s.max_step, output_dt=s.output_dt, t_origin=s.t0, lipschitz=run.lipschitz,
             slack=s.contact_tol, n_q=N, check_in_step=s.in_step_check, gap_batch=gap_batch, extra=extra,
-            gap_single=lambda q, w, c: run.contacts.gap_single(q, w, c, gap_matrix),
+            gap_single=lambda q, w, c: run.contacts.gap_single(q, w, c, gap_matrix) + (
+                0.0 if run.compliant is None else run.compliant.joint_shift(w, c)),
         )
     except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
         run.end("integration", t=run.t, error=exc)
         return None
+    if s.prescribed is not None:  # the prescribed slots rode along as quadratures of f: reset them to f(t)
+        s.prescribed.fill(out.sample_t, out.sample_y, N)
+        s.prescribed.fill(np.array([out.t]), out.y[None, :], N)
     run.counters["n_steps"] += out.n_steps
     run.counters["n_examined"] += out.n_examined
     if out.sample_t.size:
         forces = _contact_forces(run, out.sample_t, out.sample_y) if run.resting.any() else (None, None)
-        run.recorder.flight(out.sample_t, out.sample_y, run.phase, *forces)
+        compliant = None if run.compliant is None else run.compliant.sample_forces(out.sample_y)
+        run.recorder.flight(out.sample_t, out.sample_y, run.phase, *forces, compliant=compliant)
     run.flown = None
     if out.interrupted is not None:
         raise KeyboardInterrupt(out.interrupted)  # its samples are recorded: the driver stops the run
@@ -331,8 +380,12 @@ def _limit_event(run, kind, j) -> None:
     elif s.joint_limit == "stop":
         run.end("joint_limit", joint=run.limits[j].joint, limit=run.limits[j].name, t=run.t)
     else:
-        rec = stops.impact(run.model, run.t, run.y[:N], run.y[N:2 * N], j, s.joint_restitution,
-                           s.grazing_velocity, kind == "sink")
+        try:
+            rec = stops.impact(run.model, run.t, run.y[:N], run.y[N:2 * N], j, s.joint_restitution,
+                               s.grazing_velocity, kind == "sink", _index(s.prescribed))
+        except HeldContactError as exc:
+            run.end("held_contact", t=run.t, error=exc)
+            return
         if rec is not None:
             _record_impact(run, rec, run.y[:N])
             accumulation = stops.accumulation(rec.time, j, s.zeno_count, s.zeno_interval)
@@ -349,6 +402,8 @@ def dispatch(run, out, kinds) -> None:
     kind, w_i, j = kinds[out.event]
     if kind in MODE_EVENTS:
         _mode_event(run, kind, w_i, j)
+    elif kind in COMPLIANT_EVENTS:
+        compliant_event(run, kind, w_i, j)
     elif w_i == len(run.settings.walls):
         _limit_event(run, kind, j)
     else:
@@ -391,5 +446,29 @@ def finish(run, started: float) -> Result:
         energy_error_whole_run_J=run.recorder.balance_J,
         _energy_cache=E_all, work=work_all if run.equations.driven else None, contact_forces=F_all,
         friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
-        resting_time=run.counters["resting_time"],
+        resting_time=run.counters["resting_time"], **_efforts(run, t_all, q_all, qdot_all),
+        **({} if run.compliant is None else dict(zip(
+            ("compliant_forces", "compliant_points", "compliant_integrals"),
+            run.recorder.compliant_arrays(run.compliant.active.shape)),
+            compliant_contacts=list(run.compliant.log))),
     )
+
+
+def _efforts(run, t, q, qdot) -> dict:
+    """Result's prescribed (names) and effort (K, n_p) [N m or N] at every sample ({} without prescribed
+    coordinates)."""
+    P = run.settings.prescribed
+    if P is None:
+        return {}
+    try:
+        effort = run.equations.efforts(t, q, qdot)
+    except (SingularMassMatrixError, CallbackError):  # a run that stopped on such a state: NaN there
+        effort = np.array([_effort_or_nan(run, *a) for a in zip(t, q, qdot)]).reshape(len(t), len(P.index))
+    return dict(prescribed=P.names, effort=effort)
+
+
+def _effort_or_nan(run, t, q, qd) -> np.ndarray:
+    try:
+        return run.equations.partitioned(t, q, qd)[4]
+    except (SingularMassMatrixError, CallbackError):
+        return np.full(len(run.settings.prescribed.index), np.nan)

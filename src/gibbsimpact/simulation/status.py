@@ -45,6 +45,8 @@ STOPS = {
     "penetration": (STATUS_PENETRATION, "a contact point went {depth:.3g} m beyond {what} between events in the "
                                         "phase starting at t = {t:.9g} s without an event firing; tighten rtol or "
                                         "set max_step"),
+    "held_contact": (STATUS_FAILED, "impact at t = {t:.9g} s cannot be solved: {error}; results up to there are "
+                                    "kept (prescribe fewer coordinates, or move the wall)"),
     "non_finite": (STATUS_FAILED, "state became non-finite at t = {t:.9g} s"),
     "stalled": (STATUS_FAILED, "event loop stalled at t = {t:.9g} s: {count} consecutive events without progress "
                                "in time"),

@@ -183,9 +183,10 @@ def _newton_message(model, rec, walls, w: int, point) -> str:
         f"t = {rec.time:.9g} s: the effective mass of a point of a flexible link that nothing else holds depends "
         f"on the discretisation (link {i + 1}: {_discretisation(model.chain.links[i])}); it tends to zero as the "
         "link is refined, and so do this impulse and the micro-impacts that follow (with finite elements the "
-        "impulse halves with every doubling of elements; docs/theory.md §11.4). A compliant contact law for such "
-        f"points is planned but not yet available. Today: make link {i + 1} rigid (no modes or elements), or "
-        "give it clamped-clamped modes (its ends then move with its frame; the number of modes still sets their "
+        "impulse halves with every doubling of elements; docs/theory.md §11.4). Give the wall a stiffness "
+        f"(e.g. gi.Plane(..., restitution=e, stiffness=k): the compliant contact law of docs/theory.md §11.5, which "
+        f"converges as the link is refined and has the rigid limit), or make link {i + 1} rigid (no modes or "
+        "elements), or give it clamped-clamped modes (its ends then move with its frame; the number of modes still sets their "
         "effective mass)" + ("; keep the contacts at the joints (link_contacts=False)" if span else "")
         + "; and read the collision as a whole in Result.episodes (its impulse and effective restitution), "
         "not impact by impact")
@@ -198,7 +199,7 @@ def check_impact(model, rec, walls, link_contacts: bool = True) -> list[str]:
     There 1 / (n^T J M^-1 J^T n) tends to 0 as the link is refined: the impulse has no limit (with finite
     elements it halves with every doubling of elements), and the micro-impacts that follow have none either.
     """
-    points = contact_points(model, link_contacts and bool(walls))
+    points = contact_points(model, link_contacts and bool(walls), walls)
     for c, w, lam in zip(rec.joints, rec.wall, rec.impulses):
         point = points[int(c) - 1] if 0 < int(c) <= len(points) else None
         if w < 0 or not lam > 0.0 or point is None or not point.newton_ill_posed:

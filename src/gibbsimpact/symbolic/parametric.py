@@ -28,6 +28,9 @@ class _ParametricLink:
         if callable(link.mass_per_length) or any(callable(e) for e in link.EI):
             raise ValueError(f"derive_equations symbols=True needs uniform links; link {i} has a callable "
                              "mass_per_length or EI")
+        if link.bodies:
+            raise ValueError(f"derive_equations symbols=True writes a uniform link's tables from mu and l; link {i} "
+                             "carries RigidBody entries (bodies): use symbols=False, which takes its numeric tables")
         self.end_is_rigid, self.has_rotary, self.directions = ld.end_is_rigid, ld.has_rotary, ld.directions
         l_v, mu_v = link.length, link.mass_per_length
         l, mu = self._par(sp, values, f"l_{i}", l_v), self._par(sp, values, f"mu_{i}", mu_v)
