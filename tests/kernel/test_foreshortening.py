@@ -170,3 +170,21 @@ def test_tip_of_a_bent_link_sits_at_l_plus_u_f_everywhere():
     cp = closest_points(model, q, [wall])
     assert cp.x[0, 0] == pytest.approx(l, abs=1e-9)
     assert cp.gap[0, 0] == pytest.approx(float(ex @ (R @ [l + 0.05, 0.0, 0.0] - tip)), abs=1e-12)
+
+
+def test_attached_bodies_foreshorten_with_their_link_and_conserve_energy():
+    # A tip payload (axial lever: its points sit at x_a + s) and a hub on stiffened links: the
+    # foreshortening sums run over the same mass points (model.shapes.mass_points), so E stays.
+    body = gi.RigidBody(0.3, center=(0.05, 0.0, 0.0), inertia=np.diag([2e-4, 1e-3, 1e-3]))
+    a = gi.Link(1.0, 1.2, (15.0, 25.0), elements=3, element_directions=("y", "z"), rotary_inertia=(2e-4, 1e-4, 1e-4),
+                bodies=[body])
+    b = gi.Link(0.7, 0.8, 10.0, modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "z")],
+                rotary_inertia=(1e-4, 1e-4, 3e-4), bodies=[body])
+    model = gi.Model(gi.Chain([a, b]), gravity=(0.0, 0.0, 0.0))
+    q, qd = _free_state(model)
+    N = model.n_dof
+    sol = solve_ivp(lambda t, y: np.concatenate((y[N:], model.forward_dynamics(y[:N], y[N:]))), (0.0, 0.5),
+                    np.concatenate((q, qd)), method="DOP853", rtol=1e-12, atol=1e-13)
+    E0 = model.energy(q, qd)
+    E = np.array([model.energy(y[:N], y[N:]).total for y in sol.y.T])
+    assert np.max(np.abs(E - E0.total)) <= 1e-9 * (E0.kinetic + E0.strain)
