@@ -71,7 +71,7 @@ def _fixed_base_bodies():
     off = gi.RigidBody(0.3, center=(0.1, 0.05, -0.03), inertia=[[0.01, 0.001, 0.002], [0.001, 0.02, 0.0],
                                                                   [0.002, 0.0, 0.02]])
     links = [gi.Link(1.0, 1.0, (20.0, 30.0), modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "z")],
-                     rotary_inertia=(1e-3, 1e-3, 1e-3), bodies=[tip]),
+                     rotary_inertia=(1e-3, 1e-3, 1e-3), bodies=[tip], geometric_stiffening=False),
              gi.Link(0.5, 1.0, 1.0, rotary_inertia=(1e-3, 1e-3, 1e-3), bodies=[off])]
     return gi.Model(gi.Chain(links, base=gi.FixedBase((0.0, 0.5, 0.2), -0.4)), gravity=(0.0, -9.81, 0.0))
 
