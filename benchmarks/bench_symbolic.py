@@ -23,7 +23,7 @@ import gibbsimpact as gi
 
 
 def chain(n: int) -> gi.Model:
-    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-free", "y")], rotary_inertia=(1e-3, 1e-3, 1e-3))
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-free", "y")], rotary_inertia=(1e-3, 1e-3, 1e-3), geometric_stiffening=False)
     return gi.Model(gi.Chain([link] * n), gravity=(0.0, -9.81, 0.0))
 
 

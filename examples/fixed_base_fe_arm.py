@@ -1,6 +1,6 @@
 """A flexible arm on a fixed base, driven by a motor torque onto a floor (finite elements, damping).
 
-Shows: gi.Link(..., elements=3, damping=0.01) (Hermite finite elements, 1 %
+Shows: gi.Link(..., elements=3, damping=0.01, geometric_stiffening=False) (Hermite finite elements, 1 %
 stiffness-proportional damping), gi.FixedBase, a torque input given as a dict
 {coordinate name: f(t, q, qdot)}, a floor with e = 0.5, and the energy audit:
 Result.work holds the work of the inputs and of the damping, so
@@ -32,7 +32,7 @@ import gibbsimpact as gi  # noqa: E402
 T_END = min(0.5, float(os.environ.get("GIBBSIMPACT_EXAMPLE_T_END", "inf")))
 OUT = Path(os.environ.get("GIBBSIMPACT_EXAMPLE_OUT") or tempfile.mkdtemp(prefix="gibbsimpact_arm_"))
 
-arm = gi.Link(length=1.0, mass_per_length=1.0, EI=10.0, elements=3, damping=0.01)
+arm = gi.Link(length=1.0, mass_per_length=1.0, EI=10.0, elements=3, damping=0.01, geometric_stiffening=False)
 robot = gi.Model(gi.Chain([arm], base=gi.FixedBase(position=(0.0, 0.5), angle=0.0)), gravity=(0.0, -9.81, 0.0))
 print(f"N = {robot.n_dof}:", " ".join(robot.coordinate_names))
 

@@ -28,7 +28,7 @@ OUT = Path(os.environ.get("GIBBSIMPACT_EXAMPLE_OUT") or tempfile.mkdtemp(prefix=
 
 # Each link: l = 1 m, mu = 1 kg/m, EI = 20 N m^2, first clamped-clamped mode in y.
 link = gi.Link(length=1.0, mass_per_length=1.0, EI=20.0,
-               modes=[gi.Mode("clamped-clamped", direction="y")], rotary_inertia=(0.0, 0.0, 0.0))
+               modes=[gi.Mode("clamped-clamped", direction="y")], rotary_inertia=(0.0, 0.0, 0.0), geometric_stiffening=False)
 model = gi.Model(gi.Chain([link, link]), gravity=(0.0, -9.81, 0.0))
 print("coordinates:", " ".join(model.coordinate_names))
 

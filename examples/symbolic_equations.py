@@ -29,7 +29,7 @@ import gibbsimpact as gi
 T_END = min(0.5, float(os.environ.get("GIBBSIMPACT_EXAMPLE_T_END", "inf")))
 OUT = Path(os.environ.get("GIBBSIMPACT_EXAMPLE_OUT") or tempfile.mkdtemp(prefix="gibbsimpact_sym_"))
 
-link = gi.Link(length=1.0, mass_per_length=1.0, EI=20.0, modes=[gi.Mode("clamped-free", "y")])
+link = gi.Link(length=1.0, mass_per_length=1.0, EI=20.0, modes=[gi.Mode("clamped-free", "y")], geometric_stiffening=False)
 model = gi.Model(gi.Chain([link, link], base=gi.FixedBase(position=(0.0, 0.0), angle=0.0)), gravity=(0.0, -9.81, 0.0))
 print(f"N = {model.n_dof}:", " ".join(model.coordinate_names))
 

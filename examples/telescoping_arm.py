@@ -30,8 +30,8 @@ T_END = min(1.0, float(os.environ.get("GIBBSIMPACT_EXAMPLE_T_END", "inf")))
 OUT = Path(os.environ.get("GIBBSIMPACT_EXAMPLE_OUT") or tempfile.mkdtemp(prefix="gibbsimpact_telescope_"))
 OUT.mkdir(parents=True, exist_ok=True)
 
-link1 = gi.Link(length=1.0, mass_per_length=1.0, EI=25.0, elements=2)
-link2 = gi.Link(length=0.7, mass_per_length=0.5, EI=4.0, elements=2)
+link1 = gi.Link(length=1.0, mass_per_length=1.0, EI=25.0, elements=2, geometric_stiffening=False)
+link2 = gi.Link(length=0.7, mass_per_length=0.5, EI=4.0, elements=2, geometric_stiffening=False)
 robot = gi.Model(gi.Chain([link1, link2],
                           joints=[gi.Revolute(), gi.FixedPrismatic(angle=0.0, range=(0.2, 0.6))],
                           base=gi.FixedBase(position=(0.0, 0.0), angle=0.0)),

@@ -11,7 +11,7 @@ from gibbsimpact.dynamics.kinematics import transforms
 
 def two_link_circle_model():
     """Case 1: two links, one clamped-clamped y-mode each, N = 9."""
-    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")])
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")], geometric_stiffening=False)
     return gi.Model(gi.Chain([link, link]), gravity=(0.0, -9.81, 0.0))
 
 
@@ -26,8 +26,7 @@ def single_link_sphere_model():
     link = gi.Link(
         1.0, 1.0, (20.0, 20.0),
         modes=[gi.Mode("clamped-clamped", "y"), gi.Mode("clamped-clamped", "z")],
-        rotary_inertia=(r * r / 2, r * r / 4, r * r / 4),
-    )
+        rotary_inertia=(r * r / 2, r * r / 4, r * r / 4), geometric_stiffening=False)
     return gi.Model(gi.Chain([link]), gravity=(0.0, -9.81, 0.0))
 
 
@@ -140,7 +139,7 @@ def burst_result(bursts=FE_ARM_BURSTS, t_end=1.0, dt=1e-3, modes=1):
     both sides of each impact; ``modes`` clamped-free y-modes per link."""
     from gibbsimpact.simulation.results import ImpactRecord, Result
 
-    link = gi.Link(1.0, 1.0, 25.0, modes=[gi.Mode("clamped-free", "y", k + 1) for k in range(modes)])
+    link = gi.Link(1.0, 1.0, 25.0, modes=[gi.Mode("clamped-free", "y", k + 1) for k in range(modes)], geometric_stiffening=False)
     model = gi.Model(gi.Chain([link, link], base=gi.FixedBase((0.0, 0.6), 0.0)), gravity=(0.0, -9.81, 0.0))
     times = np.concatenate([np.zeros(0)] + [start + np.r_[0.0, np.cumsum(3.4e-4 * 0.6 ** np.arange(n - 1))]
                                             for start, n in bursts])
@@ -160,7 +159,7 @@ def burst_result(bursts=FE_ARM_BURSTS, t_end=1.0, dt=1e-3, modes=1):
 def issue26_model(elements=1, EI=1e4, modes=()):
     """The arm of issue 26: one link, l = 1 m, mu = 1 kg/m, on a pivot at (0, 0.5) m, with ``elements`` Hermite
     elements (0 and no modes: the rigid rod) or assumed ``modes``."""
-    link = gi.Link(1.0, 1.0, EI, elements=elements, modes=modes)
+    link = gi.Link(1.0, 1.0, EI, elements=elements, modes=modes, geometric_stiffening=False)
     return gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.5))), gravity=(0.0, -9.81, 0.0))
 
 

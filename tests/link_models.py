@@ -14,7 +14,7 @@ CC = "clamped-clamped"
 
 
 def _case1():
-    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode(CC, "y")])
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode(CC, "y")], geometric_stiffening=False)
     return gi.Model(gi.Chain([link, link]))
 
 
@@ -24,30 +24,30 @@ def _rigid():
 
 
 def _spatial_modal():
-    a = gi.Link(1.0, 1.0, (20.0, 15.0), modes=[gi.Mode(CC, "y"), gi.Mode(CC, "z"), gi.Mode(CC, "y", 2)])
+    a = gi.Link(1.0, 1.0, (20.0, 15.0), modes=[gi.Mode(CC, "y"), gi.Mode(CC, "z"), gi.Mode(CC, "y", 2)], geometric_stiffening=False)
     b = gi.Link(0.7, 1.2, 10.0, modes=[gi.Mode("clamped-free", "z"), gi.Mode("pinned-pinned", "y"),
-                                       gi.Mode("clamped-free", "y", 2)])
+                                       gi.Mode("clamped-free", "y", 2)], geometric_stiffening=False)
     return gi.Model(gi.Chain([a, b]))
 
 
 def _fe():
-    return gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0, elements=4), gi.Link(0.9, 1.0, 20.0, elements=3)]))
+    return gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0, elements=4, geometric_stiffening=False), gi.Link(0.9, 1.0, 20.0, elements=3, geometric_stiffening=False)]))
 
 
 def _spatial_fe():
-    link = gi.Link(1.0, 1.0, 20.0, elements=4, element_directions=("y", "z"))
+    link = gi.Link(1.0, 1.0, 20.0, elements=4, element_directions=("y", "z"), geometric_stiffening=False)
     return gi.Model(gi.Chain([link, gi.Link(0.6, 1.0, 20.0, rotary_inertia=(1e-4, 1e-4, 1e-4))]))
 
 
 def _fe_off_grid():
     """11 and 13 elements: the sample grid (105 points) misses nodes, brackets straddle them."""
-    return gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0, elements=11), gi.Link(0.8, 1.0, 20.0, elements=13)]))
+    return gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0, elements=11, geometric_stiffening=False), gi.Link(0.8, 1.0, 20.0, elements=13, geometric_stiffening=False)]))
 
 
 def _prismatic(kinds):
     """A fixed-base planar arm: a 3-element host and a 2-element second link behind R, Pa or Pb."""
-    host = gi.Link(1.0, 1.0, 10.0, elements=3)
-    arm = gi.Link(0.6, 0.5, 2.0, elements=2)
+    host = gi.Link(1.0, 1.0, 10.0, elements=3, geometric_stiffening=False)
+    arm = gi.Link(0.6, 0.5, 2.0, elements=2, geometric_stiffening=False)
     joints = {"R-Pb": [gi.Revolute(), gi.FixedPrismatic(angle=0.3, range=(0.15, 0.6))],
               "R-Pa": [gi.Revolute(), gi.SlidingPrismatic(angle=0.6, half_length=0.04, range=(0.05, 0.95))],
               "Pb-R": [gi.FixedPrismatic(angle=0.5, range=(0.6, 1.0)), gi.Revolute()]}[kinds]

@@ -114,8 +114,8 @@ def with_inputs(text, *tables):
 DROP = PB_DROP_CASE
 
 
-# An R-Pb chain and an R-Pa chain on a fixed base, finite-element links: the joint tables
-# are appended to the second [[links]] table.
+# An R-Pb chain and an R-Pa chain on a fixed base, finite-element links (linear beams: a Pb link
+# and a Pa host must be): the joint tables are appended to the second [[links]] table.
 TWO = """
 gravity_m_per_s2 = [0.0, -9.81, 0.0]
 
@@ -125,12 +125,14 @@ type = "fixed"
 [[links]]
 length_m = 1.0
 mass_per_length_kg_per_m = 1.0
+geometric_stiffening = false
 EI_N_m2 = 25.0
 elements = 2
 
 [[links]]
 length_m = 0.6
 mass_per_length_kg_per_m = 0.5
+geometric_stiffening = false
 EI_N_m2 = 8.0
 elements = 2
 """

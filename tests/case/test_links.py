@@ -56,6 +56,23 @@ def test_finite_element_link_keys(tmp_path):
     assert case.model.chain.links[0].elements == 0 and case.model.chain.links[0].damping == 0.0
 
 
+def test_geometric_stiffening_key(tmp_path):
+    # true by default (formulation §15), false the linear beam; a bool only.
+    assert gi.load_case(write(tmp_path, GOOD)).model.chain.links[0].geometric_stiffening is True
+    text = GOOD.replace("EI_N_m2 = 20.0", "EI_N_m2 = 20.0\ngeometric_stiffening = false")
+    assert gi.load_case(write(tmp_path, text)).model.chain.links[0].geometric_stiffening is False
+    d = dict(problems_of(tmp_path, GOOD.replace("EI_N_m2 = 20.0", "EI_N_m2 = 20.0\ngeometric_stiffening = 1")).problems)
+    assert "true or false" in d["links[1].geometric_stiffening"]
+
+
+@pytest.mark.parametrize("text, key", [(PB, "links[2].geometric_stiffening"), (PA, "links[1].geometric_stiffening")])
+def test_stiffening_refused_behind_a_guide_and_under_a_carriage(tmp_path, text, key):
+    # Not modelled (formulation §15's last paragraph): the problem at the key, naming the fix.
+    text = text.replace("geometric_stiffening = false", "geometric_stiffening = true")
+    d = dict(problems_of(tmp_path, text + START).problems)
+    assert "set geometric_stiffening = false" in d[key]
+
+
 def test_modes_and_elements_are_exclusive(tmp_path):
     err = problems_of(tmp_path, GOOD.replace('modes = [', 'elements = 2\nmodes = ['))
     (path, msg), = err.problems

@@ -112,7 +112,7 @@ def reference():
 
 def _package_model():
     body_a = gi.RigidBody(PA["m"], center=(PA["cx"], 0, 0), inertia=PA["J"], at=PA["at"])
-    links = [gi.Link(L1, MU1, EI1, elements=NE, bodies=[body_a]),
+    links = [gi.Link(L1, MU1, EI1, elements=NE, bodies=[body_a], geometric_stiffening=False),
              gi.Link(L2, MU2, 1.0, bodies=[gi.RigidBody(HUB["m"], inertia=HUB["J"], at=0.0),
                                            gi.RigidBody(PB["m"], center=(*PB["c"], 0.0), inertia=PB["J"])])]
     return gi.Model(gi.Chain(links, base=gi.FixedBase((B1, B2), BETA)), gravity=(0.0, -G, 0.0))

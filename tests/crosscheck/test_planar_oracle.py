@@ -68,7 +68,7 @@ def package(s):
     """The same chain as a gibbsimpact Model (binding API of the Pa/Pb issue)."""
     links, joints = [], []
     for lk, rg in zip(s["links"], s["ranges"]):
-        links.append(gi.Link(lk["l"], lk["mu"], lk["EI"], elements=lk["n_e"]))
+        links.append(gi.Link(lk["l"], lk["mu"], lk["EI"], elements=lk["n_e"], geometric_stiffening=False))
         if lk["joint"] == "R":
             joints.append(gi.Revolute())
         elif lk["joint"] == "Pa":
@@ -83,7 +83,7 @@ def package(s):
 def r_only_model(s):
     """R-only chains through the API that exists today (no joints argument)."""
     b1, b2, beta = s["base"]
-    links = [gi.Link(lk["l"], lk["mu"], lk["EI"], elements=lk["n_e"]) for lk in s["links"]]
+    links = [gi.Link(lk["l"], lk["mu"], lk["EI"], elements=lk["n_e"], geometric_stiffening=False) for lk in s["links"]]
     return gi.Model(gi.Chain(links, base=gi.FixedBase((b1, b2), beta)), gravity=(*s["gravity"], 0.0))
 
 

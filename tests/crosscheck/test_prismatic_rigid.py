@@ -162,7 +162,7 @@ def build(combo, rigid=False, gravity=GRAVITY):
     params = LINKS2 if len(kinds) == 2 else LINKS3
     lengths = [p[0] for p in params]
     ranges = _ranges(kinds, lengths)
-    links = [gi.Link(length=l, mass_per_length=mu, EI=EI, elements=0 if rigid else ne) for l, mu, EI, ne in params]
+    links = [gi.Link(length=l, mass_per_length=mu, EI=EI, elements=0 if rigid else ne, geometric_stiffening=False) for l, mu, EI, ne in params]
     joints = [_joint(k, i, r) for i, (k, r) in enumerate(zip(kinds, ranges))]
     chain = gi.Chain(links, joints=joints, base=gi.FixedBase(position=BASE, angle=BETA))
     model = gi.Model(chain, gravity=gravity)
@@ -365,7 +365,7 @@ def test_zero_half_length_allowed_on_rigid_host_and_base_rail(combo):
     kinds = combo.split("-")
     lengths = [p[0] for p in LINKS2]
     ranges = _ranges(kinds, lengths)
-    links = [gi.Link(length=l, mass_per_length=mu, EI=EI, elements=0) for l, mu, EI, _ in LINKS2]
+    links = [gi.Link(length=l, mass_per_length=mu, EI=EI, elements=0, geometric_stiffening=False) for l, mu, EI, _ in LINKS2]
     joints = [gi.Revolute() if k == "R" else gi.SlidingPrismatic(angle=GAMMA["Pa"][i], half_length=0.0, range=r)
               for i, (k, r) in enumerate(zip(kinds, ranges))]
     model = gi.Model(gi.Chain(links, joints=joints, base=gi.FixedBase(position=BASE, angle=BETA)), gravity=GRAVITY)
@@ -389,7 +389,7 @@ def test_rod_sliding_through_a_fixed_guide_on_the_base(beta, elements):
     l, mu, gamma = 0.8, 0.75, 0.3
     m, gravity = mu * l, np.array([2.0, -G, 0.0])
     u = _e(beta + gamma)
-    link = gi.Link(length=l, mass_per_length=mu, EI=5.0, elements=elements)
+    link = gi.Link(length=l, mass_per_length=mu, EI=5.0, elements=elements, geometric_stiffening=False)
     chain = gi.Chain([link], joints=[gi.FixedPrismatic(angle=gamma, range=(0.1, l))], base=gi.FixedBase(position=BASE, angle=beta))
     model = gi.Model(chain, gravity=tuple(gravity))
     assert model.coordinate_names[0] == "d_1"
@@ -412,7 +412,7 @@ def test_one_link_revolute_pendulum(elements):
     """One uniform rod on a revolute joint at the base: M = m l^2/3, h = 0, dV = m g (l/2) cos(beta + theta)."""
     l, mu = 0.9, 1.1
     m = mu * l
-    link = gi.Link(length=l, mass_per_length=mu, EI=5.0, elements=elements)
+    link = gi.Link(length=l, mass_per_length=mu, EI=5.0, elements=elements, geometric_stiffening=False)
     model = gi.Model(gi.Chain([link], joints=[gi.Revolute()], base=gi.FixedBase(position=BASE, angle=BETA)), gravity=GRAVITY)
     rng = np.random.default_rng(4)
     for th in rng.uniform(-np.pi, np.pi, 5):
@@ -444,7 +444,7 @@ def test_mass_matrix_symmetric_positive_definite_at_flexible_states(combo):
 # --------------------------------------------------------------------------- (e) constructor errors
 def _make(joints, links=None):
     """Chain and Model on the fixed base: an error may be raised by either."""
-    links = links or [gi.Link(length=l, mass_per_length=mu, EI=EI, elements=ne) for l, mu, EI, ne in LINKS2]
+    links = links or [gi.Link(length=l, mass_per_length=mu, EI=EI, elements=ne, geometric_stiffening=False) for l, mu, EI, ne in LINKS2]
     return gi.Model(gi.Chain(links, joints=joints, base=gi.FixedBase(position=BASE, angle=BETA)), gravity=GRAVITY)
 
 

@@ -368,10 +368,10 @@ def package_model(spec):
     gi = _import_gibbsimpact()
     links = [
         gi.Link(length=l, mass_per_length=mu, EI=EI, rotary_inertia=j,
-                elements=modes.elements, element_directions=tuple(modes.directions))
+                elements=modes.elements, element_directions=tuple(modes.directions), geometric_stiffening=False)
         if isinstance(modes, FE) else
         gi.Link(length=l, mass_per_length=mu, EI=EI,
-                modes=[gi.Mode(bc, direction=d) for bc, d in modes], rotary_inertia=j)
+                modes=[gi.Mode(bc, direction=d) for bc, d in modes], rotary_inertia=j, geometric_stiffening=False)
         for l, mu, EI, modes, j in spec
     ]
     return gi.Model(gi.Chain(links), gravity=GRAVITY)

@@ -11,16 +11,20 @@ from gibbsimpact.dynamics.kinematics import rodrigues
 from conftest import random_state, two_link_circle_model
 
 
-def spatial_chain():
-    """Three links, y and z clamped-free modes (so the end rotations are genuinely 3D)."""
+def spatial_chain(stiffening=False):
+    """Three links, y and z clamped-free modes (so the end rotations are genuinely 3D); linear beams,
+    or foreshortening ones (stiffening, formulation §15)."""
     a = gi.Link(1.0, 1.2, (15.0, 25.0), modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "z")],
-                rotary_inertia=(2e-4, 1e-4, 1e-4))
-    b = gi.Link(0.7, 0.8, 10.0, modes=[gi.Mode("clamped-clamped", "y"), gi.Mode("clamped-free", "z", 2)])
-    c = gi.Link(0.5, 0.5, 8.0, modes=[gi.Mode("clamped-free", "y")], rotary_inertia=(1e-4, 0.0, 3e-4))
+                rotary_inertia=(2e-4, 1e-4, 1e-4), geometric_stiffening=stiffening)
+    b = gi.Link(0.7, 0.8, 10.0, modes=[gi.Mode("clamped-clamped", "y"), gi.Mode("clamped-free", "z", 2)],
+                geometric_stiffening=stiffening)
+    c = gi.Link(0.5, 0.5, 8.0, modes=[gi.Mode("clamped-free", "y")], rotary_inertia=(1e-4, 0.0, 3e-4),
+                geometric_stiffening=stiffening)
     return gi.Model(gi.Chain([a, b, c]))
 
 
-MODELS = {"two_link_planar": two_link_circle_model, "spatial_three_link": spatial_chain}
+MODELS = {"two_link_planar": two_link_circle_model, "spatial_three_link": spatial_chain,
+          "spatial_three_link_stiffened": lambda: spatial_chain(stiffening=True)}
 
 
 @pytest.mark.parametrize("name", MODELS)

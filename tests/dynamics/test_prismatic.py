@@ -18,8 +18,8 @@ BETA_L = np.array([1.8751040687, 4.6940911330, 7.8547574382])  # roots of 1 + co
 
 
 def _model(joints, elements=(3, 2), gravity=(0.0, -G, 0.0), base=None, EI=(10.0, 2.0)):
-    host = gi.Link(1.0, 1.0, EI[0], elements=elements[0])
-    arm = gi.Link(0.6, 0.5, EI[1], elements=elements[1])
+    host = gi.Link(1.0, 1.0, EI[0], elements=elements[0], geometric_stiffening=False)
+    arm = gi.Link(0.6, 0.5, EI[1], elements=elements[1], geometric_stiffening=False)
     base = gi.FixedBase((0.1, 0.2), 0.3) if base is None else base
     return gi.Model(gi.Chain([host, arm], joints=joints, base=base), gravity=gravity)
 
@@ -103,8 +103,8 @@ def test_power_balance_with_inputs(rng):
 
 def test_free_planar_chain_conserves_momentum(rng):
     # docs/design-notes.md, Tests: a floating planar chain without gravity keeps L and H (<= 1e-9).
-    host = gi.Link(1.0, 1.0, 25.0, elements=2)
-    arm = gi.Link(0.6, 0.5, 4.0, elements=2)
+    host = gi.Link(1.0, 1.0, 25.0, elements=2, geometric_stiffening=False)
+    arm = gi.Link(0.6, 0.5, 4.0, elements=2, geometric_stiffening=False)
     model = gi.Model(gi.Chain([host, arm], joints=[gi.Revolute(), _pb()], base="planar"), gravity=(0.0, 0.0, 0.0))
     assert model.coordinate_names[:4] == ("X1", "X2", "theta_1", "d_2")
     q0, qd0 = _state(model, [0.4, 0.35], rng)
@@ -157,7 +157,7 @@ def test_point_slider_on_a_finite_element_host_is_rejected():
 # -- a Pb link's stretching elements ---------------------------------------------------------
 
 def _pb_arm(n_e, EI=3.0, mu=0.7, length=1.0):
-    link = gi.Link(length, mu, EI, elements=n_e)
+    link = gi.Link(length, mu, EI, elements=n_e, geometric_stiffening=False)
     return gi.Model(gi.Chain([link], joints=[gi.FixedPrismatic(angle=0.0, range=(0.1, length))],
                              base=gi.FixedBase()), gravity=(0.0, 0.0, 0.0))
 
@@ -273,8 +273,8 @@ def test_fixed_base_fe_arm_with_a_sliding_link_strikes_a_plane():
 def test_damped_sliding_link_balance_closes():
     # Stiffness-proportional damping of a Pb link uses K(d) of the protruding part; the audit
     # E(t) - E(0) - W_in - W_damp still closes, and the damping only dissipates.
-    host = gi.Link(1.0, 1.0, 10.0, elements=2)
-    arm = gi.Link(0.6, 0.5, 2.0, elements=2, damping=0.05)
+    host = gi.Link(1.0, 1.0, 10.0, elements=2, geometric_stiffening=False)
+    arm = gi.Link(0.6, 0.5, 2.0, elements=2, damping=0.05, geometric_stiffening=False)
     model = gi.Model(gi.Chain([host, arm], joints=[gi.Revolute(), _pb()], base=gi.FixedBase((0.1, 0.2), 0.3)))
     q0 = model.state(theta_1=0.4, d_2=0.35, delta_2_3=0.01)
     res = gi.simulate(model, q0, model.state(theta_1=0.8), (0.0, 0.4), rtol=1e-11, atol=1e-12,
@@ -300,7 +300,7 @@ def test_result_files_keep_prismatic_joints_and_end_stops(tmp_path):
     np.testing.assert_array_equal(back.model.mass_matrix(q), model.mass_matrix(q))
     rows = read_csv(to_csv(res, tmp_path)["impacts"])
     assert "end stop of joint 2" in list(rows["wall_description"])
-    planar = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 5.0, elements=2), gi.Link(0.6, 0.5, 2.0, elements=1)],
+    planar = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 5.0, elements=2, geometric_stiffening=False), gi.Link(0.6, 0.5, 2.0, elements=1, geometric_stiffening=False)],
                                joints=[gi.Revolute(), _pa(range=(0.1, 0.9))], base="planar"))
     again = model_from_dict(model_to_dict(planar))
     assert again.chain.base == "planar" and again.chain.joints == planar.chain.joints
@@ -310,8 +310,8 @@ def test_host_tip_of_a_carriage_is_a_contact_point():
     # The tip of a host link carrying a Pa carriage is not a frame origin; it is contact point
     # O_(n+2). Released over a floor, link 1's free tip must strike it (a new user's run had
     # it pass 0.5 m through the floor while only the carriage centre was watched).
-    host = gi.Link(1.0, 1.0, 25.0, elements=2)
-    arm = gi.Link(0.3, 0.5, 8.0, elements=1)
+    host = gi.Link(1.0, 1.0, 25.0, elements=2, geometric_stiffening=False)
+    arm = gi.Link(0.3, 0.5, 8.0, elements=1, geometric_stiffening=False)
     model = gi.Model(gi.Chain([host, arm], joints=[gi.Revolute(), _pa(angle=np.pi / 2, range=(0.1, 0.9))],
                               base=gi.FixedBase((0.0, 0.5), 0.0)))
     assert model.n_joints == 4 and model.contact_point_names[3] == "tip of link 1"
@@ -334,8 +334,8 @@ def test_planar_base_gives_no_gimbal_warning_and_no_symbolic_equations():
     # route refuses prismatic and planar chains instead of deriving the wrong equations.
     from gibbsimpact.simulation.validity import check_state
 
-    host = gi.Link(1.0, 1.0, 10.0, elements=2)
-    model = gi.Model(gi.Chain([host, gi.Link(0.6, 0.5, 4.0, elements=1)], joints=[gi.Revolute(), _pb()],
+    host = gi.Link(1.0, 1.0, 10.0, elements=2, geometric_stiffening=False)
+    model = gi.Model(gi.Chain([host, gi.Link(0.6, 0.5, 4.0, elements=1, geometric_stiffening=False)], joints=[gi.Revolute(), _pb()],
                               base="planar"))
     q0 = model.state(d_2=0.3, delta_1_1=0.0)
     q0[4] = np.pi / 2  # delta_1_1 here

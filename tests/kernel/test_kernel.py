@@ -72,22 +72,22 @@ def _rod():
 def _spatial_two_link():
     """Clamped-free y and z modes: the link ends rotate in 3D (Rodrigues path, END_GENERAL), N = 11."""
     a = gi.Link(1.0, 1.2, (15.0, 25.0), modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "z")],
-                rotary_inertia=(2e-4, 1e-4, 1e-4))
+                rotary_inertia=(2e-4, 1e-4, 1e-4), geometric_stiffening=False)
     b = gi.Link(0.7, 0.8, (10.0, 12.0), modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "z", 2)],
-                rotary_inertia=(1e-4, 2e-4, 5e-5))
+                rotary_inertia=(1e-4, 2e-4, 5e-5), geometric_stiffening=False)
     return gi.Model(gi.Chain([a, b]), gravity=(0.3, -9.81, 0.5))
 
 
 def _fe_fixed_arm():
     """Fixed-base arm of two 3-element Hermite links (N = 14)."""
-    links = [gi.Link(1.0, 1.0, 10.0, elements=3, rotary_inertia=(0.0, 0.0, 1e-4)), gi.Link(0.6, 0.5, 4.0, elements=3)]
+    links = [gi.Link(1.0, 1.0, 10.0, elements=3, rotary_inertia=(0.0, 0.0, 1e-4), geometric_stiffening=False), gi.Link(0.6, 0.5, 4.0, elements=3, geometric_stiffening=False)]
     return gi.Model(gi.Chain(links, base=gi.FixedBase(position=(0.1, 0.2), angle=0.3)), gravity=(0.0, -9.81, 0.0))
 
 
 def _fe_free_spatial():
     """A free link with 3 elements in y and z (N = 18)."""
     link = gi.Link(1.0, 1.0, (8.0, 12.0), elements=3, element_directions=("y", "z"),
-                   rotary_inertia=(1e-3, 5e-4, 5e-4))
+                   rotary_inertia=(1e-3, 5e-4, 5e-4), geometric_stiffening=False)
     return gi.Model(gi.Chain([link]))
 
 
@@ -100,13 +100,13 @@ def _rigid_sixteen():
 def _modal_eight():
     """Eight links with two clamped-free y modes each (N = 29)."""
     modes = [gi.Mode("clamped-free", "y", 1), gi.Mode("clamped-free", "y", 2)]
-    return gi.Model(gi.Chain([gi.Link(0.5, 1.0, 5.0, modes=modes)] * 8))
+    return gi.Model(gi.Chain([gi.Link(0.5, 1.0, 5.0, modes=modes, geometric_stiffening=False)] * 8))
 
 
 def _prismatic_planar():
     """R, Pa, Pb on a planar floating base, two elements per link (N = 17): carriage twists,
     a sliding link's own moments, the host tips as extra contact points."""
-    links = [gi.Link(1.0, 1.0, 10.0, elements=2), gi.Link(0.7, 0.5, 4.0, elements=2), gi.Link(0.5, 0.4, 3.0, elements=2)]
+    links = [gi.Link(1.0, 1.0, 10.0, elements=2, geometric_stiffening=False), gi.Link(0.7, 0.5, 4.0, elements=2, geometric_stiffening=False), gi.Link(0.5, 0.4, 3.0, elements=2, geometric_stiffening=False)]
     joints = [gi.Revolute(), gi.SlidingPrismatic(angle=0.4, half_length=0.05, range=(0.1, 0.9)),
               gi.FixedPrismatic(angle=-0.3, range=(0.15, 0.5))]
     return gi.Model(gi.Chain(links, joints=joints, base="planar"), gravity=(0.0, -9.81, 0.0))
@@ -114,7 +114,7 @@ def _prismatic_planar():
 
 def _carriage_on_sliding_link():
     """A Pa carriage on a flexible Pb link, fixed base (N = 10): the second twist."""
-    links = [gi.Link(1.0, 1.0, 10.0, elements=2), gi.Link(0.5, 0.5, 4.0, elements=2)]
+    links = [gi.Link(1.0, 1.0, 10.0, elements=2, geometric_stiffening=False), gi.Link(0.5, 0.5, 4.0, elements=2, geometric_stiffening=False)]
     joints = [gi.FixedPrismatic(angle=0.5, range=(0.6, 1.0)), gi.SlidingPrismatic(angle=0.3, half_length=0.05,
                                                                                    range=(0.1, 0.9))]
     return gi.Model(gi.Chain(links, joints=joints, base=gi.FixedBase((0.1, 0.2), 0.3)), gravity=(0.0, -9.81, 0.0))
@@ -460,7 +460,7 @@ import gibbsimpact as gi
 from gibbsimpact import kernel as k
 from gibbsimpact.kernel.compile import _state
 from gibbsimpact.dynamics.gibbs_appell import forward_dynamics
-link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")])
+link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")], geometric_stiffening=False)
 model = gi.Model(gi.Chain([link, link]), gravity=(0.0, -9.81, 0.0))
 q, qd = (np.array([float.fromhex(x) for x in v]) for v in json.loads(sys.argv[1]))
 a = forward_dynamics(model, q, qd)

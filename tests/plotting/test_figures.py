@@ -321,8 +321,8 @@ def test_camera_looks_along_the_least_motion():
 # Prismatic joints and the planar floating base: d in metres, tip deflections, end stops
 
 def _two_links():
-    return [gi.Link(length=1.0, mass_per_length=1.0, EI=25.0, elements=3),
-            gi.Link(length=0.6, mass_per_length=0.5, EI=8.0, elements=2)]
+    return [gi.Link(length=1.0, mass_per_length=1.0, EI=25.0, elements=3, geometric_stiffening=False),
+            gi.Link(length=0.6, mass_per_length=0.5, EI=8.0, elements=2, geometric_stiffening=False)]
 
 
 def _prismatic_run(which):

@@ -202,8 +202,8 @@ def test_check_impact_names_the_point_and_only_ill_posed_ones():
 BETA1_L = 1.8751040687119611  # first root of cos(b) cosh(b) = -1: clamped-free beam
 
 
-def _spinning_link(modes=("clamped-free",)):
-    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode(k, "y") for k in modes])
+def _spinning_link(modes=("clamped-free",), stiffening=False):
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode(k, "y") for k in modes], geometric_stiffening=stiffening)
     return gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.0))))
 
 
@@ -240,6 +240,17 @@ def test_a_link_spinning_near_its_bending_frequency_is_warned(fraction, warned):
     assert bool(spin) is warned
     if warned:
         assert f"omega_1 = {w1:.4g} rad/s" in spin[0] and f"(limit {validity.SPIN_LIMIT:g})" in spin[0]
+
+
+def test_a_stiffened_link_spinning_fast_is_not_warned():
+    # Its centrifugal stiffening is modelled (formulation §15): the warning is for linear beams only.
+    model = _spinning_link(stiffening=True)
+    qd0 = model.state(theta_1=0.5 * model.link_data[0].first_frequency)
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always", ValidityWarning)
+        res = gi.simulate(model, model.state(), qd0, (0.0, 0.05))
+    assert res.status == "finished"
+    assert not [w for w in record if "turns across its axis" in str(w.message)]
 
 
 @pytest.mark.parametrize("name", ["circle_two_link", "sphere_single_link"])

@@ -31,15 +31,15 @@ N_STATES = 6
 
 def _planar_three_mixed():
     # clamped-free mode (tip deflection and Rz(v'(l)) at joint 2), 2 Hermite elements, a rigid tip link
-    a = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-free", "y")], rotary_inertia=(1e-3, 2e-3, 3e-3))
-    b = gi.Link(0.7, 1.5, 12.0, elements=2, rotary_inertia=(0.0, 0.0, 1e-3))
+    a = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-free", "y")], rotary_inertia=(1e-3, 2e-3, 3e-3), geometric_stiffening=False)
+    b = gi.Link(0.7, 1.5, 12.0, elements=2, rotary_inertia=(0.0, 0.0, 1e-3), geometric_stiffening=False)
     c = gi.Link(0.5, 0.8, 30.0)
     return gi.Model(gi.Chain([a, b, c]), gravity=(0.0, -9.81, 0.0))
 
 
 def _fixed_base_two():
-    a = gi.Link(1.0, 1.2, 25.0, elements=2)
-    b = gi.Link(0.6, 0.5, 8.0, modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "y", 2)])
+    a = gi.Link(1.0, 1.2, 25.0, elements=2, geometric_stiffening=False)
+    b = gi.Link(0.6, 0.5, 8.0, modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "y", 2)], geometric_stiffening=False)
     return gi.Model(gi.Chain([a, b], base=gi.FixedBase((0.1, 0.2), 0.3)), gravity=(0.0, -9.81, 0.0))
 
 
@@ -47,20 +47,20 @@ def _spatial_two_rodrigues():
     # link 1: one element in y and z, so phi = (0, -w'(l), v'(l)) has two components:
     # the general Rodrigues rotation with a(s), b(s); link 2 a clamped-free z-mode
     a = gi.Link(0.8, 1.3, (15.0, 25.0), elements=1, element_directions=("y", "z"),
-                rotary_inertia=(2e-3, 1e-3, 1.5e-3))
-    b = gi.Link(0.9, 1.1, 16.0, modes=[gi.Mode("clamped-free", "z")], rotary_inertia=(1e-3, 1e-3, 1e-3))
+                rotary_inertia=(2e-3, 1e-3, 1.5e-3), geometric_stiffening=False)
+    b = gi.Link(0.9, 1.1, 16.0, modes=[gi.Mode("clamped-free", "z")], rotary_inertia=(1e-3, 1e-3, 1e-3), geometric_stiffening=False)
     return gi.Model(gi.Chain([a, b]), gravity=(0.3, -9.81, 0.5))
 
 
 def _planar_four():
-    link = gi.Link(0.5, 1.0, 10.0, modes=[gi.Mode("clamped-clamped", "y")])
-    tip = gi.Link(0.4, 0.7, 6.0, modes=[gi.Mode("clamped-free", "y")])
+    link = gi.Link(0.5, 1.0, 10.0, modes=[gi.Mode("clamped-clamped", "y")], geometric_stiffening=False)
+    tip = gi.Link(0.4, 0.7, 6.0, modes=[gi.Mode("clamped-free", "y")], geometric_stiffening=False)
     return gi.Model(gi.Chain([link, link, link, tip]), gravity=(0.0, -9.81, 0.0))
 
 
 def _fixed_base_spatial_one():
     link = gi.Link(1.0, 1.0, (20.0, 30.0), modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "z")],
-                   rotary_inertia=(1e-3, 1e-3, 1e-3))
+                   rotary_inertia=(1e-3, 1e-3, 1e-3), geometric_stiffening=False)
     return gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.5, 0.2), -0.4)), gravity=(0.0, 0.0, -9.81))
 
 
@@ -71,14 +71,14 @@ def _fixed_base_bodies():
     off = gi.RigidBody(0.3, center=(0.1, 0.05, -0.03), inertia=[[0.01, 0.001, 0.002], [0.001, 0.02, 0.0],
                                                                   [0.002, 0.0, 0.02]])
     links = [gi.Link(1.0, 1.0, (20.0, 30.0), modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "z")],
-                     rotary_inertia=(1e-3, 1e-3, 1e-3), bodies=[tip]),
+                     rotary_inertia=(1e-3, 1e-3, 1e-3), bodies=[tip], geometric_stiffening=False),
              gi.Link(0.5, 1.0, 1.0, rotary_inertia=(1e-3, 1e-3, 1e-3), bodies=[off])]
     return gi.Model(gi.Chain(links, base=gi.FixedBase((0.0, 0.5, 0.2), -0.4)), gravity=(0.0, -9.81, 0.0))
 
 
 def _planar_chain(n):
     """n links, one clamped-free y-mode each, small rotary inertia (the benchmark chain)."""
-    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-free", "y")], rotary_inertia=(1e-3, 1e-3, 1e-3))
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-free", "y")], rotary_inertia=(1e-3, 1e-3, 1e-3), geometric_stiffening=False)
     return gi.Model(gi.Chain([link] * n), gravity=(0.0, -9.81, 0.0))
 
 
@@ -269,6 +269,13 @@ def test_bad_method_names_the_choices():
         gi.derive_equations("not a model")
 
 
+def test_stiffened_link_is_refused_with_the_fix():
+    # The foreshortening terms (formulation §15) are not derived symbolically: refused, naming the fix.
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-free", "y")])
+    with pytest.raises(NotImplementedError, match=r"link\(s\) 1 foreshorten.*geometric_stiffening=False"):
+        gi.derive_equations(gi.Model(gi.Chain([link, gi.Link(0.5, 1.0, 1.0)])))
+
+
 def test_import_does_not_load_sympy():
     code = "import sys, gibbsimpact; gibbsimpact.derive_equations; print('sympy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -276,9 +283,9 @@ def test_import_does_not_load_sympy():
 
 
 def _parametric_chain(l1=1.0, mu1=1.2, EI1=25.0, l2=0.6, mu2=0.5, EI2=(7.0, 8.0), jz2=2e-3, g=-9.81):
-    a = gi.Link(l1, mu1, EI1, elements=2)
+    a = gi.Link(l1, mu1, EI1, elements=2, geometric_stiffening=False)
     b = gi.Link(l2, mu2, EI2, modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "y", 2)],
-                rotary_inertia=(0.0, 0.0, jz2))
+                rotary_inertia=(0.0, 0.0, jz2), geometric_stiffening=False)
     return gi.Model(gi.Chain([a, b], base=gi.FixedBase((0.1, 0.2), 0.3)), gravity=(0.0, g, 0.0))
 
 

@@ -64,13 +64,15 @@ def _link(r: _Reader, tbl, path: str):
     j = _rotary_inertia(r, tbl, path, mu)
     modes = _modes(r, tbl, join(path, "modes"))
     elements, directions, zeta = _discretisation(r, tbl, path, modes)
+    stiff = r.get(tbl, path, "geometric_stiffening", "bool", default=True)
     bodies = _bodies(r, tbl, join(path, "bodies"))
-    if _BAD in (length, mu, ei, j, elements, directions, zeta) or _BAD in (modes, bodies):
+    if _BAD in (length, mu, ei, j, elements, directions, zeta, stiff) or _BAD in (modes, bodies):
         return _BAD
     try:
         link = Link(length=length, mass_per_length=mu, EI=ei, modes=tuple(modes),
                     rotary_inertia=tuple(j) if j is not None else (0.0, 0.0, 0.0),
-                    elements=elements, element_directions=directions, damping=zeta, bodies=tuple(bodies))
+                    elements=elements, element_directions=directions, damping=zeta, bodies=tuple(bodies),
+                    geometric_stiffening=stiff)
     except ValueError as exc:
         # Only the bodies' rules that involve the link (at <= l, on the axis of a bending link)
         # reach here; every other check above mirrors Link's.
@@ -428,6 +430,10 @@ def _pb_rules(r: _Reader, links, joints, k: int) -> bool:
                                              "stretching finite elements; give it elements instead of modes (or "
                                              "neither: rigid)")
         ok = False
+    if lk.stiffened:
+        r.add(key_path("links", k, "geometric_stiffening"),
+              f"link {i} slides through a Pb guide ({p}): the foreshortening of material flowing through a guide "
+              "is not modelled; set geometric_stiffening = false (the linear beam)")
     if lk.bodies:
         r.add(key_path("links", k, "bodies"), f"link {i} slides through a Pb guide ({p}): its material moves along "
                                               "it with d, which attached bodies do not follow; attach them to a "
@@ -451,6 +457,11 @@ def _pa_rules(r: _Reader, links, joints, k: int) -> bool:
     if host.modes:
         r.add(join(p, "type"), f"a Pa carriage rides on link {h}, which has assumed modes: give links[{h}] "
                                "elements instead of modes, or neither (rigid)")
+        ok = False
+    if host.stiffened:
+        r.add(key_path("links", h - 1, "geometric_stiffening"),
+              f"a Pa carriage ({p}) rides on link {h}: a carriage on a foreshortening host is not modelled yet; "
+              "set geometric_stiffening = false on the host (the linear beam)")
         ok = False
     if host.elements and c <= 0:
         r.add(join(p, "half_length_m"),

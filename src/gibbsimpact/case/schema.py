@@ -228,6 +228,8 @@ _LINK_KEYS = {
     "elements": "number of Hermite cubic finite elements (exclusive with modes)",
     "element_directions": "bending directions of the elements, ['y'] or ['y', 'z']",
     "damping_ratio": "structural damping ratio of the link's first elastic mode",
+    "geometric_stiffening": "true (default): the bent link foreshortens, so spinning stiffens it; false: the "
+                            "linear beam of the source papers",
     "joint": "[links.joint] table: the joint that carries this link (default: revolute)",
     "bodies": "[[links.bodies]] tables: rigid bodies attached to the link (payloads, a hub)",
 }

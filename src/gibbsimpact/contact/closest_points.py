@@ -238,13 +238,54 @@ def closest_points(model, q, walls, refine_below: float = np.inf) -> ClosestPoin
         _interior_minima(tab, wp, st, p0, g, g1, refine_below, best_s, best_g, best_p)
     if tab.flex_links.size < n and (wp.side < 0.0).any():
         _rigid_obstacle_minima(tab, wp, p0, best_s, best_g, best_p)
+    x = _abscissa(tab, st, best_s)
+    _foreshorten(model, wp, st, qs, x, best_g, best_p)
     best_n = np.empty((K, W, n, 3))
     for k in range(W):
         best_n[:, k] = _normals(wp, k, best_p[:, k])
-    x = _abscissa(tab, st, best_s)
     if qa.ndim == 1:
         return ClosestPoints(x[0], best_g[0], best_n[0])
     return ClosestPoints(x, best_g, best_n)
+
+
+def _foreshorten(model, wp: _WallParams, st, qs, x, best_g, best_p):
+    """Closest points of stiffened links on their foreshortened centreline (formulation §15), in place:
+    x (K, W, n) [m], best_g (K, W, n) [m], best_p (K, W, n, 3) [m].
+
+    The search above runs on the linear centreline r = (x, v, w); from its x* a safeguarded Newton
+    iteration on g'(x) = 0 along r = (x + u_f, v, w) (steps only where g'' > 0, x kept in [0, l];
+    u_f' = -1/2 (v'^2 + w'^2), u_f'' = -(v' v'' + w' w'')) until the step is below X_TOL l, so that
+    the point and gap returned are those of the closest material point of the foreshortened link
+    (the ones the impact's Jacobian, material_jacobian, uses).
+    """
+    for i, lk in enumerate(model.chain.links):
+        if not lk.stiffened:
+            continue
+        for k, q in enumerate(qs):
+            xs = x[k, :, i].copy()
+            for _ in range(MAX_ITERATIONS):
+                p, p1, p2 = _foreshortened_curve(model, q, i, xs, st.R[k, i], st.o[k, i])
+                g, _, g1, g2 = _gap_terms(wp, p, p1, p2)
+                step = np.where(g2 > 0.0, -g1 / np.where(g2 > 0.0, g2, 1.0), 0.0)
+                new = np.clip(xs + step, 0.0, lk.length)
+                done = np.abs(new - xs).max() <= X_TOL * lk.length
+                xs = new
+                if done:
+                    break
+            p = _foreshortened_curve(model, q, i, xs, st.R[k, i], st.o[k, i])[0]
+            x[k, :, i], best_p[k, :, i], best_g[k, :, i] = xs, p, _gap_terms(wp, p)[0]
+
+
+def _foreshortened_curve(model, q, i, xs, R, o):
+    """World p, dp/dx, d2p/dx2 (W, 3) of stiffened link i at abscissae xs (W,) [m]: r = (x + u_f, v, w)
+    in the link frame (R (3, 3), origin o (3,))."""
+    from ..model.shapes import link_deflection, link_foreshortening
+
+    (v, w), (v1, w1), (v2, w2) = (link_deflection(model, q, i, xs, d) for d in range(3))
+    r = np.stack([xs + link_foreshortening(model, q, i, xs)[0], v, w], axis=1)
+    r1 = np.stack([1.0 - 0.5 * (v1 * v1 + w1 * w1), v1, w1], axis=1)
+    r2 = np.stack([-(v1 * v2 + w1 * w2), v2, w2], axis=1)
+    return r @ R.T + o, r1 @ R.T, r2 @ R.T
 
 
 def _sample_gaps(tab, wp: _WallParams, st, K: int, W: int):

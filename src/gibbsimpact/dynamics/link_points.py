@@ -2,9 +2,11 @@
 
 A material point at abscissa x [m] of link i (0-based) is, with T_i (4, 4) the link frame,
 
-    p(q, i, x) = (T_i(q) r_i(x))[:3],   r_i(x) = (x, v_i(x), w_i(x), 1)^T
+    p(q, i, x) = (T_i(q) r_i(x))[:3],   r_i(x) = (x + u_f(x), v_i(x), w_i(x), 1)^T
 
-with v, w the deflections of model.link_deflection (modes or Hermite elements; no axial u).
+with v, w the deflections of model.link_deflection (modes or Hermite elements) and u_f the
+foreshortening of a stiffened link (model.link_foreshortening, formulation §15; 0 for a link
+with geometric_stiffening=False).
 Every caller that needs a point of a deformed link (contact candidates, validity checks,
 figures) goes through :func:`points_on_link` (frames given) or :func:`material_points`.
 """
@@ -15,7 +17,7 @@ import numpy as np
 
 from .. import kernel as _k
 from ..model.elements import hermite_shape
-from ..model.shapes import link_deflection, shape_functions
+from ..model.shapes import foreshortening_matrix, link_deflection, link_foreshortening, shape_functions
 from .kinematics import frames, run_kernel, section, states, transforms
 
 
@@ -24,7 +26,7 @@ def points_on_link(model, q, T, i: int, x) -> np.ndarray:
     of the state q (N,) given: p = T_i r_i(x), unchecked (the callers check once)."""
     x = np.asarray(x, dtype=float)
     v, w = link_deflection(model, q, i, x)
-    r = np.stack([x, v, w], axis=1)
+    r = np.stack([x + link_foreshortening(model, q, i, x)[0], v, w], axis=1)
     return r @ T[i][:3, :3].T + T[i][:3, 3]
 
 
@@ -40,7 +42,9 @@ def _body_local(model, q, i: int, body) -> tuple[np.ndarray, np.ndarray]:
     """r (4,) and dr/dq (N, 4) of the centre of ``body`` on link i (0-based) in the link frame
     (docs/theory.md §6.8): r = (x_a + c_x, v(x_a) + c_x v'(x_a) + c_y, w(x_a) + c_x w'(x_a) + c_z, 1),
     dr/d delta_k = e_(a_k) (psi_k(x_a) + c_x psi_k'(x_a)); at = None is the tip. (No body rides a Pb link:
-    Chain refuses it.)"""
+    Chain refuses it.) On a stiffened link (formulation §15) the centre turns with its section to second
+    order: r_x gains -1/2 delta^T H_b delta, H_b = H(x_a) + c_x psi'(x_a) psi'(x_a)^T (same directions),
+    and dr_x/d delta = -H_b delta (the points of model.shapes.mass_points foreshorten alike)."""
     c, lk = body.center, model.chain.links[i]
     at = lk.length if body.at is None else body.at
     (v,), (w,) = link_deflection(model, q, i, [at])
@@ -53,6 +57,12 @@ def _body_local(model, q, i: int, body) -> tuple[np.ndarray, np.ndarray]:
         dpsi = shape_functions(lk, [at], 1)[1]
         for k, (col, d) in enumerate(zip(idx, directions)):
             dr[col, 1 if d == "y" else 2] = psi[k, 0] + c[0] * dpsi[k, 0]
+        if lk.stiffened:
+            same = np.equal.outer(np.array(directions), np.array(directions))
+            Hb = foreshortening_matrix(lk, [at])[0] + c[0] * np.outer(dpsi[:, 0], dpsi[:, 0]) * same
+            delta = np.asarray(q, dtype=float)[idx]
+            r[0] -= 0.5 * delta @ Hb @ delta
+            dr[idx, 0] = -Hb @ delta
     return r, dr
 
 
@@ -92,8 +102,11 @@ def body_centers(model, q, owner=None, tables=None) -> tuple[np.ndarray, tuple]:
         # r(q) = r(0) + q dr/dq (body_tables); the frames of all the states in one kernel call.
         job = _k.JOB_FRAMES
         T = section(model, run_kernel(model, states(qs), job), K, job, "frames").reshape(K, n + 1, 3, 4, 4)[:, :, 0]
-        for m, ((i, _), (r0, dr)) in enumerate(zip(owner, tables or body_tables(model, owner))):
-            p[:, m] = np.einsum("kab,kb->ka", T[:, i, :3], r0 + qs @ dr)
+        for m, ((i, b), (r0, dr)) in enumerate(zip(owner, tables or body_tables(model, owner))):
+            r = r0 + qs @ dr
+            if model.chain.links[i].stiffened:  # the quadratic foreshortening (_body_local), per state
+                r[:, 0] = [_body_local(model, qk, i, b)[0][0] for qk in qs]
+            p[:, m] = np.einsum("kab,kb->ka", T[:, i, :3], r)
     return (p if q.ndim == 2 else p[0]), tuple(owner)
 
 
@@ -143,7 +156,9 @@ def material_points(model, q, i: int, x) -> np.ndarray:
 def _local_derivatives(model, q, qdot, i, x):
     """r (4,), dr/dq (N, 4), rdot (4,), rddot0 (4,) of link i's material point at x (docs/theory.md §7.4).
 
-    Ordinary links: dr/d delta_k = (e_dir psi_k(x), 0), rddot0 = 0. Pb link (d, stretching
+    Ordinary links: dr/d delta_k = (e_dir psi_k(x), 0), rddot0 = 0; a stiffened link (formulation §15)
+    adds u_f = -1/2 delta^T H delta to r, -(H delta)_k to dr/d delta_k and -deltadot^T H deltadot to
+    rddot0, along e_x. Pb link (d, stretching
     elements, xi = (x - l + d) / d, Phi_k = d^(a_k) N_k(xi) on xi >= 0, 0 behind the guide):
 
         dv/d delta_k  = d^(a_k) N_k
@@ -165,6 +180,11 @@ def _local_derivatives(model, q, qdot, i, x):
         directions, psi = shape_functions(lk, [x], 0)
         for k, (c, s) in enumerate(zip(idx, directions)):
             dr[c, 1 if s == "y" else 2] = psi[k, 0]
+        if lk.stiffened:
+            H = foreshortening_matrix(lk, [x])[0]
+            r[0] += -0.5 * q[idx] @ H @ q[idx]
+            dr[idx, 0] = -H @ q[idx]
+            rddot0[0] = -qdot[idx] @ H @ qdot[idx]
         return r, dr, dr.T @ qdot, rddot0
     jd = model.theta_index[i]
     d, dd = q[jd], qdot[jd]

@@ -29,7 +29,7 @@ def model_to_dict(model: Model) -> dict:
             "modes": [[m.kind, m.direction, int(m.number)] for m in lk.modes],
             "rotary_inertia": list(lk.rotary_inertia),
             "elements": int(lk.elements), "element_directions": list(lk.element_directions),
-            "damping": float(lk.damping),
+            "damping": float(lk.damping), "geometric_stiffening": bool(lk.geometric_stiffening),
             "bodies": [{"mass": b.mass, "center": list(b.center), "inertia": [list(r) for r in b.inertia], "at": b.at}
                        for b in lk.bodies],
         })
@@ -61,7 +61,9 @@ def model_from_dict(d: dict) -> Model:
              modes=tuple(Mode(k, dr, n) for k, dr, n in lk["modes"]), rotary_inertia=tuple(lk["rotary_inertia"]),
              elements=int(lk.get("elements", 0)), element_directions=tuple(lk.get("element_directions", ("y",))),
              damping=float(lk.get("damping", 0.0)),
-             bodies=tuple(RigidBody(b["mass"], tuple(b["center"]), b["inertia"], b["at"]) for b in lk.get("bodies", ())))
+             bodies=tuple(RigidBody(b["mass"], tuple(b["center"]), b["inertia"], b["at"]) for b in lk.get("bodies", ())),
+             # files written before foreshortening existed hold linear beams
+             geometric_stiffening=bool(lk.get("geometric_stiffening", False)))
         for lk in d["links"]
     ]
     kw = {"quadrature": tuple(d["quadrature"])} if "quadrature" in d else {}

@@ -42,16 +42,25 @@ come from frames.py, the body moments P_i, Pv_i, m_r,i, q_l (item 5) from moment
    a Pb link adds int mu r a0 to F and int mu phi_l a0 to the own part of h.
 7. *Two twists* (frames.py): S_D(j) = S_D + [j >= f2] S2_D, and every trace above
    is summed over the pieces, each with the composite of its later start frame.
+8. *Foreshortening* (formulation §15; moments._fs_moments). A stiffened link's own shapes are
+   phi_l = e_{a_l} psi_l - e_x eta_l(x), eta = H(x) delta, and rddot0 = -beta e_x: with
+   s_l = int mu eta_l r, sd_l = int mu eta_l rdot, z_l = T s_l, x_o = T e_x (world),
+
+       M_cd += -x_o . (S_c z_d)  (as e_d . (S_c y_d), item 2),   M_kl += int mu eta_k eta_l,
+       h_l  += -x_o . (Tdd0 s_l + 2 Td sd_l) + int mu eta_l beta,   F_i += (T qa) x_o^T,
+       dV_l += (int mu eta_l) g~ . x_o,    qa = -int mu beta r
+
+   (P, Pv, m_r, q_l, qd_l already hold the foreshortened r, rdot).
 """
 
 from __future__ import annotations
 
 from .layout import _CI, _F_G, _H, _LI, JOINT_PB, _mmax, inline
 from .mat4 import _mm, _mmt
-from .moments import _own_source, _sd_offsets, _sd_stride
+from .moments import _fs_offsets, _own_source, _sd_offsets, _sd_stride
 
 
-def assemble(fdat, idat, q, vel, B, V, SD, ws, M, h, dV, pris):
+def assemble(fdat, idat, q, vel, B, V, SD, ws, M, h, dV, pris, ends):
     """Assemble stage: M (N, N), and h (N,) when vel, and dV/dq (N,) (items 2-4, 6, 7 above).
 
     From the position stage's frames and twists and the moments stage's body moments in the
@@ -62,8 +71,10 @@ def assemble(fdat, idat, q, vel, B, V, SD, ws, M, h, dV, pris):
     TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
     mmax = _mmax(idat)
     SDS = _sd_stride(mmax)
-    _link_shares(idat, B, V, SD, SDS, ws, vel, pris)
+    _link_shares(idat, B, V, SD, SDS, ws, vel, pris, ends)
     _own_terms(fdat, idat, q, vel, B, V, SD, SDS, mmax + 1, ws, dV, h, pris)
+    if ends is not None:
+        _fs_own_terms(fdat, idat, vel, B, SD, SDS, ws, dV, h)
     # Composites: sums over the links from frame j outwards (one backward pass).
     for i in range(n - 1, -1, -1):
         for a in range(4):
@@ -74,14 +85,15 @@ def assemble(fdat, idat, q, vel, B, V, SD, ws, M, h, dV, pris):
     # X_d = Pi^c_{f_d} S_d^T
     for d in range(N):
         _mmt(B, PIC + idat[_H + _CI * d + 2], SS + d, XS + d)
-    _mass_matrix(fdat, idat, B, V, SD, SDS, ws, M, pris)
+    _mass_matrix(fdat, idat, B, V, SD, SDS, ws, M, pris, ends)
     _twist_forces(fdat, idat, B, V, ws, vel, dV, h, pris)
 
 
 @inline
-def _link_shares(idat, B, V, SD, SDS, ws, vel, pris):
-    """Each link's shares of the composites (items 2-4, 6): Pi_i = T P T^T, mu_i = T m_r and,
-    when vel, F_i = T P Tdd0^T + 2 T Pv Td^T (+ (T qa)(T e_y)^T for a Pb link: r0dd = e_y a0),
+def _link_shares(idat, B, V, SD, SDS, ws, vel, pris, ends):
+    """Each link's shares of the composites (items 2-4, 6, 8): Pi_i = T P T^T, mu_i = T m_r and,
+    when vel, F_i = T P Tdd0^T + 2 T Pv Td^T (+ (T qa)(T e_y)^T for a Pb link: r0dd = e_y a0;
+    + (T qa)(T e_x)^T for a stiffened link: rddot0 = -beta e_x, _fs_moments),
     into B[PIC + i], V[MUC + i], B[FC + i] (work_slots ws; a Pb link's qa in SD, _pb_moments;
     B[WK + 22], B[WK + 23] scratch)."""
     TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
@@ -102,14 +114,20 @@ def _link_shares(idat, B, V, SD, SDS, ws, vel, pris):
                 for b in range(4):
                     B[FC + i, a, b] += 2.0 * B[kX + 1, a, b]
             base = _H + _CI * idat[1] + _LI * i
+            o_qa = -1
+            ax = 1
             if pris is not None and idat[base + 5] == JOINT_PB:
                 o_qa = _sd_offsets(i * SDS, idat[base])[2]
+            elif ends is not None and idat[base + 6] >= 0:
+                o_qa = _fs_offsets(i * SDS, _mmax(idat))[5]
+                ax = 0
+            if o_qa >= 0:
                 for a in range(4):
                     s = 0.0
                     for b in range(4):
                         s += B[TS + i, a, b] * SD[o_qa + b]
                     for b in range(4):
-                        B[FC + i, a, b] += s * B[TS + i, b, 1]
+                        B[FC + i, a, b] += s * B[TS + i, b, ax]
 
 
 @inline
@@ -166,7 +184,59 @@ def _own_terms(fdat, idat, q, vel, B, V, SD, SDS, R, ws, dV, h, pris):
 
 
 @inline
-def _mass_matrix(fdat, idat, B, V, SD, SDS, ws, M, pris):
+def _fs_own_terms(fdat, idat, vel, B, SD, SDS, ws, dV, h):
+    """The foreshortening parts of dV and h of each stiffened link's own coordinates (item 8):
+
+        z_l = T s_l (into SD, for _mass_matrix),  dV_l += (int mu eta_l) g~ . x_o,
+        h_l += -x_o . (Tdd0 s_l + 2 Td sd_l) + hfs_l     (x_o = T e_x; _fs_moments' SD terms)
+    """
+    TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
+    mmax = _mmax(idat)
+    for i in range(idat[0]):
+        base = _H + _CI * idat[1] + _LI * i
+        if idat[base + 6] < 0:
+            continue
+        d0 = idat[base + 1]
+        o_s, o_sd, o_z, o_M, o_h, o_qa, o_eta, o_zeta = _fs_offsets(i * SDS, mmax)
+        gx = 0.0
+        for a in range(3):
+            gx += fdat[_F_G + a] * B[TS + i, a, 0]
+        for l in range(idat[base]):
+            for a in range(4):
+                s = 0.0
+                for b in range(4):
+                    s += B[TS + i, a, b] * SD[o_s + 4 * l + b]
+                SD[o_z + 4 * l + a] = s
+            dV[d0 + l] += SD[o_s + 4 * l + 3] * gx
+            if vel:
+                s = SD[o_h + l]
+                for a in range(3):
+                    x = 0.0
+                    for b in range(4):
+                        x += B[TDDS + i, a, b] * SD[o_s + 4 * l + b] + 2.0 * B[TDS + i, a, b] * SD[o_sd + 4 * l + b]
+                    s -= B[TS + i, a, 0] * x
+                h[d0 + l] += s
+
+
+def _fs_sz(idat, B, SD, SDS, TS, s, b):
+    """-x_o . (B[s] z_b) for b an own coordinate of a stiffened link o (x_o = T_o e_x, z_b = T_o s_b;
+    item 8): the foreshortening part of M_ab for a twist B[s] that moves link o; 0 when b deforms
+    no stiffened link."""
+    o = idat[_H + _CI * b + 3]
+    if o < 0 or idat[_H + _CI * idat[1] + _LI * o + 6] < 0:
+        return 0.0
+    oz = _fs_offsets(o * SDS, _mmax(idat))[2] + 4 * idat[_H + _CI * b + 4]
+    val = 0.0
+    for r in range(3):
+        x = 0.0
+        for k in range(4):
+            x += B[s, r, k] * SD[oz + k]
+        val -= B[TS + o, r, 0] * x
+    return val
+
+
+@inline
+def _mass_matrix(fdat, idat, B, V, SD, SDS, ws, M, pris, ends):
     """M (N, N) (items 2, 6, 7): for each pair c, d, with a, b = c, d ordered so that f_a <= f_b,
 
         M_ab = tr(S_a Pi^c_{f_b} S_b^T) + [o_b >= 0, f_a <= o_b] e_b.(S_a y_b)
@@ -201,8 +271,12 @@ def _mass_matrix(fdat, idat, B, V, SD, SDS, ws, M, pris):
             if ob >= 0 and fa <= ob:
                 # e_b . (S_a y_b): a moves the link that b deforms
                 val += _e_sy(B, V, SS + a, YY + b, EE + b)
+                if ends is not None:
+                    val += _fs_sz(idat, B, SD, SDS, TS, SS + a, b)
             if oa >= 0 and fb <= oa:
                 val += _e_sy(B, V, SS + b, YY + a, EE + a)
+                if ends is not None:
+                    val += _fs_sz(idat, B, SD, SDS, TS, SS + b, a)
             if ob >= 0 and oa == ob:
                 bl = _H + _CI * N + _LI * ob
                 m = idat[bl]
@@ -214,13 +288,16 @@ def _mass_matrix(fdat, idat, B, V, SD, SDS, ws, M, pris):
                 elif idat[_H + _CI * a + 1] == idat[_H + _CI * b + 1]:
                     # Mpsi of two modes of one link along one axis
                     val += fdat[idat[bl + 3] + 21 + 2 * m + m * la + lb]
+                if ends is not None and idat[bl + 6] >= 0:
+                    mmax = _mmax(idat)
+                    val += SD[_fs_offsets(ob * SDS, mmax)[3] + mmax * la + lb]
             if pris is not None and (idat[_H + _CI * a + 5] >= 0 or idat[_H + _CI * b + 5] >= 0):
-                val = _second_twist_mass(idat, B, V, ws, a, b, val)
+                val = _second_twist_mass(idat, B, V, SD, SDS, ws, a, b, val)
             M[c, d] = val
             M[d, c] = val
 
 
-def _second_twist_mass(idat, B, V, ws, a, b, val):
+def _second_twist_mass(idat, B, V, SD, SDS, ws, a, b, val):
     """val plus the terms of M_ab from second twists (item 7; _mass_matrix's a, b): with
     S_a(j) = S_a + [j >= f2_a] S2_a, every pair of pieces but (S_a, S_b) adds
     tr(S_a' Pi^c_max(start a', start b') S_b'^T), and e_b.(S2_a y_b), e_a.(S2_b y_a) where the
@@ -244,9 +321,9 @@ def _second_twist_mass(idat, B, V, ws, a, b, val):
             st = max(st_a, fb if pb_ == 0 else f2b)
             val += _tr_sps(B, sa, PIC + st, SS + b + pb_ * N)
     if f2a >= 0 and ob >= 0 and f2a <= ob:
-        val += _e_sy(B, V, SS + N + a, YY + b, EE + b)
+        val += _e_sy(B, V, SS + N + a, YY + b, EE + b) + _fs_sz(idat, B, SD, SDS, TS, SS + N + a, b)
     if f2b >= 0 and oa >= 0 and f2b <= oa:
-        val += _e_sy(B, V, SS + N + b, YY + a, EE + a)
+        val += _e_sy(B, V, SS + N + b, YY + a, EE + a) + _fs_sz(idat, B, SD, SDS, TS, SS + N + b, a)
     return val
 
 

@@ -91,11 +91,11 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
             qd[i] = qds[i]
         vel = (job & (JOB_H | JOB_SOLVE | JOB_QDDOT)) != 0
         chain_frames(fdat, idat, q, qd, vel, B, ws, pris, ends)
-        moments(fdat, idat, q, qd, B, V, SD, ws, pris)
+        moments(fdat, idat, q, qd, B, V, SD, ws, pris, ends)
         M = np.zeros((N, N))
         h = np.zeros(N)
         dV = np.zeros(N)
-        assemble(fdat, idat, q, vel, B, V, SD, ws, M, h, dV, pris)
+        assemble(fdat, idat, q, vel, B, V, SD, ws, M, h, dV, pris, ends)
         _write_assembled(out, L, M, h, dV)
         if job & (JOB_SOLVE | JOB_QDDOT):
             st = _solve(out, L, job, Q, qd, M, h, dV)
@@ -108,8 +108,8 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
                 qd[i] = qds[N * k + i]
             chain_frames(fdat, idat, q, qd, vel, B, ws, pris, ends)
             if energies:
-                moments(fdat, idat, q, qd, B, V, SD, ws, pris)
-            _observables(fdat, idat, q, qd, job, out, L, B, V, SD, ws, part, k, pris)
+                moments(fdat, idat, q, qd, B, V, SD, ws, pris, ends)
+            _observables(fdat, idat, q, qd, job, out, L, B, V, SD, ws, part, k, pris, ends)
     return st
 
 
@@ -155,13 +155,13 @@ def _solve(out, L, job, Q, qd, M, h, dV):
 
 
 @inline
-def _observables(fdat, idat, q, qd, job, out, L, B, V, SD, ws, part, k, pris):
+def _observables(fdat, idat, q, qd, job, out, L, B, V, SD, ws, part, k, pris, ends):
     """Observables stage of state k, from its frames (and, for energies and momenta, its body
     moments): the energy, momentum, point, Jacobian and frame sections of out (layout L);
     part (12,) is scratch."""
     npts = idat[0] + 1 + idat[3]
     if job & (JOB_ENERGY | JOB_MOMENTUM):
-        link_observables(fdat, idat, q, qd, B, V, SD, ws, part, pris)
+        link_observables(fdat, idat, q, qd, B, V, SD, ws, part, pris, ends)
         if job & JOB_ENERGY:
             o = L[_S_EN] + 3 * k
             for a in range(3):

@@ -37,6 +37,7 @@ import numpy as np
 from .layout import (_CI, _F_BASE, _H, _LI, BASE_FIXED, BASE_FREE, END_RIGID, JOINT_PA, JOINT_PB, JOINT_R,
                      _joint_field, inline)
 from .mat4 import _conjugate, _copy4, _mm, _mm_add, _put_skew, _zero4, rodrigues_directional
+from .moments import _fs_tables
 
 
 # -- forward recursion -----------------------------------------------------------
@@ -94,6 +95,9 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
     E = [[R(phi), t], [0, 1]], t = l e_x + end_t^T delta, phi = end_phi^T delta;
     Ed = [[dR[phidot], tdot], [0, 0]], Edd0 = [[d2R[phidot, phidot], 0], [0, 0]];
     local twist of delta_k: dE_k E^-1 = [[dR_k R^T, t_k - dR_k R^T t], [0, 0]].
+    A stiffened link (formulation §15) adds u_f(l) = -1/2 delta^T H(l) delta to t along e_x, so
+    t_k gains -(H(l) delta)_k e_x, tdot -(delta^T H(l) deltadot) e_x, Edd0's translation
+    -(deltadot^T H(l) deltadot) e_x.
     ends: None in the variant for chains whose link ends are all rigid (see kernel).
     """
     N = idat[1]
@@ -113,19 +117,24 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
         return
     o_t = off + 21 + 2 * m + 2 * m * m
     o_phi = o_t + 3 * m
-    _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi)
-    _end_twists(fdat, B, w, ss + d0, m, o_t, o_phi)
+    oHl = -1
+    if idat[base + 6] >= 0:
+        oHl = _fs_tables(fdat, idat[base + 6], m)[8]
+    _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi, oHl)
+    _end_twists(fdat, q, B, w, ss + d0, m, d0, o_t, o_phi, oHl)
     _apply_local(B, w, w + _E_G, vel, w + _E_TN)
 
 
 @inline
-def _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi):
+def _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi, oHl):
     """E, Ed, Edd0 of a link end into B[w + _E_G .. w + _E_G + 2] (_end_step), from its m
     coordinates delta = q[d0:d0 + m] and their rates (end_t, end_phi at fdat[o_t], fdat[o_phi]):
 
         t = l e_x + end_t^T delta,  tdot = end_t^T deltadot,  phi = end_phi^T delta,
         phidot = end_phi^T deltadot;  E = [[R(phi), t]],  Ed = [[dR[phidot], tdot]],
         Edd0 = [[d2R[phidot, phidot], 0]]   (rodrigues_directional)
+    plus, for a stiffened link (H(l) (m, m) at fdat[oHl:], oHl >= 0), u_f(l) = -1/2 delta^T H delta
+    in t, -delta^T H deltadot in tdot and -deltadot^T H deltadot in Edd0's translation (along e_x).
     """
     kv = w + _E_V
     kG = w + _E_G
@@ -140,8 +149,18 @@ def _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi):
             B[kv, 1, a] += fdat[o_t + 3 * k + a] * vk
             B[kv, 2, a] += fdat[o_phi + 3 * k + a] * dk
             B[kv, 3, a] += fdat[o_phi + 3 * k + a] * vk
+    beta = 0.0
+    if oHl >= 0:
+        for k in range(m):
+            for j in range(m):
+                H = fdat[oHl + m * k + j]
+                B[kv, 0, 0] -= 0.5 * H * q[d0 + k] * q[d0 + j]
+                B[kv, 1, 0] -= H * q[d0 + k] * qd[d0 + j]
+                beta += H * qd[d0 + k] * qd[d0 + j]
     B[kG, 3, 3] = 1.0
     rodrigues_directional(B, kv, 2, 3, 3, w + _E_R, w + _E_DR, w + _E_D2R, w + _E_S)
+    if oHl >= 0:
+        B[kG + 2, 0, 3] = -beta
     for a in range(3):
         B[kG, a, 3] = B[kv, 0, a]
         B[kG + 1, a, 3] = B[kv, 1, a]
@@ -152,12 +171,13 @@ def _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi):
 
 
 @inline
-def _end_twists(fdat, B, w, s0, m, o_t, o_phi):
+def _end_twists(fdat, q, B, w, s0, m, d0, o_t, o_phi, oHl):
     """World twists B[s0 + k] of the m end coordinates delta_k of a link (_end_step), from the
     frame before E (B[w]) and E's t, phi (rows 0, 2 of B[w + _E_V]):
 
         L_k = dE_k E^-1 = [[dR_k R^T, t_k - dR_k R^T t], [0, 0]],  S_k = T L_k T^-1
-        (dR_k = dR[end_phi_k] at phi, t_k = end_t_k; S_k = 0 where both are zero)
+        (dR_k = dR[end_phi_k] at phi, t_k = end_t_k - [oHl >= 0] (H(l) delta)_k e_x (a stiffened
+        link, _end_transform); S_k = 0 where both are zero)
     """
     kv = w + _E_V
     kR = w + _E_R
@@ -166,7 +186,11 @@ def _end_twists(fdat, B, w, s0, m, o_t, o_phi):
     ku = w + _E_U
     ks = w + _E_S
     for k in range(m):
-        zero = True
+        eta = 0.0
+        if oHl >= 0:
+            for j in range(m):
+                eta += fdat[oHl + m * k + j] * q[d0 + j]
+        zero = eta == 0.0
         for a in range(3):
             B[ku, 0, a] = fdat[o_phi + 3 * k + a]
             if fdat[o_phi + 3 * k + a] != 0.0 or fdat[o_t + 3 * k + a] != 0.0:
@@ -187,7 +211,7 @@ def _end_twists(fdat, B, w, s0, m, o_t, o_phi):
                     s += B[kdRk, a, c] * B[kR, b, c]
                 B[kL, a, b] = s
         for a in range(3):
-            s = fdat[o_t + 3 * k + a]
+            s = fdat[o_t + 3 * k + a] - (eta if a == 0 else 0.0)
             for b in range(3):
                 s -= B[kL, a, b] * B[kv, 0, b]
             B[kL, a, 3] = s

@@ -16,7 +16,9 @@ import numpy as np
 #       + per link (n rows of _LI ints)
 _H = 8
 _CI = 6  # kind, axis, first frame, own link (-1), local index, first frame of a second twist (-1)
-_LI = 6  # m, first delta index in q, joint variable index in q, offset in fdat, end kind, joint kind
+# m, first delta index in q, joint variable index in q, offset in fdat, end kind, joint kind,
+# offset in fdat of the foreshortening tables (-1: a linear beam; model/packing._fs_tables)
+_LI = 7
 KIND_TRANSLATION, KIND_ROTATION, KIND_MODE, KIND_PA, KIND_PB = 0, 1, 2, 3, 4
 END_RIGID, END_GENERAL = 0, 2  # a link end fixed to its frame, or moved by its modes
 JOINT_R, JOINT_PA, JOINT_PB = 0, 1, 2
@@ -25,7 +27,8 @@ BASE_FIXED, BASE_FREE, BASE_PLANAR = 0, 1, 2
 #       cx (m), c1 (m), Mpsi (m*m), K (m*m), end_t (3m), end_phi (3m),
 #       gamma, c, n_e, mu, EI (_F_JOINT values: the joint and the constants of a Pb link),
 #       and for a Pb link its unit-interval tables (_pb_moments): xi (G), w (G),
-#       N (G m), N' (G m), N'' (G m), Kunit (m m), a (m), G = 4 n_e Gauss points.
+#       N (G m), N' (G m), N'' (G m), Kunit (m m), a (m), G = 4 n_e Gauss points;
+#       for a stiffened link its foreshortening tables (packing._fs_tables, moments._fs_moments).
 _F_BASE, _F_G, _F_LINKS = 0, 16, 20
 _F_JOINT = 5
 _GAUSS = 4  # Gauss-Legendre points per (stretching) element: exact for degree <= 7

@@ -27,11 +27,12 @@ import numpy as np
 from .layout import _CI, _F_JOINT, _GAUSS, _H, _LI, JOINT_PB, _mmax, inline
 
 
-def moments(fdat, idat, q, qd, B, V, SD, ws, pris):
+def moments(fdat, idat, q, qd, B, V, SD, ws, pris, ends):
     """Moments stage: the body moments of every link i at q, qdot (_link_body) into the work
     arrays of work_slots ws: B[PS + i] = P_i, B[PVS + i] = Pv_i, V[MR + i] = m_r,i, and for its
     own shapes l V[QV + R i + l] = q_l, V[QDV + R i + l] = qd_l, R = mmax + 1; a Pb link's shape
-    data in SD[S i:], S = _sd_stride(mmax) (_pb_moments).
+    data in SD[S i:], S = _sd_stride(mmax) (_pb_moments); a stiffened link's foreshortening terms
+    (_fs_moments; only in the variant with moving link ends, ends not None).
     """
     TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
     mmax = _mmax(idat)
@@ -39,12 +40,28 @@ def moments(fdat, idat, q, qd, B, V, SD, ws, pris):
     S = _sd_stride(mmax)
     for i in range(idat[0]):
         _link_body(fdat, idat, i, q, qd, B, PS + i, PVS + i, V, MR + i, QV + R * i, QDV + R * i, SD, S * i, pris)
+        if ends is not None and idat[_H + _CI * idat[1] + _LI * i + 6] >= 0:
+            _fs_moments(fdat, idat, i, q, qd, B, PS + i, PVS + i, V, MR + i, QV + R * i, QDV + R * i, SD,
+                        _fs_offsets(S * i, mmax))
 
 
 def _sd_stride(mmax):
-    """Per-link stride of the per-call shape data SD of Pb links (_pb_moments)."""
+    """Per-link stride of the per-call shape data SD: a Pb link's (_pb_moments), then a stiffened
+    link's foreshortening terms (_fs_offsets)."""
     ms = mmax + 1
-    return 2 * ms + ms * ms + 4 + ms + mmax + 2
+    return 2 * ms + ms * ms + 4 + ms + mmax + 2 + mmax * mmax + 15 * mmax + 4
+
+
+def _fs_offsets(o, mmax):
+    """Offsets of a stiffened link's foreshortening terms in the link's shape data at SD[o:]
+    (_fs_moments), each own coordinate l < mmax: (s_l (4), sd_l (4), z_l (4), Mfs (mmax, mmax),
+    hfs (mmax), qa (4), eta, zeta (mmax each))."""
+    ms = mmax + 1
+    o_s = o + 2 * ms + ms * ms + 4 + ms + mmax + 2
+    o_M = o_s + 12 * mmax
+    o_h = o_M + mmax * mmax
+    o_qa = o_h + mmax
+    return o_s, o_s + 4 * mmax, o_s + 8 * mmax, o_M, o_h, o_qa, o_qa + 4, o_qa + 4 + mmax
 
 
 def _sd_offsets(o, m):
@@ -239,3 +256,210 @@ def _link_body(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, so, p
             B[kPv, r, al] += vl * V[kqv + l, r]
         B[kP, al, 0] += dl * src[o_cx + l]
         B[kP, al, 3] += dl * src[o_c1 + l]
+
+
+def _fs_tables(fdat, of, m):
+    """Offsets of a stiffened link's foreshortening tables at fdat[of:] (packing._fs_tables), m its
+    number of deltas: (G, P, x, w mu, psi, k, l, H_p, H(l)): G points, P pairs k <= l; in the
+    tensor form G = P = 0 and A0, A1, B, A4 follow H(l) (_fs_tensor_offsets)."""
+    G = int(fdat[of])
+    P = int(fdat[of + 1])
+    ox = of + 3
+    opsi = ox + 2 * G
+    opk = opsi + G * m
+    oH = opk + 2 * P
+    return G, P, ox, ox + G, opsi, opk, opk + P, oH, oH + G * P
+
+
+@inline
+def _fs_eta(fdat, q, qd, d0, m, P, opk, opl, oHg, SD, o_eta, o_zeta):
+    """eta = H delta and zeta = H deltadot (m each) at one point into SD[o_eta:], SD[o_zeta:], from
+    the P pairs (k <= l) of H at fdat[oHg:] (_fs_tables); delta = q[d0:d0 + m]."""
+    for k in range(m):
+        SD[o_eta + k] = 0.0
+        SD[o_zeta + k] = 0.0
+    for p in range(P):
+        H = fdat[oHg + p]
+        if H == 0.0:
+            continue
+        k = int(fdat[opk + p])
+        l = int(fdat[opl + p])
+        SD[o_eta + k] += H * q[d0 + l]
+        SD[o_zeta + k] += H * qd[d0 + l]
+        if k != l:
+            SD[o_eta + l] += H * q[d0 + k]
+            SD[o_zeta + l] += H * qd[d0 + k]
+
+
+@inline
+def _fs_own(fdat, m, opsig, W, r, rd, beta, V, kqv, kqdv, SD, fo):
+    """One quadrature point's share of the own-coordinate terms of _fs_moments (point weight
+    W = w mu [kg], r = (x + u_f, v, w, 1), rd = (rho, vdot, wdot, 0), beta; psi_k at fdat[opsig:]):
+    q_l[0] += W u_f psi_l, qd_l[0] += W rho psi_l, s_l += W eta_l r, sd_l += W eta_l rd,
+    hfs_l += W eta_l beta, Mfs_kl += W eta_k eta_l, qa -= W beta r."""
+    o_s, o_sd, o_z, o_M, o_h, o_qa, o_eta, o_zeta = fo
+    mm = (o_sd - o_s) // 4
+    uf = r[0] - r[4]
+    for k in range(m):
+        ps = fdat[opsig + k]
+        if ps != 0.0:
+            V[kqv + k, 0] += W * uf * ps
+            V[kqdv + k, 0] += W * rd[0] * ps
+        We = W * SD[o_eta + k]
+        if We == 0.0:
+            continue
+        for a in range(4):
+            SD[o_s + 4 * k + a] += We * r[a]
+            SD[o_sd + 4 * k + a] += We * rd[a]
+        SD[o_h + k] += We * beta
+        for l in range(m):
+            SD[o_M + mm * k + l] += We * SD[o_eta + l]
+    for a in range(4):
+        SD[o_qa + a] -= W * beta * r[a]
+
+
+def _fs_moments(fdat, idat, link, q, qd, B, kP, kPv, V, kmr, kqv, kqdv, SD, fo):
+    """Foreshortening of a stiffened link (formulation §15) added to its body moments (_link_body's
+    B[kP], B[kPv], V[kmr], V[kqv + l], V[kqdv + l]), and its own coordinates' extra terms into SD
+    (offsets fo = _fs_offsets). With r = (x + u_f, v, w, 1), u_f = -1/2 delta^T H(x) delta,
+    eta = H delta, rho = du_f/dt = -eta . deltadot, beta = deltadot^T H deltadot (so that
+    rddot0 = -beta e_x) and the own shapes dr/d delta_l = e_{a_l} psi_l - e_x eta_l, summed over
+    the link's quadrature points x_g with weights W_g = w mu [kg] (packing._fs_tables):
+
+        P += sum W (r r^T - r_lin r_lin^T)  (row and column 0: 2 x u_f + u_f^2, u_f v, u_f w, u_f),
+        m_r[0] += sum W u_f,  Pv += sum W (u_f e_x rdot_lin^T + r rho e_x^T),
+        s_l = sum W eta_l r,  sd_l = sum W eta_l rdot,  Mfs_kl = sum W eta_k eta_l,
+        hfs_l = sum W eta_l beta,  qa = -sum W beta r  (and q_l, qd_l: _fs_own)
+
+    The points are those of the modal integrals (model.shapes.mass_points): the model is the exact
+    holonomic system of these material points, so energy is conserved to round-off.
+    """
+    base = _H + _CI * idat[1] + _LI * link
+    m = idat[base]
+    d0 = idat[base + 1]
+    G, P, ox, oW, opsi, opk, opl, oH, oHl = _fs_tables(fdat, idat[base + 6], m)
+    o_s, o_sd, o_z, o_M, o_h, o_qa, o_eta, o_zeta = fo
+    for k in range(o_s, o_zeta + m):
+        SD[k] = 0.0
+    acc = np.zeros(10)
+    if fdat[idat[base + 6] + 2] == 1.0:
+        _fs_tensor_moments(fdat, idat, d0, m, oHl + m * m, q, qd, V, kqv, kqdv, SD, fo, acc)
+    r = np.zeros(5)  # (x + u_f, v, w, 1, x)
+    rd = np.zeros(4)  # (rho, vdot, wdot, 0)
+    for g in range(G):
+        x = fdat[ox + g]
+        W = fdat[oW + g]
+        _fs_eta(fdat, q, qd, d0, m, P, opk, opl, oH + P * g, SD, o_eta, o_zeta)
+        uf = 0.0
+        beta = 0.0
+        for a in range(4):
+            r[a] = 0.0
+            rd[a] = 0.0
+        for k in range(m):
+            ps = fdat[opsi + m * g + k]
+            ax = idat[_H + _CI * (d0 + k) + 1]
+            r[ax] += ps * q[d0 + k]
+            rd[ax] += ps * qd[d0 + k]
+            uf -= 0.5 * q[d0 + k] * SD[o_eta + k]
+            rd[0] -= qd[d0 + k] * SD[o_eta + k]
+            beta += qd[d0 + k] * SD[o_zeta + k]
+        r[0] = x + uf
+        r[3] = 1.0
+        r[4] = x
+        for a in range(4):
+            acc[a] += W * uf * (r[a] if a > 0 else 2.0 * x + uf)
+            acc[6 + a] += W * rd[0] * r[a]
+        acc[4] += W * uf * rd[1]
+        acc[5] += W * uf * rd[2]
+        _fs_own(fdat, m, opsi + m * g, W, r, rd, beta, V, kqv, kqdv, SD, fo)
+    _fs_add_moments(B, kP, kPv, V, kmr, acc)
+
+
+@inline
+def _fs_add_moments(B, kP, kPv, V, kmr, acc):
+    """The foreshortening parts acc (10,) of _fs_moments added to P, Pv, m_r: acc = sum W times
+    (u_f (2 x + u_f), u_f v, u_f w, u_f, u_f vdot, u_f wdot, rho (x + u_f), rho v, rho w, rho)."""
+    B[kP, 0, 0] += acc[0]
+    for a in range(1, 4):
+        B[kP, 0, a] += acc[a]
+        B[kP, a, 0] += acc[a]
+        B[kPv, a, 0] += acc[6 + a]
+    V[kmr, 0] += acc[3]
+    B[kPv, 0, 0] += acc[6]
+    B[kPv, 0, 1] += acc[4]
+    B[kPv, 0, 2] += acc[5]
+
+
+@inline
+def _fs_contract(fdat, d0, m, oA, q, qd, SD, o_M, mm, o_h, t):
+    """The contractions of a stiffened link's tensors (packing._fs_tables' tensor form at fdat[oA:]:
+    A0, A1 (m, m), B (m, m, m), A4 (m^4)) with delta = q[d0:], deltadot = qd[d0:]:
+
+        Mfs_kl = A4_kilj delta_i delta_j -> SD[o_M + mm k + l],  E_k = A4_kilj delta_i deltadot_l deltadot_j -> SD[o_h + k]
+        t = (A0 delta, A1 delta, delta^T B_k delta, deltadot^T B_k delta, deltadot^T B_k deltadot (m each),
+             (B_k delta)_l (m, m))
+    """
+    oA1 = oA + m * m
+    oB = oA1 + m * m
+    o4 = oB + m * m * m
+    for k in range(m):
+        for i in range(m):
+            di = q[d0 + i]
+            for l in range(m):
+                for j in range(m):
+                    a = fdat[o4 + ((k * m + i) * m + l) * m + j] * di
+                    SD[o_M + mm * k + l] += a * q[d0 + j]
+                    SD[o_h + k] += a * qd[d0 + l] * qd[d0 + j]
+            t[k] += fdat[oA + m * k + i] * di
+            t[m + k] += fdat[oA1 + m * k + i] * di
+            for l in range(m):
+                b = fdat[oB + (k * m + i) * m + l]
+                t[2 * m + k] += b * di * q[d0 + l]
+                t[3 * m + k] += b * di * qd[d0 + l]
+                t[4 * m + k] += b * qd[d0 + i] * qd[d0 + l]
+                t[5 * m + m * k + l] += b * q[d0 + i]  # B_k symmetric: (B_k delta)_l
+
+
+@inline
+def _fs_tensor_moments(fdat, idat, d0, m, oA, q, qd, V, kqv, kqdv, SD, fo, acc):
+    """_fs_moments' sums from the precomputed tensors (the same sums over the same points, taken
+    once: packing._fs_tables), with e0 = A0 delta, e1 = A1 delta, b.. = _fs_contract's, Mfs, E:
+
+        int u_f = -1/2 delta.e0,  int x u_f = -1/2 delta.e1,  int u_f^2 = 1/4 delta^T Mfs delta,
+        int rho = -deltadot.e0,  int u_f rho = 1/2 delta^T Mfs deltadot,  int psi_k u_f = -1/2 b_dd,k,
+        int psi_k rho = -b_vd,k,  int psi_k beta = b_vv,k,  s_l = (e1 - 1/2 Mfs delta, sum_k delta_k (B_k delta)_l
+        by axis, e0)_l,  sd_l = (-Mfs deltadot, sum_k deltadot_k (B_k delta)_l by axis, 0)_l,  hfs = E,
+        qa = (-deltadot^T A1 deltadot + 1/2 delta.E, -sum_k delta_k b_vv,k by axis, -deltadot^T A0 deltadot)
+    """
+    o_s, o_sd, o_z, o_M, o_h, o_qa, o_eta, o_zeta = fo
+    mm = (o_sd - o_s) // 4
+    t = np.zeros(5 * m + m * m)
+    _fs_contract(fdat, d0, m, oA, q, qd, SD, o_M, mm, o_h, t)
+    for k in range(m):
+        dk = q[d0 + k]
+        vk = qd[d0 + k]
+        ax = idat[_H + _CI * (d0 + k) + 1]
+        Md = 0.0
+        Mv = 0.0
+        for l in range(m):
+            Md += SD[o_M + mm * k + l] * q[d0 + l]
+            Mv += SD[o_M + mm * k + l] * qd[d0 + l]
+            SD[o_s + 4 * l + ax] += dk * t[5 * m + m * k + l]
+            SD[o_sd + 4 * l + ax] += vk * t[5 * m + m * k + l]
+        acc[0] += -dk * t[m + k] + 0.25 * dk * Md
+        acc[3] -= 0.5 * dk * t[k]
+        acc[ax] -= 0.5 * dk * t[2 * m + k]
+        acc[3 + ax] -= 0.5 * vk * t[2 * m + k]
+        acc[6] += -vk * t[m + k] + 0.5 * dk * Mv
+        acc[6 + ax] -= dk * t[3 * m + k]
+        acc[9] -= vk * t[k]
+        V[kqv + k, 0] -= 0.5 * t[2 * m + k]
+        V[kqdv + k, 0] -= t[3 * m + k]
+        SD[o_s + 4 * k] += t[m + k] - 0.5 * Md
+        SD[o_s + 4 * k + 3] += t[k]
+        SD[o_sd + 4 * k] -= Mv
+        SD[o_qa] += 0.5 * dk * SD[o_h + k]
+        SD[o_qa + ax] -= dk * t[4 * m + k]
+        for l in range(m):
+            SD[o_qa] -= vk * fdat[oA + m * m + m * k + l] * qd[d0 + l]
+            SD[o_qa + 3] -= vk * fdat[oA + m * k + l] * qd[d0 + l]

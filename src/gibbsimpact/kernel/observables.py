@@ -9,17 +9,19 @@ from __future__ import annotations
 from .layout import (_CI, _F_G, _H, _LI, _S_FR, _S_JAC, _S_PTS, JOB_FRAMES, JOB_JACOBIANS, JOB_POINTS, JOINT_PB,
                      JOINT_R, _mmax, inline)
 from .mat4 import _mm, _mmt
-from .moments import _own, _own_source, _sd_offsets, _sd_stride
+from .moments import _fs_offsets, _fs_tables, _own, _own_source, _sd_offsets, _sd_stride
 
 
-def link_observables(fdat, idat, q, qd, B, V, SD, ws, out, pris):
+def link_observables(fdat, idat, q, qd, B, V, SD, ws, out, pris, ends):
     """out (12,): kinetic, gravity, strain energy [J]; linear momentum L [kg m/s];
     angular momentum about the origin H0 [kg m^2/s]; first moment sum T m_r [kg m].
 
     From the frames (position stage) and body moments (moments stage) in B, V, SD (work_slots ws):
     E_k = sum 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 deltadot^T M_dd deltadot,
     V_g = -g~ . sum T m_r,  V_s = 1/2 delta^T K delta,
-    L = sum (Td m_r + T m_rdot),  H0 = sum vee(X),  X = T P Td^T + T Pv T^T = int mu p pdot^T.
+    L = sum (Td m_r + T m_rdot),  H0 = sum vee(X),  X = T P Td^T + T Pv T^T = int mu p pdot^T;
+    a stiffened link (formulation §15) adds 1/2 deltadot^T Mfs deltadot = 1/2 int mu rho^2 to E_k
+    and int mu rho = Pv[3, 0] to m_rdot[0] (moments._fs_moments).
     """
     TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
     N = idat[1]
@@ -53,6 +55,12 @@ def link_observables(fdat, idat, q, qd, B, V, SD, ws, out, pris):
             al, dl, vl = _own(idat, i, q, qd, l)
             out[0] += 0.5 * vl * V[QDV + (mmax + 1) * i + l, al]
             V[MRD + i, al] += vl * src[o_cx + ms + l]
+        if ends is not None and idat[base + 6] >= 0:
+            o_M = _fs_offsets(i * SDS, mmax)[3]
+            V[MRD + i, 0] += B[PVS + i, 3, 0]
+            for l in range(m):
+                for k in range(m):
+                    out[0] += 0.5 * qd[d0 + l] * SD[o_M + mmax * l + k] * qd[d0 + k]
         if pris is not None and idat[base + 5] == JOINT_PB:
             out[2] += SD[_sd_offsets(i * SDS, m)[5] + 1]
         else:
@@ -127,7 +135,8 @@ def _extra_points(fdat, idat, q, B, ws, out, L, job, npts, k):
     """State k's extra contact points into the point and Jacobian sections of out (layout L):
     the tips of host links h whose child joint is prismatic (contact points n + 1 ..):
     p = T_h (l_h e_x + sum end_t_k delta_k, 1),  dp/dq_c = (S_c p)[:3] for f_c <= h,
-    R_h end_t_k for h's own delta_k (docs/theory.md §7.1: E_h is not on the chain's path)."""
+    R_h end_t_k for h's own delta_k (docs/theory.md §7.1: E_h is not on the chain's path);
+    a stiffened host adds u_f(l) = -1/2 delta^T H(l) delta along e_x and -(H(l) delta)_k to end_t_k's x."""
     ts, TDS, TDDS, ss, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
     o_pts = L[_S_PTS]
     o_jac = L[_S_JAC]
@@ -146,7 +155,10 @@ def _extra_points(fdat, idat, q, B, ws, out, L, job, npts, k):
         t0 = fdat[off + 20]
         t1 = 0.0
         t2 = 0.0
+        oHl = -1 if idat[hb + 6] < 0 else _fs_tables(fdat, idat[hb + 6], m)[8]
         for c in range(m):
+            for j in range(m if oHl >= 0 else 0):
+                t0 -= 0.5 * q[d0 + c] * fdat[oHl + m * c + j] * q[d0 + j]
             t0 += fdat[o_t + 3 * c] * q[d0 + c]
             t1 += fdat[o_t + 3 * c + 1] * q[d0 + c]
             t2 += fdat[o_t + 3 * c + 2] * q[d0 + c]
@@ -166,8 +178,11 @@ def _extra_points(fdat, idat, q, B, ws, out, L, job, npts, k):
                         out[o + N * a + c] = (B[ss + c, a, 3] + B[ss + c, a, 0] * p0 + B[ss + c, a, 1] * p1
                                               + B[ss + c, a, 2] * p2)
             for c in range(m):
+                eta = 0.0
+                for j in range(m if oHl >= 0 else 0):
+                    eta += fdat[oHl + m * c + j] * q[d0 + j]
                 for a in range(3):
-                    s = 0.0
+                    s = -B[ts + h, a, 0] * eta
                     for b in range(3):
                         s += B[ts + h, a, b] * fdat[o_t + 3 * c + b]
                     out[o + N * a + d0 + c] = s

@@ -5,10 +5,11 @@ from .bodies import RigidBody
 from .chain import Chain, Link
 from .joints import JOINT_TYPES, FixedBase, FixedPrismatic, Revolute, SlidingPrismatic
 from .model import Model
-from .shapes import DEFAULT_QUADRATURE, LinkData, gauss_legendre, link_deflection, link_integrals, shape_functions
+from .shapes import (DEFAULT_QUADRATURE, LinkData, gauss_legendre, link_deflection, link_foreshortening, link_integrals,
+                     shape_functions)
 
 __all__ = [
     "DEFAULT_QUADRATURE", "Link", "RigidBody", "Revolute", "FixedBase", "SlidingPrismatic", "FixedPrismatic",
-    "JOINT_TYPES", "Chain", "gauss_legendre", "LinkData", "shape_functions", "link_deflection",
+    "JOINT_TYPES", "Chain", "gauss_legendre", "LinkData", "shape_functions", "link_deflection", "link_foreshortening",
     "link_integrals", "Model",
 ]

@@ -62,6 +62,13 @@ class Link:
     bodies : sequence of RigidBody
         Rigid bodies attached to the link (payloads, a hub at ``at=0``), docs/theory.md §6.8;
         each body's ``at=None`` is resolved to the tip l.
+    geometric_stiffening : bool
+        True (default): the bent centreline foreshortens, a point at x sits at
+        ``x + u_f(x)`` along the link axis, ``u_f = -1/2 int_0^x (v'^2 + w'^2)``
+        (docs/theory.md, foreshortening), so that an axial (centrifugal) force stiffens
+        bending. False: the linear beam of the source papers (no axial motion). No effect
+        on a rigid link. Not supported behind a FixedPrismatic guide nor under a
+        SlidingPrismatic carriage: give those links ``geometric_stiffening=False``.
     """
 
     length: float
@@ -73,6 +80,7 @@ class Link:
     element_directions: tuple = ("y",)
     damping: float = 0.0
     bodies: tuple = ()
+    geometric_stiffening: bool = True
 
     def __post_init__(self):
         if isinstance(self.length, bool) or not isinstance(self.length, Real) or not np.isfinite(self.length) or self.length <= 0:
@@ -136,6 +144,15 @@ class Link:
             )
         object.__setattr__(self, "rotary_inertia", tuple(float(v) for v in j))
         object.__setattr__(self, "bodies", check_bodies(self.bodies, self.length, bool(modes or ne)))
+        if not isinstance(self.geometric_stiffening, (bool, np.bool_)):
+            raise ValueError(f"Link geometric_stiffening={self.geometric_stiffening!r} must be True (foreshortening, "
+                             "the default) or False (the linear beam)")
+        object.__setattr__(self, "geometric_stiffening", bool(self.geometric_stiffening))
+
+    @property
+    def stiffened(self) -> bool:
+        """True when the link has elastic coordinates and geometric_stiffening: its points foreshorten."""
+        return self.geometric_stiffening and bool(self.modes or self.elements)
 
     @property
     def EI_y(self):
@@ -252,6 +269,11 @@ def _check_joints(links, joints, base):
         lo, hi = jt.range
         if jt.kind == "Pb":
             lk = links[k]
+            if lk.stiffened:
+                raise ValueError(
+                    f"Chain links[{k}] (link {k + 1}) slides through a FixedPrismatic guide with geometric_stiffening=True: "
+                    "the foreshortening of material flowing through a guide is not modelled (docs/theory.md, "
+                    "foreshortening); give this link geometric_stiffening=False (the linear beam)")
             if lk.bodies:
                 raise ValueError(
                     f"Chain links[{k}] (link {k + 1}) slides through a FixedPrismatic guide and carries bodies: a Pb link's "
@@ -272,6 +294,11 @@ def _check_joints(links, joints, base):
             continue  # a rigid rail on the base: any range, c irrelevant
         host = links[k - 1]
         c = jt.half_length
+        if host.stiffened:
+            raise ValueError(
+                f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic on links[{k - 1}] (link {k}) with geometric_stiffening=True: "
+                "a carriage on a foreshortening host is not modelled yet; give the host geometric_stiffening=False "
+                "(the linear beam)")
         if host.modes:
             raise ValueError(
                 f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic on links[{k - 1}] (link {k}), which has assumed modes: a carriage "

@@ -11,6 +11,7 @@ import numpy as np
 from ..kernel.layout import (_CI, _F_LINKS, _GAUSS, _H, _LI, BASE_FIXED, BASE_FREE, BASE_PLANAR, END_GENERAL, END_RIGID,
                              JOINT_PA, JOINT_PB, JOINT_R, KIND_MODE, KIND_PA, KIND_PB, KIND_ROTATION, KIND_TRANSLATION)
 from .elements import assemble as assemble_elements, element_stiffness, hermite_shape
+from .shapes import foreshortening_matrix, mass_points, shape_functions
 
 
 def _pb_tables(link):
@@ -25,6 +26,39 @@ def _pb_tables(link):
     Kunit = assemble_elements(element_stiffness(1.0, 1.0 / ne), ne)
     a = np.tile([0.0, 1.0], ne)  # a_k: 0 for a deflection dof, 1 for a slope dof
     return [xi, w, *N, Kunit.ravel(), a]
+
+
+def _fs_tables(link, quadrature):
+    """The per-call foreshortening data of a stiffened link (formulation §15; kernel/moments.py
+    _fs_moments), over the link's mass points (mass_points: the line quadrature with weights
+    W_g = w mu [kg] and the points of attached bodies, the same material as the modal integrals),
+    at X_g = x_g + s_g with shapes psi + s psi' and H(x) + s psi' psi'^T (s the point's lever):
+
+    * per-call sum: [G, P, 0, x (G) [m], W (G) [kg], psi (G, m), k (P), l (P), H_p(x) (G, P) [1/m],
+      H(l) (m, m)], the P pairs k <= l where H(x) is not zero for some x (banded for elements);
+    * tensors: [0, 0, 1, H(l) (m, m), A0 = sum W H (m, m), A1 = sum W x H, B_k = sum W psi_k H
+      (m, m, m), A4_kilj = sum W H_ki H_lj (m^4)], the same sums taken once.
+
+    Tensors when their contraction, ~2 m^4 + 4 m^3 products a call, is cheaper than the sum,
+    ~G (P + m^2 + 10 m): a few assumed modes (G = 256 points, m = 1: 6 against 3 000), an arm of
+    up to ~6 elements; the sum for finer meshes (16 elements: 2.2e6 against 1.8e5).
+    """
+    x, wm, s = mass_points(link, quadrature)
+    directions, d1 = shape_functions(link, x, 1)
+    psi = (shape_functions(link, x)[1] + s * d1).T
+    # a point at lever s from its section x (an attached body's, mass_points) turns with the section:
+    # to second order it is at x + s + u_f(x) - s/2 (v'^2 + w'^2), so its H is H(x) + s psi' psi'^T
+    same = np.equal.outer(np.array(directions), np.array(directions))
+    H = foreshortening_matrix(link, x) + np.einsum("g,kg,lg->gkl", s, d1, d1) * same
+    x = x + s
+    Hl = foreshortening_matrix(link, [link.length])[0]
+    k, l = np.nonzero(np.triu(np.any(H != 0.0, axis=0)))
+    G, m = x.size, psi.shape[1]
+    if 2 * m**4 + 4 * m**3 < G * (k.size + m * m + 10 * m):
+        return [[0, 0, 1], Hl.ravel(), np.einsum("g,gkl->kl", wm, H).ravel(),
+                np.einsum("g,gkl->kl", wm * x, H).ravel(), np.einsum("g,gj,gkl->jkl", wm, psi, H).ravel(),
+                np.einsum("g,gki,glj->kilj", wm, H, H).ravel()]
+    return [[G, k.size, 0], x, wm, psi.ravel(), k, l, H[:, k, l].ravel(), Hl.ravel()]
 
 
 def pack(model):
@@ -69,7 +103,7 @@ def pack(model):
             ci[c] = (KIND_MODE, axis_of[ld.directions[l]], i + 1, i, l, 0)
         # A moving end always takes the Rodrigues path (exact at phi = 0: R = I, dR[u] = a skew(u)).
         end = END_RIGID if ld.end_is_rigid else END_GENERAL
-        li[i] = (m, idx[0] if m else 0, th, off, end, jk)
+        li[i] = (m, idx[0] if m else 0, th, off, end, jk, -1)
         P0 = np.array(ld.P0, dtype=float)
         J = ld.J_body
         # Rotary inertia as a pseudo-inertia: Sigma = tr(J)/2 I - J (module docstring, item 5).
@@ -85,6 +119,9 @@ def pack(model):
                  np.asarray(ld.end_t).ravel(), np.asarray(ld.end_phi).ravel(), joint]
         if jk == JOINT_PB:
             block += _pb_tables(lk)
+        if lk.stiffened:
+            li[i, 6] = off + sum(np.size(b) for b in block)
+            block += _fs_tables(lk, model.quadrature)
         f += block
         off += sum(np.size(b) for b in block)
     # A second twist (B[ss + N + c]): the protruding length D of a flexible Pb link that carries

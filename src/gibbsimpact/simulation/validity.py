@@ -24,9 +24,9 @@ limits and their reasons are in docs/theory.md, "Validity limits":
   (contact_points.ContactPoint.newton_ill_posed: a span point, the free tip of a
   finite-element or clamped-free link): ``check_impact`` names the first impact with an
   impulse there; the loop warns once per run (docs/theory.md §11.4).
-* ``SPIN_LIMIT``: the rate at which a flexible link turns about an axis across it, as a fraction
-  of its first bending frequency omega_1 (clamped at its frame). The links have no geometric
-  (centrifugal) stiffening (docs/theory.md): a link spinning at Omega misses the stiffness
+* ``SPIN_LIMIT``: the rate at which a flexible link with ``geometric_stiffening=False`` turns about
+  an axis across it, as a fraction of its first bending frequency omega_1 (clamped at its frame).
+  Such a link has no geometric (centrifugal) stiffening (docs/theory.md): a link spinning at Omega misses the stiffness
   Omega^2 K_G, and its in-plane bending loses Omega^2 M, so that beyond Omega = omega_1 it
   becomes unstable and its deflection grows without bound. At Omega = 0.3 omega_1 (lambda = 1.05
   for a uniform clamped-free link) the missing stiffening already lowers the first bending
@@ -230,9 +230,10 @@ def spin_rates(model, qs, qdots, chunk: int = 1024) -> np.ndarray:
 
 
 def check_spin(model, result) -> list[str]:
-    """A message per flexible link that turned across its axis faster than SPIN_LIMIT omega_1 during the run."""
+    """A message per flexible link without geometric stiffening that turned across its axis faster than
+    SPIN_LIMIT omega_1 during the run (a stiffened link's centrifugal stiffening is modelled)."""
     lds = model.link_data
-    flexible = [i for i, ld in enumerate(lds) if ld.K.size]
+    flexible = [i for i, ld in enumerate(lds) if ld.K.size and not model.chain.links[i].stiffened]
     if not flexible or len(result.t) == 0:
         return []
     rates = spin_rates(model, result.q, result.qdot)
@@ -244,9 +245,9 @@ def check_spin(model, result) -> list[str]:
             msgs.append(
                 f"link {i + 1} turns across its axis at up to {rates[k, i]:.4g} rad/s (t = {float(result.t[k]):.6g} s), "
                 f"{rates[k, i] / w1:.3g} times its first bending frequency omega_1 = {w1:.4g} rad/s (limit "
-                f"{SPIN_LIMIT:g}): the links have no geometric (centrifugal) stiffening, so a spinning link's "
+                f"{SPIN_LIMIT:g}): the link has no geometric (centrifugal) stiffening, so a spinning link's "
                 "bending is underestimated in stiffness, and beyond omega_1 it grows without bound; trust the "
-                "deflections of this run only qualitatively")
+                "deflections of this run only qualitatively, or give the link geometric_stiffening=True")
     return msgs
 
 

@@ -87,6 +87,13 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
             "derive_equations: prismatic joints and the planar floating base are not derived symbolically yet "
             f"(this model has joints {'-'.join(model.joint_kinds)}, base {model.chain.base!r}); the numeric "
             "kernel simulates them, and tests/reference/planar_oracle.py is an independent derivation")
+    stiff = [i + 1 for i, lk in enumerate(model.chain.links) if lk.stiffened]
+    if stiff:
+        # u_f = -1/2 delta^T H(x) delta makes the body moments quartic in delta (formulation §15).
+        raise NotImplementedError(
+            f"derive_equations: link(s) {', '.join(map(str, stiff))} foreshorten (geometric_stiffening=True, the "
+            "default), whose terms are not derived symbolically yet; build those links with "
+            "geometric_stiffening=False for the linear beam's equations, or use the numeric kernel")
     import sympy as sp
     from sympy.core.parameters import distribute
 
