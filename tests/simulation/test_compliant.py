@@ -301,3 +301,22 @@ def test_regularised_coulomb_friction_slows_a_sliding_rod():
     assert res.compliant_integrals[-1, 2] == pytest.approx(MASS * (g * T + vy), rel=1e-9)
     assert vx == pytest.approx(1.0 - mu * (g * T + vy), abs=1e-6)
     assert res.compliant_integrals[-1, 1] < -0.2 and res.energy_error < 1e-8
+
+
+def test_compliant_obstacle_ball_struck_end_first():
+    """The compliant law on an obstacle (Sphere(inside=False), gap |p - c| - R): the rod falling end-first onto the
+    top of a ball (radius 0.5 m, its centre straight below O2) meets the same 1-DOF Hertz impact as on a floor: the
+    contact point stays on the vertical through the centre (no rotation, no lateral force), so the penetration
+    and the contact time are Hertz's closed forms (1e-4) and the rod leaves at v (e = 1)."""
+    v, k, R, gap = 1.0, 1e6, 0.5, 0.01
+    model = gi.Model(gi.Chain([ROD]), gravity=(0.0, 0.0, 0.0))
+    ball = gi.Sphere(R, (0.0, -R, 0.0), restitution=1.0, inside=False, stiffness=k, exponent=1.5)
+    dt = hertz_duration(MASS, v, k)
+    res = gi.simulate(model, model.state(X2=1.0 + gap, theta_1=-np.pi / 2), model.state(X2=-v),
+                      (0.0, gap / v + 3.0 * dt), walls=[ball], output_dt=dt / 4000)
+    (contact,) = res.compliant_contacts
+    assert (contact.end - contact.start) / dt == pytest.approx(1.0, abs=1e-4)
+    depth = -res.joint_positions()[:, 1, 1].min()
+    assert depth / hertz_penetration(MASS, v, k) == pytest.approx(1.0, abs=1e-4)
+    assert res.qdot[-1, 1] == pytest.approx(v, rel=1e-8)
+    assert np.abs(res.qdot[-1, [0, 2, 3, 4, 5]]).max() < 1e-9
