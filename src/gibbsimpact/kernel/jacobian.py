@@ -124,8 +124,8 @@ def _accel(fdat, idat, q, qd, Q, B, V, SD, ws, M, h, dV, pris, ends, qdd):
     h[:] = 0.0
     dV[:] = 0.0
     chain_frames(fdat, idat, q, qd, True, B, ws, pris, ends)
-    moments(fdat, idat, q, qd, B, V, SD, ws, pris)
-    assemble(fdat, idat, q, True, B, V, SD, ws, M, h, dV, pris)
+    moments(fdat, idat, q, qd, B, V, SD, ws, pris, ends)
+    assemble(fdat, idat, q, True, B, V, SD, ws, M, h, dV, pris, ends)
     L, status, dmin, dmax = _cholesky_factor(M)
     if status == 1:
         return 1
