@@ -294,11 +294,6 @@ def _check_joints(links, joints, base):
             continue  # a rigid rail on the base: any range, c irrelevant
         host = links[k - 1]
         c = jt.half_length
-        if host.stiffened:
-            raise ValueError(
-                f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic on links[{k - 1}] (link {k}) with geometric_stiffening=True: "
-                "a carriage on a foreshortening host is not modelled yet; give the host geometric_stiffening=False "
-                "(the linear beam)")
         if host.modes:
             raise ValueError(
                 f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic on links[{k - 1}] (link {k}), which has assumed modes: a carriage "
