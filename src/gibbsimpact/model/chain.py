@@ -67,8 +67,9 @@ class Link:
         ``x + u_f(x)`` along the link axis, ``u_f = -1/2 int_0^x (v'^2 + w'^2)``
         (docs/theory.md, foreshortening), so that an axial (centrifugal) force stiffens
         bending. False: the linear beam of the source papers (no axial motion). No effect
-        on a rigid link. Not supported behind a FixedPrismatic guide nor under a
-        SlidingPrismatic carriage: give those links ``geometric_stiffening=False``.
+        on a rigid link. Not supported behind a FixedPrismatic guide: give that link
+        ``geometric_stiffening=False``. A SlidingPrismatic carriage on a stiffened host rides on
+        the foreshortened centreline (docs/theory.md §7.3).
     """
 
     length: float
