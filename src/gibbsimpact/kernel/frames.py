@@ -324,7 +324,9 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
     G = Trans(d, vbar) Rz(phibar + gamma), vbar = sum b_k delta_k, phibar = sum a_k delta_k,
     b_k = [psi_k(d + c) + psi_k(d - c)] / 2,  a_k = [psi_k(d + c) - psi_k(d - c)] / (2 c)
     (delta: the host's coordinates; zero on the base rail and on a rigid host; psi_k depends
-    on D too on a Pb host, _host_shapes). With theta = phibar + gamma, t = (d, vbar, 0),
+    on D too on a Pb host, _host_shapes). On a stiffened host the x of t is d + ubar, ubar the mean
+    of the foreshortening u_f(d +- c) (formulation §15, _carriage_foreshortening): t_d and t_k gain
+    ubar_d, ubar_k along x, tdot ubardot, Gdd0's translation ubar0dd. With theta = phibar + gamma, t = (d, vbar, 0),
     Z = skew(e_z) and subscripts for partial derivatives (u = d, D):
       local twist of q_c:  L_c = dG/dq_c G^-1 = [[Z theta_c, t_c - theta_c Z t], [0, 0]]
         d: theta_d = phibar_d, t_d = (1, vbar_d, 0);  D: theta_D = phibar_D, t_D = (0, vbar_D, 0);
