@@ -458,11 +458,6 @@ def _pa_rules(r: _Reader, links, joints, k: int) -> bool:
         r.add(join(p, "type"), f"a Pa carriage rides on link {h}, which has assumed modes: give links[{h}] "
                                "elements instead of modes, or neither (rigid)")
         ok = False
-    if host.stiffened:
-        r.add(key_path("links", h - 1, "geometric_stiffening"),
-              f"a Pa carriage ({p}) rides on link {h}: a carriage on a foreshortening host is not modelled yet; "
-              "set geometric_stiffening = false on the host (the linear beam)")
-        ok = False
     if host.elements and c <= 0:
         r.add(join(p, "half_length_m"),
               f"must be > 0 on a finite-element host (links[{h}].elements = {host.elements}), got {fmt(c)}: a "

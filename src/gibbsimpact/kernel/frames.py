@@ -324,7 +324,9 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
     G = Trans(d, vbar) Rz(phibar + gamma), vbar = sum b_k delta_k, phibar = sum a_k delta_k,
     b_k = [psi_k(d + c) + psi_k(d - c)] / 2,  a_k = [psi_k(d + c) - psi_k(d - c)] / (2 c)
     (delta: the host's coordinates; zero on the base rail and on a rigid host; psi_k depends
-    on D too on a Pb host, _host_shapes). With theta = phibar + gamma, t = (d, vbar, 0),
+    on D too on a Pb host, _host_shapes). On a stiffened host the x of t is d + ubar, ubar the mean
+    of the foreshortening u_f(d +- c) (formulation §15, _carriage_foreshortening): t_d and t_k gain
+    ubar_d, ubar_k along x, tdot ubardot, Gdd0's translation ubar0dd. With theta = phibar + gamma, t = (d, vbar, 0),
     Z = skew(e_z) and subscripts for partial derivatives (u = d, D):
       local twist of q_c:  L_c = dG/dq_c G^-1 = [[Z theta_c, t_c - theta_c Z t], [0, 0]]
         d: theta_d = phibar_d, t_d = (1, vbar_d, 0);  D: theta_D = phibar_D, t_D = (0, vbar_D, 0);
@@ -346,6 +348,12 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
     ab = np.zeros((2, 4, 7))
     mh, h0, jD, Ddot = _host_sums(fdat, idat, link, q, qd, d, c, B, ss, S, ab)
     vb = S[0, 0]
+    # a stiffened host's foreshortening (formulation §15): U = (ubar, ubar_d, ubardot, ubar0dd), ubk = ubar_k
+    U = np.zeros(4)
+    ubk = np.zeros(mh)
+    if mh > 0 and idat[_H + _CI * N + _LI * (link - 1) + 6] >= 0:
+        _carriage_foreshortening(fdat, idat, link - 1, q, qd, d, c, dd, h0, mh, ab, U, ubk)
+    dx = d + U[0]
     # first and qddot-free second time derivatives of theta and vbar
     thd = S[1, 1] * dd + S[1, 3] * Ddot + S[1, 6]
     vbd = S[0, 1] * dd + S[0, 3] * Ddot + S[0, 6]
@@ -353,12 +361,13 @@ def _pa_step(fdat, idat, link, q, qd, vel, B, w, ss):
              + 2.0 * dd * S[1, 7] + 2.0 * Ddot * S[1, 8])
     vb0dd = (S[0, 2] * dd * dd + 2.0 * S[0, 5] * dd * Ddot + S[0, 4] * Ddot * Ddot
              + 2.0 * dd * S[0, 7] + 2.0 * Ddot * S[0, 8])
-    _pa_transform(B, w + _PA_G, S[1, 0] + gamma, d, dd, vb, thd, vbd, th0dd, vb0dd, vel)
-    # Twists, from the frame before G: L = [[Z theta_q, t_q - theta_q Z t], [0, 0]], Z t = (-vbar, d, 0)
-    _carriage_twist(B, w, ss + jd, S[1, 1], 1.0 + S[1, 1] * vb, S[0, 1] - S[1, 1] * d)
+    _pa_transform(B, w + _PA_G, S[1, 0] + gamma, dx, dd + U[2], vb, thd, vbd, th0dd, vb0dd, vel)
+    B[w + _PA_G + 2, 0, 3] = U[3]
+    # Twists, from the frame before G: L = [[Z theta_q, t_q - theta_q Z t], [0, 0]], Z t = (-vbar, d + ubar, 0)
+    _carriage_twist(B, w, ss + jd, S[1, 1], 1.0 + U[1] + S[1, 1] * vb, S[0, 1] - S[1, 1] * dx)
     if jD >= 0:
-        _carriage_twist(B, w, ss + N + jD, S[1, 3], S[1, 3] * vb, S[0, 3] - S[1, 3] * d)
-    _host_twists(B, w, ss + h0, mh, ab, c, vb, d)
+        _carriage_twist(B, w, ss + N + jD, S[1, 3], S[1, 3] * vb, S[0, 3] - S[1, 3] * dx)
+    _host_twists(B, w, ss + h0, mh, ab, c, vb, dx, ubk)
     _apply_local(B, w, w + _PA_G, vel, w + _PA_TN)
 
 
@@ -412,6 +421,72 @@ def _host_sums(fdat, idat, link, q, qd, d, c, B, ss, S, ab):
     return mh, h0, jD, Ddot
 
 
+# 3-point Gauss-Legendre on [0, 1]: exact for the degree-4 products psi_k' psi_l' of one Hermite element
+_G3_T = (0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6))
+_G3_W = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
+
+
+@inline
+def _carriage_foreshortening(fdat, idat, host, q, qd, d, c, dd, h0, mh, ab, U, ubk):
+    """The foreshortening of a carriage at d [m] (half-length c [m], rate dd [m/s]) on a stiffened
+    finite-element host (formulation §15): its x in the host frame is d + ubar,
+
+        ubar = [u_f(d + c) + u_f(d - c)] / 2,  u_f(x) = -1/2 delta^T H(x) delta = -1/2 int_0^x v'^2,
+        ubar_k = -[(H(d + c) delta)_k + (H(d - c) delta)_k] / 2,   ubar_d = -[v'(d + c)^2 + v'(d - c)^2] / 4,
+        ubardot = ubar_d ddot + sum_k ubar_k deltadot_k,
+        ubar0dd = sum_x [-v' v'' ddot^2 - 2 ddot v' vdot' - deltadot^T H deltadot](x) / 2   (x = d +- c)
+
+    (H'(x) = psi' psi'^T, so d/dd of u_f(x) is -1/2 v'(x)^2). Into U = (ubar, ubar_d, ubardot,
+    ubar0dd) (4) and ubk = ubar_k (mh, host coordinates from q[h0]); ab[side] = _host_shapes at
+    d + c (side 0) and d - c (side 1). The integrals run over the host's elements with an exact
+    3-point Gauss rule, so the model stays the exact holonomic system.
+    """
+    N = idat[1]
+    ne = int(_joint_field(fdat, idat, host, 2))
+    hl = fdat[idat[_H + _CI * N + _LI * host + 3] + 20]
+    h = hl / ne
+    sh = np.zeros((4, 4))
+    for side in range(2):
+        x = d + c if side == 0 else d - c
+        v1 = 0.0
+        v2 = 0.0
+        vd1 = 0.0
+        for r in range(4):
+            k = int(ab[side, r, 0])
+            if k >= 0:
+                v1 += ab[side, r, 2] * q[h0 + k]
+                v2 += ab[side, r, 3] * q[h0 + k]
+                vd1 += ab[side, r, 2] * qd[h0 + k]
+        A = 0.0  # int_0^x v'^2
+        Z = 0.0  # int_0^x vdot'^2
+        e = 0
+        while e < ne and e * h < x:
+            L = min(h, x - e * h)
+            for g in range(3):
+                _hermite_at(ne, hl, e * h + _G3_T[g] * L, sh)
+                p1 = 0.0
+                pd1 = 0.0
+                for r in range(4):
+                    k = int(sh[r, 0])
+                    if k >= 0:
+                        p1 += sh[r, 2] * q[h0 + k]
+                        pd1 += sh[r, 2] * qd[h0 + k]
+                W = _G3_W[g] * L
+                A += W * p1 * p1
+                Z += W * pd1 * pd1
+                for r in range(4):
+                    k = int(sh[r, 0])
+                    if k >= 0:
+                        ubk[k] -= 0.5 * W * sh[r, 2] * p1
+            e += 1
+        U[0] -= 0.25 * A
+        U[1] -= 0.25 * v1 * v1
+        U[3] += 0.5 * (-v1 * v2 * dd * dd - 2.0 * dd * v1 * vd1 - Z)
+    U[2] = U[1] * dd
+    for k in range(mh):
+        U[2] += ubk[k] * qd[h0 + k]
+
+
 @inline
 def _pa_transform(B, kG, th, d, dd, vb, thd, vbd, th0dd, vb0dd, vel):
     """The carriage's G, Gd, Gdd0 into B[kG], B[kG+1], B[kG+2] (_pa_step), theta = th [rad]:
@@ -461,13 +536,15 @@ def _carriage_twist(B, w, o, th_q, lx, ly):
 
 
 @inline
-def _host_twists(B, w, s0, mh, ab, c, vb, d):
+def _host_twists(B, w, s0, mh, ab, c, vb, d, ubk):
     """World twists B[s0 + k] of the host coordinates delta_k that move the carriage (_pa_step):
-    theta_k = a_k, t_k = (0, b_k, 0), so L_k = [[Z a_k, (a_k vbar, b_k - a_k d, 0)], [0, 0]]."""
+    theta_k = a_k, t_k = (ubar_k, b_k, 0), so L_k = [[Z a_k, (ubar_k + a_k vbar, b_k - a_k d, 0)], [0, 0]]
+    (d: the carriage's x in the host frame [m], d + ubar on a stiffened host; ubk[k] = ubar_k [m], zero
+    on a linear one)."""
     for k in range(mh):
         ak = 0.0
         bk = 0.0
-        hit = False
+        hit = ubk[k] != 0.0
         for side in range(2):
             sg = 1.0 if side == 0 else -1.0
             for r in range(4):
@@ -477,7 +554,7 @@ def _host_twists(B, w, s0, mh, ab, c, vb, d):
                     hit = True
         if not hit:
             continue
-        _carriage_twist(B, w, s0 + k, ak, ak * vb, bk - ak * d)
+        _carriage_twist(B, w, s0 + k, ak, ak * vb + ubk[k], bk - ak * d)
 
 
 def _pb_step(fdat, idat, link, q, qd, vel, B, w, ss):

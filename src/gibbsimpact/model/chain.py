@@ -67,8 +67,9 @@ class Link:
         ``x + u_f(x)`` along the link axis, ``u_f = -1/2 int_0^x (v'^2 + w'^2)``
         (docs/theory.md, foreshortening), so that an axial (centrifugal) force stiffens
         bending. False: the linear beam of the source papers (no axial motion). No effect
-        on a rigid link. Not supported behind a FixedPrismatic guide nor under a
-        SlidingPrismatic carriage: give those links ``geometric_stiffening=False``.
+        on a rigid link. Not supported behind a FixedPrismatic guide: give that link
+        ``geometric_stiffening=False``. A SlidingPrismatic carriage on a stiffened host rides on
+        the foreshortened centreline (docs/theory.md §7.3).
     """
 
     length: float
@@ -294,11 +295,6 @@ def _check_joints(links, joints, base):
             continue  # a rigid rail on the base: any range, c irrelevant
         host = links[k - 1]
         c = jt.half_length
-        if host.stiffened:
-            raise ValueError(
-                f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic on links[{k - 1}] (link {k}) with geometric_stiffening=True: "
-                "a carriage on a foreshortening host is not modelled yet; give the host geometric_stiffening=False "
-                "(the linear beam)")
         if host.modes:
             raise ValueError(
                 f"Chain joints[{k}] (joint {k + 1}) SlidingPrismatic on links[{k - 1}] (link {k}), which has assumed modes: a carriage "
