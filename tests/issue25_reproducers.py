@@ -15,8 +15,11 @@ _JOINTS = {"R": lambda d: gi.Revolute(),
 
 
 def _link(d):
+    # The random tester's format predates foreshortening: its links are linear beams (geometric_stiffening=False,
+    # the default before issue 24), and the issue's reproducers are those runs.
     modes = [gi.Mode(kind, direction, number) for kind, direction, number in d.get("modes", [])]
     return gi.Link(d["length"], d["mass_per_length"], tuple(d["EI"]), modes=modes,
+                   geometric_stiffening=d.get("geometric_stiffening", False),
                    rotary_inertia=tuple(d.get("rotary_inertia", (0.0, 0.0, 0.0))), elements=d.get("elements", 0),
                    element_directions=tuple(d.get("element_directions", ("y",))))
 

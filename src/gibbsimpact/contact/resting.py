@@ -306,8 +306,10 @@ class RestingContacts:
         # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves when
         # joint 1 is revolute (J = 0 there), but it does as a carriage on the base rail (Pa) or as the
         # rear end of a link sliding through the base guide (Pb): then it rests like any joint.
-        # Frame origins and span points (link columns, span_resting.py) rest; the extra tips do not.
-        restable = (np.arange(P) <= model.n_links) | (np.arange(P) >= model.n_joints)
+        # Frame origins and span points (link columns, span_resting.py) rest; the extra tips do not, nor
+        # the centres of attached bodies (the columns after the link columns, contacts.Contacts).
+        col = np.arange(P)
+        restable = (col <= model.n_links) | ((col >= model.n_joints) & (col < model.n_joints + len(self.flex)))
         if not isinstance(model.chain.base, str) and model.joint_kinds[0] == "R":
             restable[0] = False
         self.can_rest = np.broadcast_to(restable[None, :], self.active.shape)  # (W, P): the same for every wall
