@@ -665,6 +665,11 @@ def test_run_report_counts_the_actuators_work_in_the_energy_audit(tmp_path, caps
     assert sum(audit.values()) == pytest.approx(s["energy_final_J"]["total"] - s["energy_initial_J"]["total"],
                                                 abs=1e-9 * s["energy_scale_J"])
     assert f"actuators {audit['actuators']:.4g}, impacts 0," in out
+    # show names the prescribed coordinate and its profile with units (before, it said nothing of it).
+    code, out, err = run_main(["show", case], capsys)
+    assert code == 0
+    assert ("prescribed (the coordinate follows its profile; its actuator supplies the effort):\n"
+            "  theta_1: point_to_point: q_a = 0 rad, q_b = 1 rad, t_a = 0 s, t_b = 0.2 s\n") in out
 
 
 def test_show_describes_an_obstacle_and_its_gaps(tmp_path, capsys):
