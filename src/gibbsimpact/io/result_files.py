@@ -261,12 +261,16 @@ def stop_force_columns(result: Result) -> list[str]:
 
 
 def compliant_force_columns(result: Result) -> list[str]:
-    """Column names Fc_w<wall>_<column>_N of the compliant forces (Result.compliant_forces (K, W, C)): the joints,
-    then link<i> for the closest point of flexible link i (walls, points and links from 1)."""
-    from ..simulation.contacts import flexible_links
+    """Column names Fc_w<wall>_<column>_N of the compliant forces (Result.compliant_forces (K, W, C)): the columns
+    of the run's gap matrix (simulation.contact_points.contact_points): the joints, then link<i> for the closest
+    point of link i (contacts.link_columns: every link when a wall is an obstacle), then body<k> for the centre of
+    the k-th attached body with an offset (walls, points, links and bodies from 1)."""
+    from ..simulation.contact_points import contact_points
 
     C = np.shape(result.compliant_forces)[2]
-    names = list(result.model.contact_point_names) + [f"link{i + 1}" for i in flexible_links(result.model)]
+    names = list(result.model.contact_point_names)
+    points = contact_points(result.model, bool(result.settings.get("link_contacts", True)), result.walls)
+    names += [p.name.replace(" ", "") for p in points[len(names):]]
     return [f"Fc_w{w + 1}_{names[c]}_N" for w in range(len(result.walls)) for c in range(C)]
 
 
@@ -305,10 +309,11 @@ def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
         # Where a link's closest point touches (a joint's position is in timeseries.csv): NaN out of contact.
         P = result.model.n_joints
         X = np.asarray(result.compliant_points)[:, :, P:]
-        if X.size:
+        if X.size:  # (K, W, C - P, 3): the link and body columns of every wall
             F = np.hstack((F, X.reshape(K, -1)))
-            header += [c.replace("Fc_", "Xc_", 1)[:-2] + f"_X{a + 1}_m" for c in compliant_force_columns(result)
-                       if "_link" in c for a in range(3)]
+            names, C = compliant_force_columns(result), X.shape[2] + P
+            header += [names[w * C + c].replace("Fc_", "Xc_", 1)[:-2] + f"_X{a + 1}_m"
+                       for w in range(len(result.walls)) for c in range(P, C) for a in range(3)]
     if result.stop_forces is not None:
         F = np.hstack((F, np.asarray(result.stop_forces).reshape(K, -1)))
         header += stop_force_columns(result)
