@@ -12,6 +12,7 @@ import pytest
 
 import gibbsimpact as gi
 from gibbsimpact.io import result_files as io
+from gibbsimpact.io.contact_force_files import stop_force_columns
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
@@ -286,7 +287,7 @@ def test_end_stop_forces_in_contact_forces_csv_and_npz(tmp_path):
     assert res.has_resting_forces
     out = io.to_csv(res, tmp_path)
     rows = io.read_csv(out["contact_forces"])
-    assert io.stop_force_columns(res) == ["Fstop_d_1_min_N", "Fstop_d_1_max_N"]
+    assert stop_force_columns(res) == ["Fstop_d_1_min_N", "Fstop_d_1_max_N"]
     np.testing.assert_array_equal(np.asarray(rows["Fstop_d_1_max_N"], dtype=float), res.stop_forces[:, 1])
     assert float(rows["Fstop_d_1_max_N"][-1]) == pytest.approx(2.0, rel=1e-8)
     back = io.load_result(io.save_result(res, tmp_path / "r.npz"))
