@@ -79,8 +79,10 @@ axes[0].set(xscale="log", xlabel="elements n_e", ylabel="episode impulse [N s]")
 axes[1].set(xscale="log", xlabel="elements n_e", ylabel="effective restitution e_eff")
 for ax in axes:
     ax.set_xticks(ELEMENTS, [str(n) for n in ELEMENTS])
+    ax.set_xticks([], minor=True)  # no stray log-axis minor label ("3 x 10^0") between the meshes
     ax.legend(fontsize=8)
-fig.suptitle(f"arm of issue 26 on a floor, e = 0.5, EI = {EI:g} N m$^2$: Newton's law against Hunt-Crossley (k = 1e4)")
+fig.suptitle(f"arm of issue 26 on a floor, e = 0.5, EI = {EI:g} N m$^2$: Newton's law against Hunt-Crossley "
+             "(k = 1e4 N/m$^{1.5}$)")
 fig.tight_layout()
 os.makedirs(OUT, exist_ok=True)
 path = os.path.join(OUT, "compliant_vs_newton_arm.png")

@@ -4,7 +4,8 @@ Shows: gi.FixedPrismatic (a Pb joint: d_2 is the length of link 2 protruding
 from the guide; only that part bends, on stretching finite elements), joint
 inputs by name (a torque [N m] on theta_1, a force [N] on d_2), the joint
 limit as an end stop (joint_limit="impact"), the energy audit of a driven run,
-and the figures of the joint variables and tip deflections.
+the figures of the joint variables and tip deflections, and the force of the end
+stop while it holds link 2 (contact_forces.png, Result.stop_forces [N]).
 
 The actuator pushes link 2 out against gravity until it hits the outer end stop
 (d_max = 0.6 m) and bounces off it (e = 0.5); every end-stop impact is an
@@ -61,7 +62,7 @@ print(f"energy: E(end) - E(start) = {E[-1] - E[0]:.6f} J; work of the inputs {W_
       f"lost in the end stops {lost:.6f} J; power balance in flight {res.energy_error:.2e}")
 d = res.q[:, robot.coordinate_names.index("d_2")]
 print(f"d_2 in [{d.min():.4f}, {d.max():.4f}] m (range 0.2 ... 0.6 m)")
-for name in ("angles", "deflection", "configurations"):
+for name in ("angles", "deflection", "configurations", "contact_forces"):  # contact_forces: the end-stop forces
     fig = res.plot(name)
     if fig is not None:
         fig.savefig(OUT / f"{name}.png", dpi=80)

@@ -71,6 +71,9 @@ def test_a_prescribed_case_runs():
      "prescribed[1].q_rad: expected an array of numbers"),
     ('profile = "constant_speed"\nv_rad_per_s = 2.0', "\n[initial.velocities]\ntheta_1_rad_per_s = 1.0\n",
      "initial.velocities.theta_1_rad_per_s: 1 differs from the [[prescribed]] profile of theta_1 at t_start (2)"),
+    ('profile = "constant_speed"\nv_rad_per_s = 2.0',
+     '\n[[walls]]\ntype = "plane"\npoint_m = [0.0, -5.0, 0.0]\nnormal = [0.0, 1.0, 0.0]\nstiffness = 1e5\n',
+     "walls[1].stiffness: a compliant wall cannot be combined with [[prescribed]] coordinates yet: remove stiffness"),
 ])
 def test_bad_tables_are_named_by_key_path(table, extra, problem):
     with pytest.raises(gi.CaseError) as err:

@@ -648,6 +648,30 @@ def test_run_says_what_method_auto_chose_and_where_the_energy_went(tmp_path, cap
     assert audit["inputs"] == audit["damping_and_friction"] == audit["impacts"] == 0.0
     assert f"energy audit [J]: inputs 0, damping and friction 0, impacts 0, numerical {audit['numerical']:.3g}" in out
 
+def test_run_report_counts_the_actuators_work_in_the_energy_audit(tmp_path, capsys):
+    """A link whose hub follows a point-to-point move ([[prescribed]]): the run report's energy audit names the
+    actuators' work, and the audit's parts add up to E(end) - E(t0) written in summary.json."""
+    case = tmp_path / "hub.toml"
+    case.write_text('name = "hub"\ngravity_m_per_s2 = [0.0, -9.81, 0.0]\n[base]\ntype = "fixed"\n'
+                    '[[links]]\nlength_m = 1.0\nmass_per_length_kg_per_m = 1.0\nEI_N_m2 = 50.0\n'
+                    'modes = [{ kind = "clamped-free" }]\n'
+                    '[[prescribed]]\ncoordinate = "theta_1"\nprofile = "point_to_point"\n'
+                    'q_a_rad = 0.0\nq_b_rad = 1.0\nt_a_s = 0.0\nt_b_s = 0.2\n[time]\nt_end_s = 0.3\n')
+    code, out, err = run_main(["run", case, "--no-plots", "--out", tmp_path / "o"], capsys)
+    assert code == 0
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    audit = s["energy_audit_J"]
+    assert audit["actuators"] == s["work_final_J"]["actuators"] > 1.0  # lifting the link by 1 rad: > 1 J
+    assert sum(audit.values()) == pytest.approx(s["energy_final_J"]["total"] - s["energy_initial_J"]["total"],
+                                                abs=1e-9 * s["energy_scale_J"])
+    assert f"actuators {audit['actuators']:.4g}, impacts 0," in out
+    # show names the prescribed coordinate and its profile with units (before, it said nothing of it).
+    code, out, err = run_main(["show", case], capsys)
+    assert code == 0
+    assert ("prescribed (the coordinate follows its profile; its actuator supplies the effort):\n"
+            "  theta_1: point_to_point: q_a = 0 rad, q_b = 1 rad, t_a = 0 s, t_b = 0.2 s\n") in out
+
+
 def test_show_describes_an_obstacle_and_its_gaps(tmp_path, capsys):
     """show on case 1 plus an obstacle post of R = 0.1 m at (0, -1.2): the wall is named an obstacle, and the
     gaps are |p - c| - R: 0.6 m for O2 at (0, -0.5), sqrt(0.75 + 1.44) - 0.1 m for O1 and O3 at (-+0.866, 0)."""

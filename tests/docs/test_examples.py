@@ -37,3 +37,24 @@ def test_example_runs(script, tmp_path):
                           timeout=300)
     assert proc.returncode == 0, f"{script.name} exited {proc.returncode}\n{proc.stdout}\n{proc.stderr}"
     assert proc.stdout.strip(), f"{script.name} printed nothing"
+
+
+def test_spin_up_figure_spans_the_time_simulated(tmp_path, monkeypatch):
+    """examples/spin_up.py's figure of a short run (GIBBSIMPACT_EXAMPLE_T_END = 6 s, spin-up T_s = 15 s): the time
+    axis ends at the last sample, not at T_s (no marker past the data), and the linear panel's limit follows its
+    0.7 m deflection (1 m) instead of the +-1e4 m a full run needs."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("spin_up_example", EXAMPLES / "spin_up.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    figures = []
+    monkeypatch.setattr(mod.plt, "close", figures.append)
+    t = mod.np.linspace(0.0, 6.0, 61)
+    curves = {(beam, src): (t, -0.7 * (t / 6.0) ** 2) for beam in ("linear", "stiffened")
+              for src in ("reference", "gibbsimpact")}
+    mod.figure(curves, tmp_path / "spin_up.png")
+    linear, stiffened = figures[0].axes
+    assert linear.get_xlim() == stiffened.get_xlim() == (0.0, 6.0)
+    assert linear.get_ylim() == (-1.0, 1.0)
+    assert not [line for line in linear.lines if line.get_xdata()[0] == mod.T_S]

@@ -12,6 +12,7 @@ import pytest
 
 import gibbsimpact as gi
 from gibbsimpact.io import result_files as io
+from gibbsimpact.io.contact_force_files import stop_force_columns
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
@@ -286,8 +287,42 @@ def test_end_stop_forces_in_contact_forces_csv_and_npz(tmp_path):
     assert res.has_resting_forces
     out = io.to_csv(res, tmp_path)
     rows = io.read_csv(out["contact_forces"])
-    assert io.stop_force_columns(res) == ["Fstop_d_1_min_N", "Fstop_d_1_max_N"]
+    assert stop_force_columns(res) == ["Fstop_d_1_min_N", "Fstop_d_1_max_N"]
     np.testing.assert_array_equal(np.asarray(rows["Fstop_d_1_max_N"], dtype=float), res.stop_forces[:, 1])
     assert float(rows["Fstop_d_1_max_N"][-1]) == pytest.approx(2.0, rel=1e-8)
     back = io.load_result(io.save_result(res, tmp_path / "r.npz"))
     assert np.array_equal(back.stop_forces, res.stop_forces)
+
+
+def test_compliant_columns_of_a_rod_resting_on_a_post_with_a_payload(tmp_path):
+    """A rigid rod (l = 1 m, mu = 1 kg/m) on a pivot, a 0.5 kg payload 5 cm beyond its tip, falls onto a compliant
+    post (R = 0.05 m at (0.6, -0.1) m, k = 1e5 N/m^1.5, e = 0.5) and comes to rest on it. The gap matrix has the
+    joints O1, O2, the rod's span (an obstacle) and the payload's centre: contact_forces.csv names those four
+    columns (it raised IndexError on the body column, and named the Xc columns of links only), every row is as long
+    as the header, and the resting force balances gravity's moment about the pivot (statics, no shared code):
+    (X - O1) x F_n n = g cos(theta) (mu l^2 / 2 + m_p (l + c))."""
+    import csv
+    import warnings
+
+    payload = gi.RigidBody(mass=0.5, center=(0.05, 0.0, 0.0))
+    rod = gi.Link(1.0, 1.0, 1e4, bodies=[payload])
+    model = gi.Model(gi.Chain([rod], base=gi.FixedBase((0.0, 0.0))), gravity=(0.0, -9.81, 0.0))
+    centre = np.array([0.6, -0.1, 0.0])
+    post = gi.Circle(0.05, tuple(centre[:2]), inside=False, restitution=0.5, stiffness=1e5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gi.ValidityWarning)
+        res = gi.simulate(model, np.zeros(1), np.zeros(1), (0.0, 1.5), walls=[post], output_dt=0.01)
+    rows = list(csv.reader(io.write_contact_forces_csv(res, tmp_path / "cf.csv").open()))
+    fc = [c for c in rows[0] if c.startswith("Fc_")]
+    assert fc == ["Fc_w1_O1_N", "Fc_w1_O2_N", "Fc_w1_link1_N", "Fc_w1_body1_N"]
+    assert [c for c in rows[0] if c.startswith("Xc_")] == [f"Xc_w1_{p}_X{a}_m" for p in ("link1", "body1")
+                                                           for a in (1, 2, 3)]
+    assert {len(r) for r in rows} == {len(rows[0])}
+    last = dict(zip(rows[0], map(float, rows[-1][:len(rows[0])])))
+    assert last["Fc_w1_link1_N"] == res.compliant_forces[-1, 0, 2] > 0.0
+    assert abs(res.qdot[-1, 0]) < 1e-9  # at rest on the post
+    X = res.compliant_points[-1, 0, 2]
+    n = (X - centre) / np.linalg.norm(X - centre)
+    moment = last["Fc_w1_link1_N"] * (X[0] * n[1] - X[1] * n[0])
+    gravity = 9.81 * np.cos(res.q[-1, 0]) * (1.0 * 1.0 ** 2 / 2 + 0.5 * 1.05)
+    assert moment == pytest.approx(gravity, rel=1e-6)

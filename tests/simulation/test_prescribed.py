@@ -124,6 +124,11 @@ def test_power_balance_closes_with_an_actuator(e, t_end, n_impacts):
     assert len(res.impacts) == n_impacts
     assert res.energy_error_whole_run <= 1e-9 and res.energy_error <= 1e-9
     assert res.work[-1, 2] > 1.0  # the actuator did work [J]
+    # The audit closes on the energies computed from the states: E(end) - E(0) = the sum of its parts.
+    audit = res.energy_audit()
+    E = res.energy().total
+    assert audit["actuators"] == res.work[-1, 2]
+    assert sum(audit.values()) == pytest.approx(E[-1] - E[0], abs=1e-9 * res.energy_scale)
     for rec in res.impacts:
         assert rec.qdot_after[0] == rec.qdot_before[0] == SPIN(rec.time)[1]  # the actuator holds its speed
     if e == 1.0:

@@ -197,6 +197,22 @@ def test_check_impact_names_the_point_and_only_ill_posed_ones():
     assert check_impact(issue26_model(elements=0), record([2], [0], [1.0]), floor) == []
 
 
+def test_check_impact_advice_fits_the_wall_and_the_prescribed_run():
+    """The advice to give the wall a stiffness names the wall's own class (a post is a gi.Circle, not a gi.Plane),
+    and in a run with prescribed coordinates (the impact then carries actuator impulses), where simulate refuses
+    a compliant wall, says so and what to do instead."""
+    from conftest import issue26_model
+
+    from gibbsimpact.simulation.validity import check_impact
+
+    fe = issue26_model(elements=2)
+    post = (gi.Circle(0.05, (0.5, -0.1), inside=False),)
+    (free,) = check_impact(fe, record([2], [0], [0.1]), post)
+    assert "gi.Circle(..., restitution=e, stiffness=k)" in free and "prescribed" not in free
+    (held,) = check_impact(fe, record([2], [0], [0.1])._replace(actuator_impulses=np.zeros(1)), post)
+    assert "not with prescribed coordinates yet: drive the joint by inputs instead" in held
+
+
 # -- spinning flexible links (no geometric stiffening: issue 24 item 4) ----------------------------
 
 BETA1_L = 1.8751040687119611  # first root of cos(b) cosh(b) = -1: clamped-free beam

@@ -33,7 +33,7 @@ from .reader import _BAD, CaseError, _build_each, _Reader
 from .schema import _FILE_NAMES, _INPUT_TABLE_KEYS, _TOP_KEYS, _WALL_KEYS, OUTPUT_DEFAULTS, _input_keys
 from .run_options import check_samples, override_problems, read_output, read_solver, read_time
 from .initial import check_start, read_initial, unknown_coordinate
-from .prescribed import read_prescribed, start_on_profiles
+from .prescribed import check_no_compliant_walls, read_prescribed, start_on_profiles
 from .text import fmt, type_name
 
 __all__ = ["Case", "load_case", "case_from_dict"]
@@ -194,6 +194,7 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
     q0, qdot0 = read_initial(r, top, model, base)
     inputs = _inputs(r, top, model)
     prescribed = read_prescribed(r, top, model)
+    check_no_compliant_walls(r, prescribed, walls if walls is not _BAD else ())
     if q0 is not None and t_span is not _BAD:
         start_on_profiles(r, top, model, prescribed, q0, qdot0, t_span[0])
     if q0 is not None:

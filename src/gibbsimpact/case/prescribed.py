@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 
+from ..contact.walls import is_compliant
 from ..dynamics.inputs import is_angle_coordinate
 from ..dynamics.profiles import profile
 from .keypaths import join
@@ -23,7 +24,7 @@ from .reader import _BAD, _build_each, _Reader
 from .schema import _PRESCRIBED_KEYS, _PRESCRIBED_TABLE_KEYS, _prescribed_keys, range_of
 from .text import fmt, type_name
 
-__all__ = ["read_prescribed", "start_on_profiles"]
+__all__ = ["check_no_compliant_walls", "read_prescribed", "start_on_profiles"]
 
 
 def read_prescribed(r: _Reader, top: dict, model) -> dict:
@@ -41,6 +42,18 @@ def read_prescribed(r: _Reader, top: dict, model) -> dict:
             r.add(join(join("prescribed", k), "coordinate"), f"{name} is prescribed twice; keep one table")
         out[name] = prof
     return out
+
+
+def check_no_compliant_walls(r: _Reader, prescribed: dict, walls):
+    """A problem at walls[k].stiffness for each compliant wall of a case with [[prescribed]] tables: simulate refuses
+    the pair (not modelled yet), so the loader says so before anything runs (``gibbsimpact show`` included)."""
+    if not prescribed:
+        return
+    for k, wall in enumerate(walls):
+        if is_compliant(wall):
+            r.add(join(join("walls", k), "stiffness"),
+                  "a compliant wall cannot be combined with [[prescribed]] coordinates yet: remove stiffness "
+                  "(Newton's law) or drive the joint by [[inputs]] (e.g. a pd servo) instead of [[prescribed]]")
 
 
 def _prescribed(r: _Reader, tbl, path: str, model):

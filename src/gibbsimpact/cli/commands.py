@@ -149,6 +149,11 @@ def describe_case(case) -> str:
             lines.append(f"  inputs[{k}] on {spec.coordinate}: {describe_input(spec, angle)}")
     else:
         lines.append("inputs: none")
+    if case.prescribed:
+        lines.append("prescribed (the coordinate follows its profile; its actuator supplies the effort):")
+        for name, prof in case.prescribed:
+            angle = is_angle_coordinate(m, m.coordinate_names.index(name))
+            lines.append(f"  {name}: {_describe_profile(prof, angle)}")
     E = case.initial_energy()
     lines.append(f"initial energy: kinetic {E.kinetic:.9g} J, gravitational {E.gravity:.9g} J, "
                  f"strain {E.strain:.9g} J, total {E.total:.9g} J")
@@ -167,6 +172,17 @@ def describe_case(case) -> str:
     lines.append(f"time: {t0:g} -> {t1:g} s; solver: {solver or 'defaults of gibbsimpact.simulate'}")
     lines.append(f"cost: {case.estimate_cost().describe()}")
     return "\n".join(lines)
+
+
+def _describe_profile(prof, angle: bool) -> str:
+    """One line: a gibbsimpact.profiles Profile's kind and parameters with their units (rad or m on the coordinate:
+    q values in rad | m, rates in rad/s | m/s, times in s; a samples profile by its span and count)."""
+    u = "rad" if angle else "m"
+    if prof.kind == "samples":
+        t = prof.parameters["t"]
+        return f"samples: {len(t)} values from t = {t[0]:g} s to {t[-1]:g} s, cubic spline"
+    units = {"q_a": u, "q_b": u, "q0": u, "t_a": "s", "t_b": "s", "T_s": "s", "Omega_s": f"{u}/s", "v": f"{u}/s"}
+    return f"{prof.kind}: " + ", ".join(f"{k} = {v:g} {units[k]}" for k, v in prof.parameters.items())
 
 
 def _describe_link(m, i: int, q0) -> list:

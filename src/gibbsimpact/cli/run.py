@@ -252,8 +252,10 @@ def _say_run(result, report, say) -> None:
         f"{result.energy_error_whole_run_J:.3g} J (relative {result.energy_error_whole_run:.2e} of the scale "
         f"{result.energy_scale:.4g} J); max per flight phase {result.energy_error_per_phase:.2e} (relative)")
     audit = result.energy_audit()
+    actuators = f"actuators {audit['actuators']:.4g}, " if result.prescribed else ""
     say(f"energy audit [J]: inputs {audit['inputs']:.4g}, damping and friction {audit['damping_and_friction']:.4g}, "
-        f"impacts {audit['impacts']:.4g}, numerical {audit['numerical']:.3g} ({result.settings.get('method')})")
+        f"{actuators}impacts {audit['impacts']:.4g}, numerical {audit['numerical']:.3g} "
+        f"({result.settings.get('method')})")
     say(f"{result.nfev} right-hand-side evaluations, {result.wall_time:.2f} s; {len(report.written)} files in "
         f"{report.out}")
     if "figures" in report.skipped and not report.lost:

@@ -50,6 +50,8 @@ from ..dynamics.gibbs_appell import Energy
 from ..simulation.compliant import CompliantContact
 from ..simulation.results import ImpactRecord, Result
 from ..contact.walls import describe
+from .contact_force_files import (_force_point_names, compliant_force_columns, contact_force_columns,
+                                  has_contact_forces, stop_force_columns)
 from .episode_files import EPISODE_COLUMNS, episode_rows, episode_cell
 from .plain_data import model_from_dict, model_to_dict, wall_from_dict, wall_to_dict
 
@@ -238,52 +240,6 @@ def write_impacts_csv(result: Result, path) -> Path:
     return path
 
 
-def contact_force_columns(result: Result) -> list[str]:
-    """Column names F_w<wall>_<point>_N of contact_forces.csv (walls and points from 1; a link's span
-    point: F_w<wall>_link<i>_N)."""
-    names = _force_point_names(result)
-    return [f"F_w{w + 1}_{names[j]}_N" for w in range(len(result.walls)) for j in range(len(names))]
-
-
-def stop_force_columns(result: Result) -> list[str]:
-    """Column names Fstop_<coordinate>_<min|max|carriage>_N of the end-stop forces in contact_forces.csv,
-    in the order of Result.stop_forces (simulation.joint_limits.joint_limits)."""
-    from ..simulation.joint_limits import joint_limits
-
-    names = result.model.coordinate_names
-    kinds = ("min", "max", "carriage")
-    out, seen = [], {}
-    for lim in joint_limits(result.model):
-        k = result.model.theta_index[lim.joint - 1]
-        seen[k] = seen.get(k, -1) + 1
-        out.append(f"Fstop_{names[k]}_{kinds[seen[k]]}_N")
-    return out
-
-
-def compliant_force_columns(result: Result) -> list[str]:
-    """Column names Fc_w<wall>_<column>_N of the compliant forces (Result.compliant_forces (K, W, C)): the joints,
-    then link<i> for the closest point of flexible link i (walls, points and links from 1)."""
-    from ..simulation.contacts import flexible_links
-
-    C = np.shape(result.compliant_forces)[2]
-    names = list(result.model.contact_point_names) + [f"link{i + 1}" for i in flexible_links(result.model)]
-    return [f"Fc_w{w + 1}_{names[c]}_N" for w in range(len(result.walls)) for c in range(C)]
-
-
-def has_contact_forces(result: Result) -> bool:
-    """Whether contact_forces.csv is written: some pair rested, an end stop held its joint, or some pair
-    pressed on a compliant wall (Result.has_resting_forces)."""
-    return result.has_resting_forces
-def _force_point_names(result: Result) -> list[str]:
-    """Names of the columns of Result.contact_forces: O1 .. O_P, then link<i> for the span point of link i
-    (simulation.contacts.link_columns), as many as the array has."""
-    from ..simulation.contacts import link_columns
-
-    names = list(result.model.contact_point_names)
-    C = len(names) if result.contact_forces is None else np.shape(result.contact_forces)[2]
-    return (names + [f"link{i + 1}" for i in link_columns(result.model, result.walls)])[:C]
-
-
 def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
     """Write t, phase and the resting-contact force of every (wall, contact point) pair, one row per sample
     (with ``every`` > 1 those of sample_rows); with friction on a wall also the friction force
@@ -305,10 +261,11 @@ def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
         # Where a link's closest point touches (a joint's position is in timeseries.csv): NaN out of contact.
         P = result.model.n_joints
         X = np.asarray(result.compliant_points)[:, :, P:]
-        if X.size:
+        if X.size:  # (K, W, C - P, 3): the link and body columns of every wall
             F = np.hstack((F, X.reshape(K, -1)))
-            header += [c.replace("Fc_", "Xc_", 1)[:-2] + f"_X{a + 1}_m" for c in compliant_force_columns(result)
-                       if "_link" in c for a in range(3)]
+            names, C = compliant_force_columns(result), X.shape[2] + P
+            header += [names[w * C + c].replace("Fc_", "Xc_", 1)[:-2] + f"_X{a + 1}_m"
+                       for w in range(len(result.walls)) for c in range(P, C) for a in range(3)]
     if result.stop_forces is not None:
         F = np.hstack((F, np.asarray(result.stop_forces).reshape(K, -1)))
         header += stop_force_columns(result)

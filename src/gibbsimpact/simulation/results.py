@@ -232,21 +232,28 @@ class Result:
 
     def energy_audit(self) -> dict:
         """Where the energy went from t0 to the last sample [J], signed (gained > 0): E(end) - E(t0) =
-        inputs + damping_and_friction + impacts + numerical, with
+        inputs + damping_and_friction + actuators + impacts + numerical, with
 
         * inputs, damping_and_friction: the work of the inputs and of the structural damping and resting
           friction (Result.work; 0 for an undriven, undamped run);
-        * impacts: the energy jumps of the impacts that dissipate by design (e < 1, a friction impulse);
+        * actuators: the work of the prescribed coordinates' actuators, int qdot_p . Q_p dt plus
+          Lambda_p . qdot_p at the impacts (Result.work[:, 2]; 0 without prescribed coordinates);
+        * impacts: the energy jumps of the impacts that dissipate by design (e < 1, a friction impulse),
+          less the actuators' impulse work Lambda_p . qdot_p in them (counted under actuators);
         * numerical: the rest, energy_error_whole_run_J: what the integrator (and the contact-mode
           projections) added or removed. Explicit methods keep it at ~rtol; implicit ones (Radau, BDF)
           damp the modes they step over, so it is negative and can reach the energy of those modes
           (docs/theory.md: when that matters).
         """
         W = self.work[-1] - self.work[0] if self.work is not None and len(self.work) else np.zeros(2)
-        impacts = sum(float(r.energy_after.total - r.energy_before.total) for r in self.impacts
+        held = [self.model.coordinate_names.index(name) for name in self.prescribed]
+        impacts = sum(float(r.energy_after.total - r.energy_before.total)
+                      - (float(r.actuator_impulses @ r.qdot_after[held]) if r.actuator_impulses is not None else 0.0)
+                      for r in self.impacts
                       if not (np.all(np.asarray(r.restitution) == 1.0)
                               and (r.friction_impulses is None or not np.any(r.friction_impulses))))
-        return {"inputs": float(W[0]), "damping_and_friction": float(W[1]), "impacts": impacts,
+        return {"inputs": float(W[0]), "damping_and_friction": float(W[1]),
+                "actuators": float(W[2]) if len(W) > 2 else 0.0, "impacts": impacts,
                 "numerical": float(self.energy_error_whole_run_J)}
 
     def energy(self) -> Energy:

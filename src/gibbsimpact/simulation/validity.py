@@ -184,8 +184,11 @@ def _newton_message(model, rec, walls, w: int, point) -> str:
         f"on the discretisation (link {i + 1}: {_discretisation(model.chain.links[i])}); it tends to zero as the "
         "link is refined, and so do this impulse and the micro-impacts that follow (with finite elements the "
         "impulse halves with every doubling of elements; docs/theory.md §11.4). Give the wall a stiffness "
-        f"(e.g. gi.Plane(..., restitution=e, stiffness=k): the compliant contact law of docs/theory.md §11.5, which "
-        f"converges as the link is refined and has the rigid limit), or make link {i + 1} rigid (no modes or "
+        f"(e.g. gi.{type(walls[w]).__name__}(..., restitution=e, stiffness=k): the compliant contact law of "
+        "docs/theory.md §11.5, which converges as the link is refined and has the rigid limit"
+        + ("; not with prescribed coordinates yet: drive the joint by inputs instead"
+           if rec.actuator_impulses is not None else "")
+        + f"), or make link {i + 1} rigid (no modes or "
         "elements), or give it clamped-clamped modes (its ends then move with its frame; the number of modes still sets their "
         "effective mass)" + ("; keep the contacts at the joints (link_contacts=False)" if span else "")
         + "; and read the collision as a whole in Result.episodes (its impulse and effective restitution), "
