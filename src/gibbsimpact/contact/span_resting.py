@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..dynamics.link_points import material_jacobian
+from ..dynamics.link_points import material_jacobians
 from .closest_points import closest_points
 
 #: Step of the central differences along the link, relative to its length.
@@ -57,9 +57,8 @@ def span_point_terms(model, wall, q, qd, i: int, x: float):
     length = model.chain.links[i].length
     h = H_X * length
     x = float(np.clip(x, h, length - h))
-    p, J, a0 = material_jacobian(model, q, qd, i, x)
-    pm, Jm, _ = material_jacobian(model, q, qd, i, x - h)
-    pp, Jp, _ = material_jacobian(model, q, qd, i, x + h)
+    q, qd = model.check_state(q, qd)
+    (p, J, a0), (pm, Jm, _), (pp, Jp, _) = material_jacobians(model, q, qd, i, (x, x - h, x + h))
     n = wall.normal(p[None, :])[0]
     g = float(wall.gap(p[None, :])[0])
     pd = J @ qd

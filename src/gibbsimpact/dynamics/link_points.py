@@ -241,8 +241,18 @@ def material_jacobian(model, q, qdot, i: int, x: float):
     xa = _check_abscissae(model, i, x)
     if xa.size != 1:
         raise ValueError(f"x={x!r} must be one abscissa [m]; call material_jacobian once per point")
+    return material_jacobians(model, q, qdot, i, xa)[0]
+
+
+def material_jacobians(model, q, qdot, i: int, xs):
+    """material_jacobian at several abscissae xs (K,) [m] of link i with one kernel call (the frame
+    and its q-derivatives are shared): a list of K (p (3,) [m], J (3, N), a0 (3,) [m/s^2]).
+    q, qdot (N,) are taken as checked (material_jacobian checks them)."""
     T, Td, Tdd0, dT = _frame_derivatives(model, q, qdot, i)
-    r, dr, rdot, rddot0 = _local_derivatives(model, q, qdot, i, float(xa[0]))
-    J = (dT @ r)[:, :3].T + (T[:3] @ dr.T)
-    a0 = (Tdd0 @ r + 2.0 * Td @ rdot + T @ rddot0)[:3]
-    return (T @ r)[:3], J, a0
+    out = []
+    for x in xs:
+        r, dr, rdot, rddot0 = _local_derivatives(model, q, qdot, i, float(x))
+        J = (dT @ r)[:, :3].T + (T[:3] @ dr.T)
+        a0 = (Tdd0 @ r + 2.0 * Td @ rdot + T @ rddot0)[:3]
+        out.append(((T @ r)[:3], J, a0))
+    return out

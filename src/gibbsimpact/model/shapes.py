@@ -10,6 +10,8 @@
 
 from __future__ import annotations
 
+import functools
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -162,6 +164,16 @@ def foreshortening_matrix(link: Link, x) -> np.ndarray:
     (psi_k' psi_l' has degree 4), relative error < 1e-13 for the first four modes.
     """
     x = np.atleast_1d(np.asarray(x, dtype=float))
+    breaks, at_breaks, pieces = _foreshortening_table(link)
+    j = np.clip(np.searchsorted(breaks, x, side="right") - 1, 0, breaks.size - 1)
+    return at_breaks[j] + pieces(breaks[j], x)
+
+
+@functools.lru_cache(maxsize=64)
+def _foreshortening_table(link: Link):
+    """The breaks b_j (B,) [m], H(b_j) (B, m, m) [1/m] and the piece integral of a link, cached per link:
+    H at the breaks does not depend on the state, and the event loop asks for H(x*) at every
+    right-hand side of a span contact phase (contact.closest_points, dynamics.link_points)."""
     breaks = np.linspace(0.0, link.length, (link.elements or 64) + 1)
     directions = np.array(shape_functions(link, [link.length])[0])
     same = np.equal.outer(directions, directions)
@@ -173,8 +185,8 @@ def foreshortening_matrix(link: Link, x) -> np.ndarray:
         return np.einsum("kpg,lpg,pg->pkl", d1, d1, 0.5 * (b - a)[:, None] * wt[None, :]) * same
 
     at_breaks = np.concatenate([np.zeros((1,) + same.shape), np.cumsum(pieces(breaks[:-1], breaks[1:]), axis=0)])
-    j = np.clip(np.searchsorted(breaks, x, side="right") - 1, 0, breaks.size - 1)
-    return at_breaks[j] + pieces(breaks[j], x)
+    at_breaks.flags.writeable = False
+    return breaks, at_breaks, pieces
 
 
 def link_foreshortening(model, q, i: int, x) -> tuple[np.ndarray, np.ndarray]:
