@@ -33,7 +33,6 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent / "tests" / "crosscheck"))
 
-import gibbsimpact as gi  # noqa: E402
 from bench_kernel import LENGTH, MU, ROTARY, describe_environment, per_call_cpu_wall  # noqa: E402
 
 try:

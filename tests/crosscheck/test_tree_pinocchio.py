@@ -172,13 +172,17 @@ def test_rigid_trees_match_pinocchio(base):
 @needs_trees
 def test_a_path_tree_equals_the_serial_chain_and_pinocchio():
     """A tree given through parents/attach whose branches form one path (attach=None, plain revolutes) is
-    the serial chain: same M as Chain(links) and as Pinocchio."""
+    the serial chain: M and qddot of Chain(links) to round-off (a few eps of the largest entry), and
+    Pinocchio's."""
     rng = np.random.default_rng(13)
     tree = serial_chain(rng, 4, "free")
-    links = to_model(tree).chain.links
-    path = gi.Model(gi.Chain(links, parents=[-1, 0, 1, 2], attach=[None] * 4), gravity=tree.gravity)
-    q, _ = random_state(rng, path)
-    assert np.array_equal(path.mass_matrix(q), to_model(tree).mass_matrix(q))
+    chain = to_model(tree)
+    path = gi.Model(gi.Chain(chain.chain.links, parents=[-1, 0, 1, 2], attach=[None] * 4), gravity=tree.gravity)
+    q, qdot = random_state(rng, path)
+    M = chain.mass_matrix(q)
+    assert np.abs(path.mass_matrix(q) - M).max() <= 8 * EPS * np.abs(M).max()
+    qdd = chain.forward_dynamics(q, qdot)
+    assert np.abs(path.forward_dynamics(q, qdot) - qdd).max() <= 1e-12 * np.abs(qdd).max()
     compare(tree, rng)
 
 
