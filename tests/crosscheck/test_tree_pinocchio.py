@@ -85,7 +85,7 @@ def random_tree(rng, n: int, base) -> tp.Tree:
     """A random rigid tree of n links: parents uniform among earlier links (a fixed base may carry more
     roots), attachment at the parent's tip, its joint or uniform along it; revolutes (with a random
     axis rotation in half of them) and welds (random angle, random rotation in half of them); a
-    floating base's one root on a plain revolute."""
+    floating base's one root on a plain revolute; no rotations on a planar base (a planar tree)."""
     rods = _rods(rng, n, bodies=True)
     parents, attach, joints = [], [], []
     for i in range(n):
@@ -93,7 +93,7 @@ def random_tree(rng, n: int, base) -> tp.Tree:
         p = -1 if root else int(rng.integers(0, i))
         parents.append(p)
         attach.append(None if root else [None, 0.0, float(rng.uniform(0.0, rods[p].length))][rng.integers(3)])
-        rotation = _rotation(rng) if rng.random() < 0.5 else None
+        rotation = _rotation(rng) if base != "planar" and rng.random() < 0.5 else None
         if (root and isinstance(base, str)) or rng.random() < 0.7:
             joints.append(tp.Joint("R", 0.0, None if root and isinstance(base, str) else rotation))
         else:
@@ -160,11 +160,12 @@ def test_serial_rigid_chains_match_pinocchio(base):
 
 # --------------------------------------------------------------------------- (b) trees, when they exist
 @needs_trees
-@pytest.mark.parametrize("base", ["free", "fixed"])
+@pytest.mark.parametrize("base", ["free", "fixed", "planar"])
 def test_rigid_trees_match_pinocchio(base):
     """Random rigid trees of 2-12 links (welds and revolutes with axis rotations, attachment points along
-    parents, several roots on a fixed base): M and qddot equal Pinocchio's."""
-    rng = np.random.default_rng({"free": 11, "fixed": 12}[base])
+    parents, several roots on a fixed base; planar trees on the planar base): M and qddot equal
+    Pinocchio's."""
+    rng = np.random.default_rng({"free": 11, "fixed": 12, "planar": 14}[base])
     for n in (2, 3, 4, 6, 9, 12):
         compare(random_tree(rng, n, BASES[base](rng)), rng)
 
