@@ -188,25 +188,15 @@ def test_a_path_tree_equals_the_serial_chain_and_pinocchio():
 
 
 # --------------------------------------------------------------------------- (c) the reference's tree map
-def _rot_x(a):
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
-def _rot_y(a):
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-
-
 def _frames(tree: tp.Tree, q: np.ndarray) -> list:
     """(R_i, o_i) of every link by the position map written out (tree_pinocchio's docstring), plain numpy."""
     k, frames = 0, []
     if tree.base == "free":
-        R0, o0, k = _rot_x(q[3]) @ _rot_y(q[4]), q[:3].copy(), 5
+        R0, o0, k = tp.rotation(0, q[3]) @ tp.rotation(1, q[4]), q[:3].copy(), 5
     elif tree.base == "planar":
         R0, o0, k = np.eye(3), np.array([q[0], q[1], 0.0]), 2
     else:
-        R0, o0 = tp._rz(tree.base.angle), np.asarray(tree.base.position, dtype=float)
+        R0, o0 = tp.rotation(2, tree.base.angle), np.asarray(tree.base.position, dtype=float)
     for i, (jt, p, x) in enumerate(zip(tree.joints, tree.parents, tree.attach)):
         if p == -1:
             R, o = R0, o0
@@ -215,9 +205,9 @@ def _frames(tree: tp.Tree, q: np.ndarray) -> list:
             o = o + R[:, 0] * (tree.links[p].length if x is None else x)
         R = R @ (np.eye(3) if jt.rotation is None else jt.rotation)
         if jt.kind == "R":
-            R, k = R @ tp._rz(q[k]), k + 1
+            R, k = R @ tp.rotation(2, q[k]), k + 1
         else:
-            R = R @ tp._rz(jt.angle)
+            R = R @ tp.rotation(2, jt.angle)
         frames.append((R, o))
     return frames
 

@@ -123,15 +123,20 @@ def _se3(rotation=None, translation=(0.0, 0.0, 0.0)) -> pin.SE3:
     return pin.SE3(R, np.asarray(translation, dtype=float))
 
 
-def _rz(angle: float) -> np.ndarray:
+def rotation(axis: int, angle: float) -> np.ndarray:
+    """The rotation (3, 3) by ``angle`` [rad] about the coordinate axis ``axis`` (0: x, 1: y, 2: z),
+    counter-clockwise seen from the axis' tip."""
     c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    R = np.eye(3)
+    j, k = (axis + 1) % 3, (axis + 2) % 3
+    R[j, j], R[j, k], R[k, j], R[k, k] = c, -s, s, c
+    return R
 
 
 def _base_joints(model: pin.Model, base) -> tuple[int, pin.SE3]:
     """The base's virtual joints, added to ``model``: (the joint a root hangs on, its placement there)."""
     if isinstance(base, Fixed):
-        return 0, _se3(_rz(base.angle), base.position)
+        return 0, _se3(rotation(2, base.angle), base.position)
     if base not in ("free", "planar"):
         raise ValueError(f"base={base!r} must be 'free', 'planar' or Fixed(position, angle)")
     kinds = [(pin.JointModelPX, "X1"), (pin.JointModelPY, "X2")]
@@ -207,7 +212,7 @@ def build_model(tree: Tree) -> Reference:
         if jt.kind == "R":
             joint_of[i], pose_of[i] = model.addJoint(parent, pin.JointModelRZ(), above, f"theta_{i + 1}"), pin.SE3.Identity()
         else:
-            joint_of[i], pose_of[i] = parent, above * _se3(_rz(jt.angle))
+            joint_of[i], pose_of[i] = parent, above * _se3(rotation(2, jt.angle))
         model.appendBodyToJoint(joint_of[i], rod_inertia(rod), pose_of[i])
     base = list(model.names[1:model.njoints - sum(j.kind == "R" for j in tree.joints)])
     names = tuple(base + [f"theta_{i + 1}" for i, j in enumerate(tree.joints) if j.kind == "R"])
