@@ -260,8 +260,15 @@ class Chain:
 
     @property
     def leaves(self) -> tuple:
-        """The links that carry no child (their tips are contact points), in link order."""
+        """The links that carry no child, in link order."""
         return tuple(i for i, c in enumerate(self.children) if not c)
+
+    @property
+    def free_tips(self) -> tuple:
+        """The links whose tip carries no child (every child attached at x_a < l, or none): their
+        tips are contact points of their own (formulation §17), in link order."""
+        return tuple(i for i, c in enumerate(self.children)
+                     if not any(self.attach[j] in (None, self.links[i].length) for j in c))
 
     @property
     def n_links(self) -> int:

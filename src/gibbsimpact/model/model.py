@@ -232,7 +232,21 @@ class Model:
         link (formulation §17: every link end that carries no child)."""
         joints = self._chain.joints
         hosts = [i - 1 for i, j in enumerate(joints) if i > 0 and j.kind in ("Pa", "Pb")]
-        return tuple(hosts + [i for i in self._chain.leaves if i != len(joints) - 1])
+        return tuple(hosts + [i for i in self._chain.free_tips if i != len(joints) - 1])
+
+    @property
+    def tip_points(self) -> tuple:
+        """Index in joint_positions (n_joints) of the contact point at each link's tip (n,): the
+        frame origin of its first child attached at the tip, the tip frame n for the last link,
+        or its extra tip point (extra_tips)."""
+        chain, n = self._chain, self._chain.n_links
+        extra = {h: n + 1 + k for k, h in enumerate(self.extra_tips)}
+        out = []
+        for i in range(n):
+            at_tip = [j for j in chain.children[i] if chain.attach[j] in (None, chain.links[i].length)
+                      and chain.joints[j].kind in ("R", "W")]
+            out.append(n if i == n - 1 else (at_tip[0] if at_tip else extra[i]))
+        return tuple(out)
 
     @property
     def contact_point_names(self) -> tuple:

@@ -84,7 +84,7 @@ def _tree_tables(model):
             for j, ch in enumerate(kids[1:]):
                 slot[ch] = 2 * N + len(anchors) - d0
                 anchors += [ch] * m
-    leaves = [i for i in chain.leaves if i != n - 1]
+    leaves = [i for i in chain.free_tips if i != n - 1]
     tables = np.concatenate([par, anc.ravel(), anchors, [len(leaves)], leaves]).astype(np.int64)
     return tables, len(anchors), first, slot
 
