@@ -13,14 +13,15 @@ from numbers import Real
 import numpy as np
 
 
-def _rotation(kind: str, value):
-    """``value`` as a proper rotation matrix (3, 3), or None; a ValueError names the argument."""
+def _rotation(name: str, value):
+    """``value`` as a proper rotation matrix (3, 3) (a tuple of rows), or None; a ValueError names
+    the argument ``name``."""
     if value is None:
         return None
     R = np.asarray(value, dtype=float) if not isinstance(value, str) else np.zeros(0)
     if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R @ R.T, np.eye(3), atol=1e-12) \
             or np.linalg.det(R) <= 0:
-        raise ValueError(f"{kind} rotation={value!r} must be a proper rotation matrix (3, 3): R R^T = I to 1e-12 "
+        raise ValueError(f"{name}={value!r} must be a proper rotation matrix (3, 3): R R^T = I to 1e-12 "
                          "and det R = +1 (e.g. scipy.spatial.transform.Rotation.from_euler('x', 90, degrees=True)"
                          ".as_matrix())")
     return tuple(tuple(float(v) for v in row) for row in R)
@@ -44,7 +45,7 @@ class Revolute:
     kind = "R"
 
     def __post_init__(self):
-        object.__setattr__(self, "axis_rotation", _rotation("Revolute axis_", self.axis_rotation))
+        object.__setattr__(self, "axis_rotation", _rotation("Revolute axis_rotation", self.axis_rotation))
 
 
 @dataclass(frozen=True)
@@ -66,7 +67,7 @@ class Weld:
 
     def __post_init__(self):
         object.__setattr__(self, "angle", _joint_angle("Weld", self.angle))
-        object.__setattr__(self, "rotation", _rotation("Weld ", self.rotation))
+        object.__setattr__(self, "rotation", _rotation("Weld rotation", self.rotation))
 
 
 @dataclass(frozen=True)
