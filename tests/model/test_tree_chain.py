@@ -49,3 +49,9 @@ def test_tree_coordinates_skip_welds_and_default_is_the_serial_chain():
     assert model.contact_point_names == ("O1", "O2", "O3", "O4", "tip of link 2")
     serial = gi.Chain([LK, LK])
     assert serial.parents == (-1, 0) and serial.attach == (None, None) and serial.serial
+
+
+def test_symbolic_derivation_refuses_trees():
+    model = gi.Model(gi.Chain([LK, LK], parents=[-1, 0], attach=[None, 0.5], base=gi.FixedBase()))
+    with pytest.raises(NotImplementedError, match=r"trees \(Chain parents/attach\), welds"):
+        gi.derive_equations(model)

@@ -42,6 +42,10 @@ come from frames.py, the body moments P_i, Pv_i, m_r,i, q_l (item 5) from moment
    a Pb link adds int mu r a0 to F and int mu phi_l a0 to the own part of h.
 7. *Two twists* (frames.py): S_D(j) = S_D + [j >= f2] S2_D, and every trace above
    is summed over the pieces, each with the composite of its later start frame.
+9. *Trees* (formulation §17, docs/theory.md §6.5.1). Composites sum over subtrees (each frame's
+   added to its parent's), f_a <= f_b reads "f_a is f_b or an ancestor" (layout._anc): M_ab's
+   first term is skipped, an exact zero, where the two share no frame; a parent's delta has one
+   twist piece per child (layout._piece), summed like the second twists of item 7.
 8. *Foreshortening* (formulation §15; moments._fs_moments). A stiffened link's own shapes are
    phi_l = e_{a_l} psi_l - e_x eta_l(x), eta = H(x) delta, and rddot0 = -beta e_x: with
    s_l = int mu eta_l r, sd_l = int mu eta_l rdot, z_l = T s_l, x_o = T e_x (world),

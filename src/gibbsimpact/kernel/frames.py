@@ -19,6 +19,12 @@ The items are numbered as in the derivation of the kernel package's docstring
    T_i, Td_i and the qddot-free Tdd0_i come from the forward recursion
    T' = T G, Td' = Td G + T Gd, Tdd0' = Tdd0 G + 2 Td Gd + T Gdd0.
 
+8. *Trees* (formulation §17, docs/theory.md §6.5.1). Link i starts again from its parent's frame
+   (_restart) and applies A_p(x_a) (_end_step with the attachment table) and its joint, a constant
+   rotation first (_constant_rotation; a weld turns by its fixed angle, with no twist). A parent's
+   delta gets one twist per child (the first child's at B[ss + c], the others' at extra entries):
+   "downstream" is "in the subtree" (layout._anc).
+
 6. *Prismatic joints* (docs/theory.md §7.1, §7.6). A Pa carriage and a Pb guide are
    local transforms like the others (_pa_step, _pb_step): each coordinate they
    depend on gets its world twist.

@@ -168,7 +168,7 @@ class Link:
 
 @dataclass(frozen=True)
 class Chain:
-    """A serial chain of links on a free-flying or a fixed base.
+    """A chain of links on a free-flying or a fixed base: serial, or a tree (parents, attach).
 
     Free base (``base="free"``, the default): joint O_1 (proximal end of link 1)
     flies freely; two massless virtual links of zero length and link 1's joint
