@@ -1,0 +1,82 @@
+"""The chart stage of the event loop: re-charting the spatial free base (formulation §18, docs/theory.md §1.1).
+
+A run measures the base angles from a reference orientation R_ref (Model.base_chart). When |theta_0|
+reaches RECHART_ANGLE (the flight phase's "chart" event, or at the start), the chart stage moves
+R_ref to the current orientation and maps the angles and their rates (dynamics.base_chart.rechart):
+positions, velocities, energy and momenta are unchanged, and the chart's singularity theta_0 = +-pi/2
+stays 1.2 rad or more away from the motion. Like any event, a re-chart ends the flight phase; the
+contact mode (resting pairs, stick or slip), the end stops, the work and compliant states carry over,
+since they are stated in world quantities and gaps, never in the base angles.
+
+Not re-charted: a run with a prescribed base angle (its profile is the user's, in the first chart).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ..dynamics.base_chart import RECHART_ANGLE, base_angles, rechart
+
+__all__ = ["ChartChange", "RECHART_ANGLE", "chart", "chart_event", "charted"]
+
+
+class ChartChange(NamedTuple):
+    """One re-chart of the free base (Result.charts).
+
+    time : [s]; sample : index into Result.t of the sample after it (the one before is sample - 1, same time)
+    angles_before : (3,) theta_-1, theta_0, theta_1 [rad] in the old chart (0 in the new one)
+    chart_after : (3, 3) the new R_ref = R_ref_old Rx Ry Rz (Result.base_chart[sample])
+    """
+
+    time: float
+    sample: int
+    angles_before: np.ndarray
+    chart_after: np.ndarray
+
+
+def charted(model, prescribed=None) -> bool:
+    """Whether a run of this model re-charts its base: a spatial free base none of whose angles is prescribed
+    (prescribed: None or (n_p,) indices of the prescribed coordinates)."""
+    if model.chain.base != "free":
+        return False
+    return prescribed is None or not set(np.asarray(prescribed).tolist()) & {3, 4, model.theta_index[0]}
+
+
+def chart_event(model):
+    """The flight phase's chart event (fun(t, y) -> (1,), direction (-1,)): RECHART_ANGLE - |theta_0|
+    falls through zero."""
+    return (lambda t, y: np.array([RECHART_ANGLE - abs(y[4])]), np.array([-1.0]))
+
+
+def chart(run) -> None:
+    """The chart stage, before a flight phase: re-chart when |theta_0| >= RECHART_ANGLE, or when the last
+    phase ended at the chart event (its located root may lie a round-off below the threshold)."""
+    if not run.charting:
+        return
+    N = run.N
+    q, qd = run.y[:N], run.y[N:2 * N]
+    if not (run.pending_chart or abs(q[4]) >= RECHART_ANGLE):
+        return
+    run.pending_chart = False
+    old = run.model
+    new, q2, qd2 = rechart(old, q, qd)
+    hand_over(run, old, new)
+    run.y = np.concatenate((q2, qd2, run.y[2 * N:]))
+    run.recorder.chart(run.t, q2, qd2, run.phase, ChartChange(run.t, 0, base_angles(old, q), new.base_chart))
+
+
+def hand_over(run, old, new) -> None:
+    """Give every part of the run that holds the model ``old`` the model ``new`` (a chart of it).
+
+    The parts (contacts, resting, equations, recorder, compliant contacts, end stops) keep their state;
+    their caches are keyed on q's bytes, which no state of the new chart shares with the last one of the
+    old (its angles are 0, the old ones had |theta_0| >= RECHART_ANGLE)."""
+    run.model = new
+    for part in (run.contacts, run.resting, run.equations, run.recorder, run.compliant, run.stops):
+        if part is None:
+            continue
+        for name, value in list(vars(part).items()):
+            if value is old:
+                setattr(part, name, new)

@@ -1,0 +1,127 @@
+"""Runs through the free base's gimbal lock: re-charting (formulation §18, simulation/charts.py)."""
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import gibbsimpact as gi
+
+_R = 0.02  # section radius of the links [m]: rotary inertia (r^2/2, r^2/4, r^2/4) [kg m] per kg/m
+
+
+def _rot(axis, a):
+    """R_axis(a) written out (the test's own, not the package's)."""
+    c, s = np.cos(a), np.sin(a)
+    return {0: np.array([[1, 0, 0], [0, c, -s], [0, s, c]]), 1: np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
+            2: np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])}[axis]
+
+
+def _matrices(Q):
+    """Rotation matrices (K, 3, 3) of unit quaternions [w, x, y, z] (K, 4)."""
+    w, x, y, z = Q.T
+    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+                     2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+                     2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1).reshape(-1, 3, 3)
+
+
+def _tumbling(modes):
+    """Two links spinning at 15 rad/s about the chart's y axis, a little out of plane (theta_-1 = 0.05 rad) and
+    folding (theta_2 rate 0.3 rad/s), no gravity: theta_0 runs through +-pi/2 again and again."""
+    link = gi.Link(0.5, 1.0, (50.0, 50.0), modes=modes, rotary_inertia=(_R * _R / 2, _R * _R / 4, _R * _R / 4))
+    model = gi.Model(gi.Chain([link, link]), gravity=(0.0, 0.0, 0.0))
+    q = model.state(theta_m1=0.05, theta_0=0.2)
+    qd = model.state(theta_m1=0.01, theta_0=15.0, theta_2=0.3)
+    return model, q, qd
+
+
+@pytest.fixture(scope="module", params=["rigid", "one mode each"])
+def tumbling(request):
+    modes = [] if request.param == "rigid" else [gi.Mode("clamped-free", "z")]
+    model, q, qd = _tumbling(modes)
+    return gi.simulate(model, q, qd, (0.0, 1.0), rtol=1e-12, atol=1e-13)
+
+
+def test_tumbling_through_gimbal_lock_conserves_energy_and_momentum(tumbling):
+    res = tumbling
+    assert res.status == "finished" and len(res.charts) >= 10
+    # The world chart's theta_0 = asin(R_02) reaches +-pi/2 (within 1 degree) at least four times.
+    R = _matrices(res.base_orientation)
+    near = np.abs(R[:, 0, 2]) > np.cos(np.radians(1.0))
+    assert np.count_nonzero(np.diff(near.astype(int)) == 1) >= 4
+    assert np.abs(res.q[:, 4]).max() <= 1.2 + 1e-9  # every chart stays 1.2 rad or more from its singularity
+    E = res.energy()
+    assert np.abs(E.total - E.total[0]).max() <= 1e-9 * abs(E.total[0])
+    H = np.array([res.model_at(k).angular_momentum(q, v, about=np.zeros(3))
+                  for k, (q, v) in enumerate(zip(res.q, res.qdot))])
+    assert np.abs(H - H[0]).max() <= 1e-9 * np.linalg.norm(H[0])
+
+
+def test_orientation_and_points_are_continuous_across_recharts(tumbling):
+    res = tumbling
+    Q = res.base_orientation
+    np.testing.assert_allclose(np.linalg.norm(Q, axis=1), 1.0, atol=1e-14)
+    # Between samples the base turns by at most |omega| dt (|omega| < 16 rad/s): |dq| <= |omega| dt / 2 + slack.
+    dt = np.diff(res.t)
+    assert np.all(np.linalg.norm(np.diff(Q, axis=0), axis=1) <= 0.5 * 16.0 * dt + 1e-12)
+    P, V = res.joint_positions(), res.joint_velocities()
+    for c in res.charts:
+        k = c.sample
+        assert res.t[k] == res.t[k - 1] == c.time
+        np.testing.assert_allclose(res.q[k, [3, 4, 5]], 0.0, atol=0)
+        np.testing.assert_allclose(c.angles_before, res.q[k - 1, [3, 4, 5]], atol=0)
+        assert abs(abs(c.angles_before[1]) - 1.2) < 1e-9
+        np.testing.assert_allclose(Q[k], Q[k - 1], atol=1e-15 * 4)
+        np.testing.assert_allclose(P[k], P[k - 1], atol=1e-14)
+        np.testing.assert_allclose(V[k], V[k - 1], atol=1e-13 * 15)
+        np.testing.assert_allclose(res.base_chart[k], c.chart_after, atol=0)
+
+
+def _euler_reference(I, R0, w0, t_end):
+    """Torque-free rigid body: R' = R [w]x, I w' = -w x I w (body frame, principal axes I (3,)), by scipy."""
+    def f(t, y):
+        R, w = y[:9].reshape(3, 3), y[9:]
+        W = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+        return np.concatenate(((R @ W).ravel(), -np.cross(w, I * w) / I))
+
+    sol = solve_ivp(f, (0.0, t_end), np.concatenate((R0.ravel(), w0)), method="DOP853", rtol=1e-13, atol=1e-14)
+    return sol.y[:9, -1].reshape(3, 3)
+
+
+def test_rigid_body_tumbling_matches_euler_equations():
+    # One rigid uniform link (m = 1 kg, l = 1 m) about its mass centre: principal inertia l diag(j_x, j_y, j_z)
+    # + m l^2/12 across it; y the major axis (j_y largest), a spin mostly about it that passes theta_0 = +-pi/2.
+    j = np.array([1e-3, 5e-3, 1e-3])
+    link = gi.Link(1.0, 1.0, 1.0, rotary_inertia=tuple(j))
+    model = gi.Model(gi.Chain([link]), gravity=(0.0, 0.0, 0.0))
+    a, b, c = 0.1, 0.3, 0.2
+    rates = np.array([0.4, 12.0, -0.5])
+    q = model.state(theta_m1=a, theta_0=b, theta_1=c)
+    qd = model.state(theta_m1=rates[0], theta_0=rates[1], theta_1=rates[2])
+    res = gi.simulate(model, q, qd, (0.0, 1.0), rtol=1e-12, atol=1e-13)
+    assert res.status == "finished" and len(res.charts) >= 5
+    # Body angular velocity of Rx(a) Ry(b) Rz(c): w = C^T (e_x a' + Rx e_y b' + Rx Ry e_z c'), written out.
+    Rx, Ry, Rz = _rot(0, a), _rot(1, b), _rot(2, c)
+    C = Rx @ Ry @ Rz
+    w0 = C.T @ (np.array([1.0, 0, 0]) * rates[0] + Rx[:, 1] * rates[1] + (Rx @ Ry)[:, 2] * rates[2])
+    I = np.array([j[0], 1.0 / 12 + j[1], 1.0 / 12 + j[2]])
+    R_end = _euler_reference(I, C, w0, 1.0)
+    np.testing.assert_allclose(_matrices(res.base_orientation[-1:])[0], R_end, atol=1e-8)
+
+
+def test_recharting_during_resting_contact_keeps_the_contact():
+    # A rigid rod with its end O_1 sticking on a frictional floor, swinging up about it at 3 rad/s in the X1-X2
+    # plane: with theta_-1 = pi/2 that swing is theta_0, which passes 1.2 rad while O_1 rests.
+    link = gi.Link(1.0, 1.0, 1.0, rotary_inertia=(1e-3, 1e-3, 1e-3))
+    model = gi.Model(gi.Chain([link]), gravity=(0.0, -9.81, 0.0))
+    floor = gi.Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), friction=2.0, restitution=0.0)
+    q = model.state(theta_m1=np.pi / 2, theta_0=0.9)
+    qd = model.state(theta_0=3.0)
+    res = gi.simulate(model, q, qd, (0.0, 0.3), walls=[floor])
+    assert len(res.charts) >= 1 and not res.impacts
+    c = res.charts[0]
+    k = c.sample
+    F = res.contact_forces[:, 0, 0]
+    assert F[k - 1] > 0 and F[k] > 0 and F[k + 1] > 0  # still resting after the re-chart
+    np.testing.assert_allclose(F[k], F[k - 1], rtol=1e-9)  # the same force in either chart
+    assert np.abs(res.joint_positions()[:, 0, 1]).max() < 1e-8  # O_1 stays on the floor
+    assert np.abs(res.joint_positions()[:, 0, [0, 2]]).max() < 1e-8  # and sticks
