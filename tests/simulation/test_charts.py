@@ -125,3 +125,17 @@ def test_recharting_during_resting_contact_keeps_the_contact():
     np.testing.assert_allclose(F[k], F[k - 1], rtol=1e-9)  # the same force in either chart
     assert np.abs(res.joint_positions()[:, 0, 1]).max() < 1e-8  # O_1 stays on the floor
     assert np.abs(res.joint_positions()[:, 0, [0, 2]]).max() < 1e-8  # and sticks
+
+
+def test_saved_result_keeps_its_charts(tumbling, tmp_path):
+    res = tumbling
+    back = gi.load_result(res.save(tmp_path / "tumbling.npz"))
+    np.testing.assert_array_equal(back.base_chart, res.base_chart)
+    assert [c.sample for c in back.charts] == [c.sample for c in res.charts]
+    np.testing.assert_array_equal(back.base_orientation, res.base_orientation)
+    np.testing.assert_array_equal(back.joint_positions(), res.joint_positions())
+    paths = res.to_csv(tmp_path)
+    table = np.genfromtxt(paths["timeseries"], delimiter=",", names=True)
+    Q = np.column_stack([table[f"base_q{c}"] for c in "wxyz"])
+    np.testing.assert_array_equal(Q, res.base_orientation)
+    np.testing.assert_array_equal(table["O2_X3_m"], res.joint_positions()[:, 1, 2])

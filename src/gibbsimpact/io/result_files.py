@@ -3,7 +3,8 @@
 Files (docs/case-format.md, "Output files"):
 
 * ``timeseries.csv``: one row per sample: t, phase, every coordinate and
-  velocity by name with its unit, the joint positions, the energies.
+  velocity by name with its unit, the joint positions (and, for a spatial free base, its
+  chart-free orientation base_qw .. base_qz: Result.base_orientation), the energies.
 * ``impacts.csv``: one row per contact (an impact with k simultaneous
   contacts gives k rows sharing its ``impact`` number).
 * ``episodes.csv``: one row per collision episode (Result.episodes): its times, walls,
@@ -47,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from ..dynamics.gibbs_appell import Energy
+from ..simulation.charts import ChartChange
 from ..simulation.compliant import CompliantContact
 from ..simulation.results import ImpactRecord, Result
 from ..contact.walls import describe
@@ -174,13 +176,15 @@ def write_timeseries_csv(result: Result, path, every: int = 1) -> Path:
     P = result.joint_positions()[r]  # (K', n+1, 3)
     header = ["t_s", "phase"] + coordinate_columns(model) + velocity_columns(model)
     header += [f"O{j + 1}_X{a + 1}_m" for j in range(P.shape[1]) for a in range(3)]
+    Q = result.base_orientation  # (K, 4) of a spatial free base: chart-free (q's angles are its current chart's)
+    header += ["base_qw", "base_qx", "base_qy", "base_qz"] if Q is not None else []
     header += ["kinetic_J", "gravity_J", "strain_J", "total_J"]
     if result.work is not None:
         header += ["work_inputs_J", "work_damping_J"] + (["work_actuators_J"] if result.work.shape[1] > 2 else [])
     header += effort_columns(result)
     K = len(r)
-    cols = [result.q[r], result.qdot[r], P.reshape(K, 3 * P.shape[1]),
-            np.column_stack((E.kinetic, E.gravity, E.strain, E.total))[r]]
+    cols = [result.q[r], result.qdot[r], P.reshape(K, 3 * P.shape[1])] + ([Q[r]] if Q is not None else [])
+    cols.append(np.column_stack((E.kinetic, E.gravity, E.strain, E.total))[r])
     if result.work is not None:
         cols.append(result.work[r])
     if result.effort is not None:
@@ -568,6 +572,8 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         arrays["friction_forces"] = np.asarray(result.friction_forces, dtype=float)
     if result.stop_forces is not None:
         arrays["stop_forces"] = np.asarray(result.stop_forces, dtype=float)
+    if result.base_chart is not None:
+        arrays.update(_chart_arrays(result))
     if result.compliant_forces is not None:
         arrays["compliant_forces"] = np.asarray(result.compliant_forces, dtype=float)
         arrays["compliant_points"] = np.asarray(result.compliant_points, dtype=float)
@@ -596,6 +602,25 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
     with atomic_path(path) as tmp:
         np.savez_compressed(tmp, **arrays)
     return path
+
+
+def _chart_arrays(result) -> dict:
+    """The free base's charts of a Result that re-charted (Result.base_chart, Result.charts) as NPZ arrays."""
+    ch = result.charts
+    return {"base_chart": np.asarray(result.base_chart, dtype=float),
+            "chart_time": np.array([c.time for c in ch], dtype=float),
+            "chart_sample": np.array([c.sample for c in ch], dtype=np.int64),
+            "chart_angles_before": np.array([c.angles_before for c in ch], dtype=float).reshape(-1, 3),
+            "chart_after": np.array([c.chart_after for c in ch], dtype=float).reshape(-1, 3, 3)}
+
+
+def _charts_from(a: dict) -> dict:
+    """Result's base_chart and charts from the arrays of _chart_arrays ({} for a file without them)."""
+    if "base_chart" not in a:
+        return {}
+    return {"base_chart": a["base_chart"],
+            "charts": [ChartChange(float(t), int(k), b, R) for t, k, b, R in
+                       zip(a["chart_time"], a["chart_sample"], a["chart_angles_before"], a["chart_after"])]}
 
 
 def load_result(path, with_metadata: bool = False):
@@ -655,6 +680,7 @@ def load_result(path, with_metadata: bool = False):
         compliant_integrals=a.get("compliant_integrals"),
         compliant_contacts=[CompliantContact(int(r[0]), int(r[1]), *map(float, r[2:]))
                             for r in a.get("compliant_contacts", np.zeros((0, 5)))],
+        **_charts_from(a),
     )
     if with_metadata:
         return res, _untag(meta.get("metadata", {}))
