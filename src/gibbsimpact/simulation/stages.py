@@ -8,7 +8,7 @@ gibbsimpact.simulation.simulate's module docstring, each with a test.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -19,7 +19,7 @@ from ..dynamics.forces import CallbackError
 from ..dynamics.base_chart import rechart
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .accumulation import Accumulation
-from .charts import RECHART_ANGLE, chart, chart_event, charted, hand_over
+from .charts import RECHART_ANGLE, chart, chart_event, charted
 from .compliant import COMPLIANT_EVENTS, CompliantContacts, compliant_event, compliant_gap_functions
 from .contacts import Contacts, contact_band, event_spec, gap_lipschitz, impact_stage as solve_impact, phase_events
 from .equations import Equations
@@ -518,7 +518,7 @@ def finish(run, started: float) -> Result:
     if not np.any(F_all[:, :, P:]):  # no span point rested: the joint points' columns only, as before
         F_all, Ft_all = F_all[:, :, :P], Ft_all[:, :, :P]
     walls = run.settings.walls
-    res = Result(
+    return Result(
         model=run.model.chart_root, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,
         impacts=run.recorder.impacts, status=run.status, message=run.message, settings=run.settings.record(),
         nfev=run.equations.nfev, n_steps=run.counters["n_steps"], n_examined=run.counters["n_examined"],
@@ -526,31 +526,28 @@ def finish(run, started: float) -> Result:
         energy_error_whole_run_J=run.recorder.balance_J,
         _energy_cache=E_all, work=work_all if run.equations.driven else None, contact_forces=F_all,
         friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
-        resting_time=run.counters["resting_time"], stop_forces=S_all,
+        resting_time=run.counters["resting_time"], stop_forces=S_all, **_efforts(run, t_all, q_all, qdot_all),
         base_chart=run.recorder.base_charts(), charts=run.recorder.chart_changes,
         **({} if run.compliant is None else dict(zip(
             ("compliant_forces", "compliant_points", "compliant_integrals"),
             run.recorder.compliant_arrays(run.compliant.active.shape)),
             compliant_contacts=list(run.compliant.log))),
     )
-    if run.settings.prescribed is None:
-        return res
-    # Each sample's effort in its own chart of the free base: the run's parts take each chart's model in turn.
-    effort = []
-    for m, sl in res.chart_segments():
-        hand_over(run, run.model, m)
-        effort.append(_efforts(run, t_all[sl], q_all[sl], qdot_all[sl]))
-    return replace(res, prescribed=run.settings.prescribed.names, effort=np.concatenate(effort),
-                   _energy_cache=res._energy_cache)
 
 
-def _efforts(run, t, q, qdot) -> np.ndarray:
-    """The effort (K, n_p) [N m or N] of the prescribed coordinates at the samples t (K,), q, qdot (K, N)
-    (Result.effort), NaN at a state where it cannot be had."""
+def _efforts(run, t, q, qdot) -> dict:
+    """Result's prescribed (names) and effort (K, n_p) [N m or N] at every sample ({} without prescribed
+    coordinates). One chart serves every sample: a run with prescribed coordinates has no resting or compliant
+    contact force, and the joint efforts of a free-floating chain do not change under a rotation of the whole
+    (uniform gravity included), which is all a change of the free base's chart is (simulation.charts)."""
+    P = run.settings.prescribed
+    if P is None:
+        return {}
     try:
-        return run.equations.efforts(t, q, qdot)
+        effort = run.equations.efforts(t, q, qdot)
     except (SingularMassMatrixError, CallbackError):  # a run that stopped on such a state: NaN there
-        return np.array([_effort_or_nan(run, *a) for a in zip(t, q, qdot)]).reshape(len(t), -1)
+        effort = np.array([_effort_or_nan(run, *a) for a in zip(t, q, qdot)]).reshape(len(t), len(P.index))
+    return dict(prescribed=P.names, effort=effort)
 
 
 def _effort_or_nan(run, t, q, qd) -> np.ndarray:
