@@ -167,7 +167,7 @@ def test_animation_frames_draw_each_sample_in_its_chart(tumbling):
     actors = animation._actors(ax, res.model, res.q[0], planar=False)
     P = res.joint_positions()
     for k in (res.charts[0].sample - 1, res.charts[0].sample, res.charts[-1].sample + 3, len(res.t) - 1):
-        animation._pose(actors, res, k, float(res.t[k]), 0.0, 5, None, planar=False)
+        animation._pose_sample(actors, res, k, float(res.t[k]), 0.0, 5, None, planar=False)
         np.testing.assert_allclose(np.array(actors["joints"].get_data_3d()), np.array(_to3(P[k])), atol=1e-14)
     plt.close(fig)
 
