@@ -329,12 +329,14 @@ def _phase_events(run):
 
 
 def _joined(extras):
-    """One (fun(t, y) -> (m,), directions (m,)) of several, their values in order; None for none."""
+    """One (fun(t, y) -> (m,), directions (m,), inside (m,)) of several (fun, directions[, inside]), their values
+    in order (inside: flight.integrate_phase's extra, default True); None for none."""
     if len(extras) < 2:
         return extras[0] if extras else None
-    funs = [f for f, _ in extras]
+    funs = [e[0] for e in extras]
     return (lambda t, y: np.concatenate([f(t, y) for f in funs]),
-            np.concatenate([np.asarray(d, dtype=float) for _, d in extras]))
+            np.concatenate([np.asarray(e[1], dtype=float) for e in extras]),
+            np.concatenate([np.asarray(e[2] if len(e) > 2 else np.ones(len(e[1])), dtype=bool) for e in extras]))
 
 
 def _forces_at(run, T, Y):
