@@ -5,6 +5,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import gibbsimpact as gi
+import gibbsimpact.simulation.stages as stages
+from conftest import two_link_circle_model, two_link_circle_state
 
 _R = 0.02  # section radius of the links [m]: rotary inertia (r^2/2, r^2/4, r^2/4) [kg m] per kg/m
 
@@ -183,3 +185,15 @@ def test_prescribed_joint_effort_is_the_same_in_both_charts():
     scale = np.abs(res.effort).max()
     for c in res.charts:
         np.testing.assert_allclose(res.effort[c.sample], res.effort[c.sample - 1], atol=1e-10 * scale)
+
+
+def test_the_chart_event_costs_nothing_until_it_fires(monkeypatch):
+    # Case 1 (free base, planar motion: theta_0 stays 0): watching |theta_0| must not add right-hand sides (an
+    # event sampled inside every step would build the dense output at each: +21 % calls on this case).
+    model = two_link_circle_model()
+    q, qd = two_link_circle_state(model)
+    walls = [gi.Circle(1.0, (0.0, 0.0))]
+    watched = gi.simulate(model, q, qd, (0.0, 0.5), walls=walls)
+    monkeypatch.setattr(stages, "charted", lambda model, prescribed=None: False)
+    unwatched = gi.simulate(model, q, qd, (0.0, 0.5), walls=walls)
+    assert watched.nfev == unwatched.nfev and np.array_equal(watched.q, unwatched.q) and not watched.charts
