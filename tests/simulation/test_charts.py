@@ -141,6 +141,9 @@ def test_saved_result_keeps_its_charts(tumbling, tmp_path):
     Q = np.column_stack([table[f"base_q{c}"] for c in "wxyz"])
     np.testing.assert_array_equal(Q, res.base_orientation)
     np.testing.assert_array_equal(table["O2_X3_m"], res.joint_positions()[:, 1, 2])
+    s = res.summary()
+    assert [r["time_s"] for r in s["base_recharts"]] == [c.time for c in res.charts]
+    assert s["base_orientation_final_wxyz"] == res.base_orientation[-1].tolist()
 
 
 def test_impacts_and_recharts_together_keep_energy_at_e_1():

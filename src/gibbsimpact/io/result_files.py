@@ -452,6 +452,10 @@ def summary(result: Result, case=None) -> dict:
     if result.prescribed:
         d["prescribed_coordinates"] = list(result.prescribed)
         d["effort_final"] = dict(zip(effort_columns(result), (float(v) for v in result.effort[-1])))
+    if result.base_orientation is not None:  # a spatial free base: its chart-free final orientation, its re-charts
+        d["base_orientation_final_wxyz"] = [float(v) for v in result.base_orientation[-1]]
+        d["base_recharts"] = [{"time_s": float(c.time), "angles_before_rad": [float(a) for a in c.angles_before]}
+                              for c in result.charts]
     d["n_samples"] = int(len(result.t))
     return _json_safe(d)
 
