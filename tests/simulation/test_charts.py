@@ -200,3 +200,18 @@ def test_the_chart_event_costs_nothing_until_it_fires(monkeypatch):
     monkeypatch.setattr(stages, "charted", lambda model, prescribed=None: False)
     unwatched = gi.simulate(model, q, qd, (0.0, 0.5), walls=walls)
     assert watched.nfev == unwatched.nfev and np.array_equal(watched.q, unwatched.q) and not watched.charts
+
+
+def test_a_run_starts_at_gimbal_lock_with_the_automatic_method():
+    # At theta_0 = pi/2 exactly the first chart's M is singular: the checks and method="auto" (which looks at the
+    # linearised dynamics of q0) work in the chart the run starts in.
+    model, q, qd = _tumbling([gi.Mode("clamped-free", "z")])
+    q[4] = np.pi / 2
+    res = gi.simulate(model, q, qd, (0.0, 0.05), method="auto")
+    assert res.status == "finished" and res.charts[0].sample == 1
+    # Without gravity the free chain's frequencies do not depend on its orientation: "auto" must see those of
+    # theta_0 = 0 (the singular chart's linearisation gives 216 rad/s instead of 744 rad/s).
+    upright = gi.simulate(model, model.state(theta_m1=q[3]), qd, (0.0, 1e-3), method="auto")
+    assert res.settings["method_choice"].split("mode at")[1] == upright.settings["method_choice"].split("mode at")[1]
+    E = res.energy().total
+    assert np.abs(E - E[0]).max() <= 1e-8 * abs(E[0])

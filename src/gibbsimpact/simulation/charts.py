@@ -19,7 +19,7 @@ import numpy as np
 
 from ..dynamics.base_chart import RECHART_ANGLE, base_angles, rechart
 
-__all__ = ["ChartChange", "RECHART_ANGLE", "chart", "chart_event", "charted"]
+__all__ = ["ChartChange", "RECHART_ANGLE", "chart", "chart_event", "charted", "start_chart"]
 
 
 class ChartChange(NamedTuple):
@@ -42,6 +42,15 @@ def charted(model, prescribed=None) -> bool:
     if model.chain.base != "free":
         return False
     return prescribed is None or not set(np.asarray(prescribed).tolist()) & {3, 4, model.theta_index[0]}
+
+
+def start_chart(model, q0, qdot0, charting: bool):
+    """(model, q0, qdot0) in the chart a run starts in: re-charted (dynamics.base_chart.rechart) when charting and
+    |theta_0| >= RECHART_ANGLE, else as given. What is computed from the initial state's dynamics (the checks,
+    method="auto") is computed there, where the chart is regular."""
+    if charting and abs(q0[4]) >= RECHART_ANGLE:
+        return rechart(model, q0, qdot0)
+    return model, q0, qdot0
 
 
 def chart_event(model):

@@ -16,10 +16,9 @@ from ..contact.impact import HeldContactError
 from ..contact.resting import RestingContacts
 from ..contact.walls import describe, is_compliant
 from ..dynamics.forces import CallbackError
-from ..dynamics.base_chart import rechart
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .accumulation import Accumulation
-from .charts import RECHART_ANGLE, chart, chart_event, charted
+from .charts import chart, chart_event, charted, start_chart
 from .compliant import COMPLIANT_EVENTS, CompliantContacts, compliant_event, compliant_gap_functions
 from .contacts import Contacts, contact_band, event_spec, gap_lipschitz, impact_stage as solve_impact, phase_events
 from .equations import Equations
@@ -107,13 +106,14 @@ def _check_inside(model, q, walls, contact_tol, link_contacts=True):
     raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(lines) + f". Move the chain {fix}.")
 
 
-def _check_start(model, q0, qdot0, settings, limits, charting=False):
+def _check_start(model, q0, qdot0, settings, limits, start=None):
     """Refuse an initial state the run cannot start from; warn where it is outside the model's assumptions.
-    With charting (simulation.charts) the dynamics are checked in the chart the run will start in."""
+    start: (model, q0, qdot0) in the chart the run starts in (simulation.charts.start_chart), where the
+    dynamics are checked."""
     check_initial(limits, q0)
     _check_inside(model, q0, settings.walls, settings.contact_tol, settings.link_contacts)
     try:
-        m, q, qd = rechart(model, q0, qdot0) if charting and abs(q0[4]) >= RECHART_ANGLE else (model, q0, qdot0)
+        m, q, qd = (model, q0, qdot0) if start is None else start
         mass_matrix(m, q)
         forward_dynamics(m, q, qd)
     except SingularMassMatrixError as exc:
@@ -124,10 +124,11 @@ def _check_start(model, q0, qdot0, settings, limits, charting=False):
 def start(model, q0, qdot0, settings, clock) -> Run:
     """Check the initial state and build the run's parts (method="auto" resolved); the loop starts with an
     impact stage."""
-    s, walls = settings.resolve_auto(model, q0), settings.walls
+    charting = charted(model, _index(settings.prescribed))
+    started = start_chart(model, q0, qdot0, charting)
+    s, walls = settings.resolve_auto(*started[:2]), settings.walls
     limits = joint_limits(model)
-    charting = charted(model, _index(s.prescribed))
-    _check_start(model, q0, qdot0, s, limits, charting)
+    _check_start(model, q0, qdot0, s, limits, started)
     limits = _watched(limits, s.prescribed)
     contacts = Contacts(model, walls, s.link_contacts)
     stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
