@@ -215,3 +215,13 @@ def test_a_run_starts_at_gimbal_lock_with_the_automatic_method():
     assert res.settings["method_choice"].split("mode at")[1] == upright.settings["method_choice"].split("mode at")[1]
     E = res.energy().total
     assert np.abs(E - E[0]).max() <= 1e-8 * abs(E[0])
+
+
+def test_a_joint_input_keeps_the_power_balance_across_recharts():
+    # A constant torque on theta_2 (a joint, the same in every chart): E(t) - E(0) = W(t), the input's work
+    # integrated with the state, through every re-chart.
+    model, q, qd = _tumbling([])
+    res = gi.simulate(model, q, qd, (0.0, 0.5), inputs={"theta_2": 0.05}, rtol=1e-12, atol=1e-13)
+    assert len(res.charts) >= 5 and abs(res.work[-1, 0]) > 1e-3
+    E = res.energy().total
+    assert np.abs(E - E[0] - res.work[:, 0]).max() <= 1e-9 * abs(E[0])
