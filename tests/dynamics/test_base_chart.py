@@ -88,3 +88,32 @@ def test_with_base_chart_refuses_what_is_not_a_rotation(model):
     fixed = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 1.0)], base=gi.FixedBase()))
     with pytest.raises(ValueError, match="only a spatial free base"):
         fixed.with_base_chart(np.eye(3))
+
+
+def test_rechart_of_a_tree_whose_root_axis_is_turned(rng):
+    # A tree (link 0 carries links 1 and 2) whose root revolute's axis is turned by A = Rx(0.5) Ry(0.3): the chart
+    # is T_1 = Trans(X) R_ref Rx Ry A Rz; the kernel's base frame, and every point, velocity, E and H, are kept.
+    r = 0.01
+    link = gi.Link(0.6, 1.0, (20.0, 20.0), modes=[gi.Mode("clamped-free", "z")],
+                   rotary_inertia=(r * r / 2, r * r / 4, r * r / 4))
+    A = _rot(0, 0.5) @ _rot(1, 0.3)
+    joints = [gi.Revolute(axis_rotation=A), gi.Revolute(), gi.Weld(angle=0.4)]
+    model = gi.Model(gi.Chain([link, link, link], joints=joints, parents=[-1, 0, 0], attach=[None, 0.6, 0.3]),
+                     gravity=(0.0, -9.81, 0.0))
+    for _ in range(3):
+        q, qd = rng.uniform(-1.5, 1.5, model.n_dof), rng.normal(size=model.n_dof)
+        for idx in model.delta_index:
+            q[idx] *= 0.05
+        T = transforms(model, q)[0]
+        np.testing.assert_allclose(base_orientation_matrix(model, q), T[:3, :3], atol=1e-15)
+        np.testing.assert_allclose(T[:3, :3], _rot(0, q[3]) @ _rot(1, q[4]) @ A @ _rot(2, q[5]), atol=1e-15)
+        new, q2, qd2 = rechart(model, q, qd)
+        np.testing.assert_allclose(new.joint_positions(q2), model.joint_positions(q), atol=1e-14)
+        np.testing.assert_allclose(new.joint_velocities(q2, qd2), model.joint_velocities(q, qd), atol=1e-13)
+        E, E2 = model.energy(q, qd), new.energy(q2, qd2)
+        assert abs(E2.total - E.total) <= 1e-14 * (abs(E.kinetic) + abs(E.gravity) + abs(E.strain))
+        np.testing.assert_allclose(new.angular_momentum(q2, qd2), model.angular_momentum(q, qd), atol=1e-13)
+        # The new angles (0, b*, 0) put the chart where |det B| = |e_z . Ry(b*) A e_z| is largest: |(u_x, u_z)|.
+        u = A[:, 2]
+        assert q2[3] == q2[5] == 0.0
+        assert abs((_rot(1, q2[4]) @ u)[2]) == pytest.approx(np.hypot(u[0], u[2]), abs=1e-15)

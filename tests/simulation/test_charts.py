@@ -225,3 +225,24 @@ def test_a_joint_input_keeps_the_power_balance_across_recharts():
     assert len(res.charts) >= 5 and abs(res.work[-1, 0]) > 1e-3
     E = res.energy().total
     assert np.abs(E - E[0] - res.work[:, 0]).max() <= 1e-9 * abs(E[0])
+
+
+def test_a_tumbling_tree_with_a_turned_root_axis_goes_through_its_charts():
+    # A rigid T (a hub link carrying two arms, one welded) whose root axis is turned by A = Rx(0.4): its chart is
+    # singular where e_z . Ry(theta_0) A e_z = 0; E and H stay through the re-charts.
+    link = gi.Link(0.5, 1.0, (50.0, 50.0), rotary_inertia=(_R * _R / 2, _R * _R / 4, _R * _R / 4))
+    joints = [gi.Revolute(axis_rotation=_rot(0, 0.4)), gi.Revolute(), gi.Weld(angle=1.2)]
+    model = gi.Model(gi.Chain([link, link, link], joints=joints, parents=[-1, 0, 0], attach=[None, 0.5, 0.25]),
+                     gravity=(0.0, 0.0, 0.0))
+    q = model.state(theta_0=0.2, theta_2=0.3)
+    qd = model.state(theta_m1=0.2, theta_0=12.0, theta_2=0.5)
+    res = gi.simulate(model, q, qd, (0.0, 0.5), rtol=1e-12, atol=1e-13)
+    assert res.status == "finished" and len(res.charts) >= 2
+    E = res.energy().total
+    assert np.abs(E - E[0]).max() <= 1e-9 * abs(E[0])
+    H = np.array([res.model_at(k).angular_momentum(a, b, about=np.zeros(3))
+                  for k, (a, b) in enumerate(zip(res.q, res.qdot))])
+    assert np.abs(H - H[0]).max() <= 1e-9 * np.linalg.norm(H[0])
+    P = res.joint_positions()
+    for c in res.charts:
+        np.testing.assert_allclose(P[c.sample], P[c.sample - 1], atol=1e-14)

@@ -1,13 +1,18 @@
-"""The spatial free base's orientation chart and its change (formulation §18, docs/theory.md §1.1).
+"""The spatial free base's orientation chart and its change (formulation §18, docs/theory.md §2.1).
 
-The base frame is T_1 = Trans(X) R_ref Rx(theta_-1) Ry(theta_0) Rz(theta_1): three angles measured
-from a reference orientation R_ref (Model.base_chart) that a run may change. The chart is singular
-where cos theta_0 = 0; a re-chart moves R_ref to the current orientation and sets the angles to 0:
+The base frame is T_1 = Trans(X) R_ref Rx(theta_-1) Ry(theta_0) A Rz(theta_1): three angles measured
+from a reference orientation R_ref (Model.base_chart) that a run may change; A (3, 3) is the constant
+axis_rotation of the root's revolute (I by default). With u = A e_z:
 
-    R_ref' = R_ref C,   C = Rx(theta_-1) Ry(theta_0) Rz(theta_1),   angles' = 0
     omega  = R_ref B(theta) thetadot            (world angular velocity of the base, [rad/s])
-    B(theta) = [e_x, Rx(theta_-1) e_y, Rx(theta_-1) Ry(theta_0) e_z]     (3, 3), det B = cos theta_0
-    thetadot' = B(0)^-1 R_ref'^T R_ref B(theta) thetadot = C^T B(theta) thetadot
+    B(theta) = [e_x, Rx(theta_-1) e_y, Rx(theta_-1) Ry(theta_0) u]      (3, 3)
+    det B = e_z . Ry(theta_0) u  = cos theta_0 for A = I
+
+The chart is singular where det B = 0. A re-chart keeps the orientation and moves the angles to
+(0, b*, 0), b* = atan2(-u_x, u_z) (0 for A = I), where |det B| = |(u_x, u_z)| is largest:
+
+    R_ref' = R_ref C(theta) (Ry(b*) A)^T,   C(theta) = Rx(theta_-1) Ry(theta_0) A Rz(theta_1)
+    thetadot' = B(theta')^-1 R_ref'^T R_ref B(theta) thetadot
 
 so T_1, its velocity (hence every point's position and velocity, the energy and the momenta) are the
 same before and after; X, the joint angles theta_2 .. theta_n and the deltas do not change.
@@ -17,9 +22,10 @@ from __future__ import annotations
 
 import numpy as np
 
-#: |theta_0| [rad] at which a run re-charts the free base (simulation/charts.py): 1.2 rad keeps
-#: cos theta_0 >= 0.36, so B(theta) has a condition number of at most ~5.6 in every chart a run uses.
+#: The chart is re-charted when |det B| falls to cos(RECHART_ANGLE): |theta_0| = 1.2 rad for A = I, where
+#: cos theta_0 = 0.36 and B has a condition number of at most ~5.6 in every chart a run uses.
 RECHART_ANGLE = 1.2
+_DET_MIN = float(np.cos(RECHART_ANGLE))
 
 
 def axis_rotation(axis: int, angle) -> np.ndarray:
@@ -36,53 +42,71 @@ def axis_rotation(axis: int, angle) -> np.ndarray:
     return R
 
 
+def root_rotation(model) -> np.ndarray:
+    """A (3, 3): the constant axis rotation of the free base's root revolute (I when it has none)."""
+    A = getattr(model.chain.joints[0], "axis_rotation", None)
+    return np.eye(3) if A is None else np.asarray(A, dtype=float)
+
+
 def base_angles(model, q) -> np.ndarray:
     """(theta_-1, theta_0, theta_1) (..., 3) [rad] of q (..., N) of a spatial free base."""
     q = np.asarray(q, dtype=float)
     return q[..., [3, 4, model.theta_index[0]]]
 
 
-def chart_rotation(angles) -> np.ndarray:
-    """C = Rx(theta_-1) Ry(theta_0) Rz(theta_1) (..., 3, 3) of angles (..., 3) [rad]."""
+def chart_rotation(angles, A=None) -> np.ndarray:
+    """C = Rx(theta_-1) Ry(theta_0) A Rz(theta_1) (..., 3, 3) of angles (..., 3) [rad] (A: I by default)."""
     a = np.asarray(angles, dtype=float)
-    return axis_rotation(0, a[..., 0]) @ axis_rotation(1, a[..., 1]) @ axis_rotation(2, a[..., 2])
+    Rxy = axis_rotation(0, a[..., 0]) @ axis_rotation(1, a[..., 1])
+    return (Rxy if A is None else Rxy @ A) @ axis_rotation(2, a[..., 2])
 
 
-def chart_rate_matrix(angles) -> np.ndarray:
+def chart_rate_matrix(angles, A=None) -> np.ndarray:
     """B(theta) (..., 3, 3): the angular velocity in the chart's reference frame is B thetadot [rad/s]
-    (module docstring); columns e_x, Rx e_y, Rx Ry e_z."""
+    (module docstring); columns e_x, Rx e_y, Rx Ry u, u = A e_z."""
     a = np.asarray(angles, dtype=float)
+    u = np.array([0.0, 0.0, 1.0]) if A is None else np.asarray(A, dtype=float)[:, 2]
     Rx = axis_rotation(0, a[..., 0])
     B = np.empty(a.shape[:-1] + (3, 3))
     B[..., :, 0] = (1.0, 0.0, 0.0)
     B[..., :, 1] = Rx[..., :, 1]
-    B[..., :, 2] = (Rx @ axis_rotation(1, a[..., 1]))[..., :, 2]
+    B[..., :, 2] = (Rx @ axis_rotation(1, a[..., 1])) @ u
     return B
+
+
+def chart_margin(model, theta_0) -> float:
+    """|det B| - cos(RECHART_ANGLE) at theta_0 [rad] (det B = e_z . Ry(theta_0) A e_z, module docstring): the
+    chart is re-charted where it falls to 0 (|theta_0| = RECHART_ANGLE for A = I)."""
+    u = root_rotation(model)[:, 2]
+    return abs(u[2] * np.cos(theta_0) - u[0] * np.sin(theta_0)) - _DET_MIN
 
 
 def base_orientation_matrix(model, q, chart=None) -> np.ndarray:
     """R_1 = R_ref C(theta) (..., 3, 3), the world orientation of the base frame T_1, for q (..., N) and
     chart R_ref (..., 3, 3) (default model.base_chart)."""
     R_ref = model.base_chart if chart is None else np.asarray(chart, dtype=float)
-    return R_ref @ chart_rotation(base_angles(model, q))
+    return R_ref @ chart_rotation(base_angles(model, q), root_rotation(model))
 
 
 def rechart(model, q, qdot):
-    """(model', q', qdot') in the chart R_ref' = R_ref C(theta) of the current orientation (module docstring).
+    """(model', q', qdot') in the chart of the current orientation (module docstring).
 
     model : Model with a spatial free base; q, qdot : (N,) in its chart [m, rad; m/s, rad/s].
     model' = model.with_base_chart(R_ref'), R_ref' projected back onto a rotation (its polar factor) so
-    that round-off does not build up over many re-charts; q' has theta_-1 = theta_0 = theta_1 = 0, qdot'
-    the rates C^T B(theta) thetadot; every other coordinate and rate is unchanged.
+    that round-off does not build up over many re-charts; q' has the angles (0, b*, 0), qdot' the rates
+    B(theta')^-1 R_ref'^T R_ref B(theta) thetadot; every other coordinate and rate is unchanged.
     """
     idx = [3, 4, model.theta_index[0]]
+    A = root_rotation(model)
     angles = np.asarray(q, dtype=float)[idx]
-    C = chart_rotation(angles)
-    U, _, Vt = np.linalg.svd(model.base_chart @ C)
+    new_angles = np.array([0.0, np.arctan2(-A[0, 2], A[2, 2]), 0.0])
+    # R_ref' C(theta') = R_ref C(theta): the same orientation in the new chart.
+    turn = chart_rotation(angles, A) @ chart_rotation(new_angles, A).T  # R_ref^T R_ref'
+    U, _, Vt = np.linalg.svd(model.base_chart @ turn)
     new = model.with_base_chart(U @ Vt)
     q2, qd2 = np.array(q, dtype=float), np.array(qdot, dtype=float)
-    q2[idx] = 0.0
-    qd2[idx] = C.T @ chart_rate_matrix(angles) @ qd2[idx]
+    q2[idx] = new_angles
+    qd2[idx] = np.linalg.solve(chart_rate_matrix(new_angles, A), turn.T @ chart_rate_matrix(angles, A) @ qd2[idx])
     return new, q2, qd2
 
 

@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..dynamics.base_chart import RECHART_ANGLE, base_angles, rechart
+from ..dynamics.base_chart import RECHART_ANGLE, base_angles, chart_margin, rechart, root_rotation
 
 __all__ = ["ChartChange", "RECHART_ANGLE", "chart", "chart_event", "charted", "start_chart"]
 
@@ -26,7 +26,7 @@ class ChartChange(NamedTuple):
     """One re-chart of the free base (Result.charts).
 
     time : [s]; sample : index into Result.t of the sample after it (the one before is sample - 1, same time)
-    angles_before : (3,) theta_-1, theta_0, theta_1 [rad] in the old chart (0 in the new one)
+    angles_before : (3,) theta_-1, theta_0, theta_1 [rad] in the old chart (the new one starts at (0, b*, 0): dynamics.base_chart)
     chart_after : (3, 3) the new R_ref = R_ref_old Rx Ry Rz (Result.base_chart[sample])
     """
 
@@ -38,37 +38,47 @@ class ChartChange(NamedTuple):
 
 def charted(model, prescribed=None) -> bool:
     """Whether a run of this model re-charts its base: a spatial free base none of whose angles is prescribed
-    (prescribed: None or (n_p,) indices of the prescribed coordinates)."""
-    if model.chain.base != "free":
+    (prescribed: None or (n_p,) indices of the prescribed coordinates), and whose root revolute's axis u = A e_z
+    leaves a re-chart room: the best chart's |det B| = |(u_x, u_z)| (dynamics.base_chart) at least twice the
+    threshold cos(RECHART_ANGLE), i.e. u within 46 degrees of the chart's x-z plane (u = e_z: always)."""
+    u = root_rotation(model)[:, 2]
+    if model.chain.base != "free" or np.hypot(u[0], u[2]) < 2.0 * np.cos(RECHART_ANGLE):
         return False
     return prescribed is None or not set(np.asarray(prescribed).tolist()) & {3, 4, model.theta_index[0]}
+
+
+def needs_chart(model, q) -> bool:
+    """Whether the chart of q (N,) is within RECHART_ANGLE of its singularity (chart_margin <= 0)."""
+    return chart_margin(model, q[4]) <= 0.0
 
 
 def start_chart(model, q0, qdot0, charting: bool):
     """(model, q0, qdot0) in the chart a run starts in: re-charted (dynamics.base_chart.rechart) when charting and
     |theta_0| >= RECHART_ANGLE, else as given. What is computed from the initial state's dynamics (the checks,
     method="auto") is computed there, where the chart is regular."""
-    if charting and abs(q0[4]) >= RECHART_ANGLE:
+    if charting and needs_chart(model, q0):
         return rechart(model, q0, qdot0)
     return model, q0, qdot0
 
 
 def chart_event(model):
-    """The flight phase's chart event (fun(t, y) -> (1,), direction (-1,), inside (False,)): RECHART_ANGLE -
-    |theta_0| falls through zero. Seen by its sign change at the step ends (no dense output, so it costs a
+    """The flight phase's chart event (fun(t, y) -> (1,), direction (-1,), inside (False,)): the chart's margin
+    |det B| - cos(RECHART_ANGLE) (dynamics.base_chart.chart_margin; |theta_0| = RECHART_ANGLE for A = I) falls
+    through zero. Seen by its sign change at the step ends (no dense output, so it costs a
     run nothing until it fires): a crossing that goes back within one step is missed, and harmless, since
     theta_0 then stayed away from +-pi/2 (the solver's steps shrink where the chart's B is ill-conditioned)."""
-    return (lambda t, y: np.array([RECHART_ANGLE - abs(y[4])]), np.array([-1.0]), np.array([False]))
+    return (lambda t, y: np.array([chart_margin(model, y[4])]), np.array([-1.0]), np.array([False]))
 
 
 def chart(run) -> None:
-    """The chart stage, before a flight phase: re-chart when |theta_0| >= RECHART_ANGLE, or when the last
-    phase ended at the chart event (its located root may lie a round-off below the threshold)."""
+    """The chart stage, before a flight phase: re-chart when the chart is within RECHART_ANGLE of its singularity
+    (|theta_0| >= RECHART_ANGLE for a root without axis rotation), or when the last phase ended at the chart
+    event (its located root may lie a round-off off the threshold)."""
     if not run.charting:
         return
     N = run.N
     q, qd = run.y[:N], run.y[N:2 * N]
-    if not (run.pending_chart or abs(q[4]) >= RECHART_ANGLE):
+    if not (run.pending_chart or needs_chart(run.model, q)):
         return
     run.pending_chart = False
     old = run.model
@@ -83,7 +93,7 @@ def hand_over(run, old, new) -> None:
 
     The parts (contacts, resting, equations, recorder, compliant contacts, end stops) keep their state;
     their caches are keyed on q's bytes, which no state of the new chart shares with the last one of the
-    old (its angles are 0, the old ones had |theta_0| >= RECHART_ANGLE)."""
+    old (its angles are (0, b*, 0), the old ones at the old chart's margin)."""
     run.model = new
     for part in (run.contacts, run.resting, run.equations, run.recorder, run.compliant, run.stops):
         if part is None:

@@ -143,7 +143,7 @@ class Result:
     base_chart : (K, 3, 3) or None: R_ref of every sample's chart of a spatial free base (formulation §18,
         docs/theory.md §1.1): the base frame is T_1 = Trans(X) R_ref Rx(theta_-1) Ry(theta_0) Rz(theta_1), so q
         alone no longer fixes the orientation once a run re-charted; None when it never did (R_ref = I).
-        The angles theta_-1, theta_0, theta_1 in q are the current chart's and jump to 0 at a re-chart;
+        The angles theta_-1, theta_0, theta_1 in q are the current chart's and jump at a re-chart;
         use base_orientation for a chart-free orientation, chart_segments / model_at for kinematics
     charts : list of ChartChange (gibbsimpact.simulation.charts): every re-chart, its time, the index of the
         sample after it (the sample before has the same time), the old angles and the new R_ref
