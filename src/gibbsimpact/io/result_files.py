@@ -48,12 +48,12 @@ from pathlib import Path
 import numpy as np
 
 from ..dynamics.gibbs_appell import Energy
-from ..simulation.charts import ChartChange
 from ..simulation.compliant import CompliantContact
 from ..simulation.results import ImpactRecord, Result
 from ..contact.walls import describe
 from .contact_force_files import (_force_point_names, compliant_force_columns, contact_force_columns,
                                   has_contact_forces, stop_force_columns)
+from .chart_files import base_summary, chart_arrays, charts_from
 from .episode_files import EPISODE_COLUMNS, episode_rows, episode_cell
 from .plain_data import model_from_dict, model_to_dict, wall_from_dict, wall_to_dict
 
@@ -452,10 +452,7 @@ def summary(result: Result, case=None) -> dict:
     if result.prescribed:
         d["prescribed_coordinates"] = list(result.prescribed)
         d["effort_final"] = dict(zip(effort_columns(result), (float(v) for v in result.effort[-1])))
-    if result.base_orientation is not None:  # a spatial free base: its chart-free final orientation, its re-charts
-        d["base_orientation_final_wxyz"] = [float(v) for v in result.base_orientation[-1]]
-        d["base_recharts"] = [{"time_s": float(c.time), "angles_before_rad": [float(a) for a in c.angles_before]}
-                              for c in result.charts]
+    d.update(base_summary(result))
     d["n_samples"] = int(len(result.t))
     return _json_safe(d)
 
@@ -576,13 +573,8 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         arrays["friction_forces"] = np.asarray(result.friction_forces, dtype=float)
     if result.stop_forces is not None:
         arrays["stop_forces"] = np.asarray(result.stop_forces, dtype=float)
-    if result.base_chart is not None:
-        arrays.update(_chart_arrays(result))
-    if result.compliant_forces is not None:
-        arrays["compliant_forces"] = np.asarray(result.compliant_forces, dtype=float)
-        arrays["compliant_points"] = np.asarray(result.compliant_points, dtype=float)
-        arrays["compliant_integrals"] = np.asarray(result.compliant_integrals, dtype=float)
-        arrays["compliant_contacts"] = np.array(result.compliant_contacts, dtype=float).reshape(-1, 5)
+    arrays.update(chart_arrays(result))
+    arrays.update(_compliant_arrays(result))
     meta = {
         "format": "gibbsimpact.Result",
         "format_version": FORMAT_VERSION,
@@ -608,23 +600,14 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
     return path
 
 
-def _chart_arrays(result) -> dict:
-    """The free base's charts of a Result that re-charted (Result.base_chart, Result.charts) as NPZ arrays."""
-    ch = result.charts
-    return {"base_chart": np.asarray(result.base_chart, dtype=float),
-            "chart_time": np.array([c.time for c in ch], dtype=float),
-            "chart_sample": np.array([c.sample for c in ch], dtype=np.int64),
-            "chart_angles_before": np.array([c.angles_before for c in ch], dtype=float).reshape(-1, 3),
-            "chart_after": np.array([c.chart_after for c in ch], dtype=float).reshape(-1, 3, 3)}
-
-
-def _charts_from(a: dict) -> dict:
-    """Result's base_chart and charts from the arrays of _chart_arrays ({} for a file without them)."""
-    if "base_chart" not in a:
+def _compliant_arrays(result) -> dict:
+    """The compliant contacts' forces, points, integrals and contacts of a Result as NPZ arrays ({} without)."""
+    if result.compliant_forces is None:
         return {}
-    return {"base_chart": a["base_chart"],
-            "charts": [ChartChange(float(t), int(k), b, R) for t, k, b, R in
-                       zip(a["chart_time"], a["chart_sample"], a["chart_angles_before"], a["chart_after"])]}
+    return {"compliant_forces": np.asarray(result.compliant_forces, dtype=float),
+            "compliant_points": np.asarray(result.compliant_points, dtype=float),
+            "compliant_integrals": np.asarray(result.compliant_integrals, dtype=float),
+            "compliant_contacts": np.array(result.compliant_contacts, dtype=float).reshape(-1, 5)}
 
 
 def load_result(path, with_metadata: bool = False):
@@ -684,7 +667,7 @@ def load_result(path, with_metadata: bool = False):
         compliant_integrals=a.get("compliant_integrals"),
         compliant_contacts=[CompliantContact(int(r[0]), int(r[1]), *map(float, r[2:]))
                             for r in a.get("compliant_contacts", np.zeros((0, 5)))],
-        **_charts_from(a),
+        **charts_from(a),
     )
     if with_metadata:
         return res, _untag(meta.get("metadata", {}))

@@ -169,18 +169,7 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
     with progress_reporter(settings.progress, settings.t0, settings.t_end) as report:
         run = start(model, q0, qdot0, settings, Clock(report))
         try:
-            while run.status is None:
-                impact(run)
-                if run.status is not None:
-                    break
-                mode(run)
-                if run.t >= settings.t_end:
-                    run.end("t_end", t_end=settings.t_end)
-                    break
-                chart(run)
-                outcome = flight(run)
-                if outcome is not None and check(run, outcome[0]):
-                    dispatch(run, *outcome)
+            _loop(run)
         except KeyboardInterrupt as exc:
             interrupted(run, str(exc) or "KeyboardInterrupt (Ctrl-C)")
         except CallbackError as exc:
@@ -191,6 +180,22 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
         _final_report(report, res)
     warn_result(res)
     return res
+
+
+def _loop(run) -> None:
+    """The stages (module docstring) until the run stops: impact, contact mode, chart, flight, check, dispatch."""
+    while run.status is None:
+        impact(run)
+        if run.status is not None:
+            break
+        mode(run)
+        if run.t >= run.settings.t_end:
+            run.end("t_end", t_end=run.settings.t_end)
+            break
+        chart(run)
+        outcome = flight(run)
+        if outcome is not None and check(run, outcome[0]):
+            dispatch(run, *outcome)
 
 
 def _final_report(report, res) -> None:
