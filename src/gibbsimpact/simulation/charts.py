@@ -1,14 +1,16 @@
-"""The chart stage of the event loop: re-charting the spatial free base (formulation §18, docs/theory.md §1.1).
+"""The chart stage of the event loop: re-charting the spatial free base (formulation §18, docs/theory.md §2.1).
 
-A run measures the base angles from a reference orientation R_ref (Model.base_chart). When |theta_0|
-reaches RECHART_ANGLE (the flight phase's "chart" event, or at the start), the chart stage moves
-R_ref to the current orientation and maps the angles and their rates (dynamics.base_chart.rechart):
-positions, velocities, energy and momenta are unchanged, and the chart's singularity theta_0 = +-pi/2
-stays 1.2 rad or more away from the motion. Like any event, a re-chart ends the flight phase; the
-contact mode (resting pairs, stick or slip), the end stops, the work and compliant states carry over,
-since they are stated in world quantities and gaps, never in the base angles.
+A run measures the base angles from a reference orientation R_ref (Model.base_chart). When the chart
+comes within RECHART_ANGLE of its singularity (|theta_0| = 1.2 rad for a root revolute without axis
+rotation; the flight phase's "chart" event, or at the start), the chart stage moves R_ref to the current
+orientation and maps the angles and their rates (dynamics.base_chart.rechart): positions, velocities,
+energy and momenta are unchanged, and the chart's singularity (theta_0 = +-pi/2) stays away from the
+motion. Like any event, a re-chart ends the flight phase; the contact mode (resting pairs, stick or
+slip), the end stops, the work and compliant states carry over, since they are stated in world
+quantities and gaps, never in the base angles.
 
-Not re-charted: a run with a prescribed base angle (its profile is the user's, in the first chart).
+Not re-charted: a run with a prescribed base angle (its profile is the user's, in the first chart), and a
+root axis that leaves no chart room (charted).
 """
 
 from __future__ import annotations
