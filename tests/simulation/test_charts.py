@@ -246,3 +246,21 @@ def test_a_tumbling_tree_with_a_turned_root_axis_goes_through_its_charts():
     P = res.joint_positions()
     for c in res.charts:
         np.testing.assert_allclose(P[c.sample], P[c.sample - 1], atol=1e-14)
+
+
+def test_recharting_during_a_compliant_contact_keeps_it():
+    # The rod of the resting test dropped on a compliant floor (chi = 0 at e = 1): theta_0 passes 1.2 rad
+    # while O_1 presses on it; the contact goes on as one (its force the same in both samples) and E comes back.
+    link = gi.Link(1.0, 1.0, 1.0, rotary_inertia=(1e-3, 1e-3, 1e-3))
+    model = gi.Model(gi.Chain([link]), gravity=(0.0, -9.81, 0.0))
+    floor = gi.Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0), restitution=1.0, stiffness=1e5)
+    q, qd = model.state(theta_m1=np.pi / 2, theta_0=1.15, X2=0.01), model.state(theta_0=3.0, X2=-1.0)
+    res = gi.simulate(model, q, qd, (0.0, 0.05), walls=[floor])
+    assert len(res.charts) == 1 and len(res.compliant_contacts) == 1
+    c, contact = res.charts[0], res.compliant_contacts[0]
+    assert contact.start < c.time < contact.end
+    F = res.compliant_forces[:, 0, 0]
+    assert F[c.sample] > 0 and F[c.sample] == F[c.sample - 1]
+    np.testing.assert_allclose(res.compliant_integrals[c.sample], res.compliant_integrals[c.sample - 1], atol=0)
+    E = res.energy().total  # the chain's E, which lends the wall's spring energy during the contact only
+    assert contact.end < res.t[-1] and abs(E[-1] - E[0]) <= 1e-9 * abs(E[0])
