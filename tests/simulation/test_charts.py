@@ -264,3 +264,18 @@ def test_recharting_during_a_compliant_contact_keeps_it():
     np.testing.assert_allclose(res.compliant_integrals[c.sample], res.compliant_integrals[c.sample - 1], atol=0)
     E = res.energy().total  # the chain's E, which lends the wall's spring energy during the contact only
     assert contact.end < res.t[-1] and abs(E[-1] - E[0]) <= 1e-9 * abs(E[0])
+
+
+def test_the_angle_figure_marks_each_rechart(tumbling):
+    # The base angles jump at a re-chart; the figure says where and why (a line at each, a footnote naming
+    # the times), so a jump is not read as a fault of the run.
+    import matplotlib
+    matplotlib.use("Agg")
+    from gibbsimpact.plotting.time_histories import plot_angles
+
+    res = tumbling
+    fig = plot_angles(res)
+    marked = [line.get_xdata()[0] for ax in fig.axes[:2] for line in ax.lines if line.get_gid() == "rechart"]
+    np.testing.assert_array_equal(marked, [c.time for c in res.charts] * 2)
+    note = " ".join(t.get_text() for t in fig.texts).replace("\n", " ")
+    assert f"{len(res.charts)} re-charts of the free base" in note and f"{res.charts[0].time:.6g}" in note

@@ -13,8 +13,9 @@ from .labels import _point_label, _point_name, _status_box, _tex, _title, _wrap_
 from .style import _P_STYLES, _RANGE_STYLE, _STYLES, _figure, _given_axes, _joint_colour, _legend, _link_colour, _style
 
 
-def _finish_time_figure(fig, axes, result, title, own: bool, number_axes=None, right: float = 1.0):
-    """Limits, grid, impact marks; on a figure of our own the title, the footnote and the layout.
+def _finish_time_figure(fig, axes, result, title, own: bool, number_axes=None, right: float = 1.0, note: str = ""):
+    """Limits, grid, impact marks; on a figure of our own the title, the footnote (the impacts, then
+    ``note``) and the layout.
 
     The impact numbers are placed after the layout, for the axes' final widths (a row laid out for
     the widths before it overlapped once tight_layout had narrowed the axes).
@@ -34,7 +35,7 @@ def _finish_time_figure(fig, axes, result, title, own: bool, number_axes=None, r
         for ax in number_axes:
             _number_impacts(ax, result, placeholder=True)  # reserves the row's height in the layout
         fig.suptitle(title, fontsize=11 if "\n" not in title else 10)
-        note = _wrap_note(_impact_note(result), fig.get_figwidth())
+        note = _wrap_note(_impact_note(result) + note, fig.get_figwidth())
         fig.text(0.01, 0.005, note, fontsize=7, color="0.3", ha="left", va="bottom")
         fig.tight_layout(rect=(0, (10.0 * (note.count("\n") + 1) + 3.0) / (72.0 * fig.get_figheight()), right, 1))
     else:
@@ -85,6 +86,22 @@ def _draw_ranges(ax, model, rows, colour=None):
                        **_RANGE_STYLE)
 
 
+def _chart_marks(axes, result) -> str:
+    """Dash-dotted lines at the re-charts of the free base (Result.charts, docs/theory.md §2.1) on
+    ``axes``, where theta_-1, theta_0, theta_1 jump; returns the footnote's sentence on them ('' when
+    the run never re-charted)."""
+    times = [c.time for c in (getattr(result, "charts", None) or ())]
+    if not times:
+        return ""
+    for ax in axes:
+        for t in times:
+            ax.axvline(t, color="C4", ls="-.", lw=0.8, zorder=0, gid="rechart")
+    shown = ", ".join(f"{t:.6g}" for t in times[:8]) + (f", ... ({len(times)} in all)" if len(times) > 8 else "")
+    return (f"; {len(times)} re-chart{'s' if len(times) > 1 else ''} of the free base (dash-dotted) at t = {shown} s: "
+            "theta_-1, theta_0, theta_1 jump there to another chart of the same orientation (theory §2.1; "
+            "Result.base_orientation, timeseries.csv base_qw ... base_qz, is continuous)")
+
+
 def plot_angles(result, case_name=None, ax=None):
     """Joint variables against time: angles theta [rad] and their rates [rad/s]; the variables d [m]
     of prismatic joints (thin dashed lines: their ranges d_min, d_max) and their rates [m/s] on
@@ -128,7 +145,8 @@ def plot_angles(result, case_name=None, ax=None):
         what = "prismatic joint variables d (dashed: their ranges) and velocities"
     else:
         what = "joint variables: angles [rad], prismatic d [m] (dashed: ranges), and their rates"
-    _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
+    note = _chart_marks(axes[:2] if groups["R"] else [], result)
+    _finish_time_figure(fig, axes, result, _title(result, what, case_name), own, note=note)
     return fig
 
 
