@@ -307,8 +307,8 @@ def _check_tree(links, joints, base, parents, attach) -> tuple:
     roots = [i for i, p in enumerate(parents) if p < 0]
     if isinstance(base, str) and len(roots) > 1:
         raise ValueError(f"Chain parents[{roots[1]}]=-1: a floating base (base={base!r}) floats one root link; "
-                         "attach links " + ", ".join(str(r) for r in roots[1:]) + " to a link (or use "
-                         "gi.FixedBase(...), which may carry several roots)")
+                         "give " + ", ".join(f"links[{r}] (link {r + 1})" for r in roots[1:]) + " an earlier link as "
+                         "parent (or use gi.FixedBase(...), which may carry several roots)")
     if attach is None:
         attach = (None,) * n
     try:
@@ -324,12 +324,12 @@ def _check_tree(links, joints, base, parents, attach) -> tuple:
             out.append(None)
             continue
         if p < 0:
-            raise ValueError(f"Chain attach[{i}]={a!r}: link {i} stands on the base (parents[{i}] = -1); give None "
+            raise ValueError(f"Chain attach[{i}]={a!r}: links[{i}] (link {i + 1}) stands on the base (parents[{i}] = -1); give None "
                              "(place a root with the base's position instead)")
         lp = links[p].length
         if isinstance(a, bool) or not isinstance(a, Real) or not np.isfinite(a) or not 0.0 <= a <= lp:
             raise ValueError(f"Chain attach[{i}]={a!r} must be an abscissa in [0, {lp:g}] m on its parent, "
-                             f"links[{p}] (or None for the parent's tip)")
+                             f"links[{p}] (link {p + 1}) (or None for the parent's tip)")
         out.append(float(a))
     serial = parents == tuple(range(-1, n - 1)) and all(a is None for a in out)
     for k, jt in enumerate(joints):
