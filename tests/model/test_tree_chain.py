@@ -57,3 +57,13 @@ def test_symbolic_derivation_refuses_trees():
     model = gi.Model(gi.Chain([LK, LK], parents=[-1, 0], attach=[None, 0.5], base=gi.FixedBase()))
     with pytest.raises(NotImplementedError, match=r"trees \(Chain parents/attach\), welds"):
         gi.derive_equations(model)
+
+
+def test_chain_refuses_a_chain_with_no_coordinate():
+    # Every joint welded on a fixed base and every link rigid: N = 0. simulate failed inside the kernel
+    # (ZeroDivisionError); Chain now says what is missing. A flexible link keeps its deltas: accepted.
+    with pytest.raises(ValueError, match=r"no coordinate \(N = 0\).*give a joint gi.Revolute\(\)"):
+        gi.Chain([LK, LK], joints=[gi.Weld(), gi.Weld(angle=0.5)], base=gi.FixedBase())
+    bending = gi.Link(1.0, 1.0, 10.0, modes=[gi.Mode("clamped-free", "y")])
+    model = gi.Model(gi.Chain([LK, bending], joints=[gi.Weld(), gi.Weld()], base=gi.FixedBase()))
+    assert model.coordinate_names == ("delta_2_1",)

@@ -246,6 +246,7 @@ class Chain:
         object.__setattr__(self, "parents", parents)
         object.__setattr__(self, "attach", attach)
         _check_joints(links, joints, self.base)
+        _check_moves(links, joints, self.base)
 
     @property
     def serial(self) -> bool:
@@ -340,6 +341,16 @@ def _check_tree(links, joints, base, parents, attach) -> tuple:
         raise ValueError(f"Chain joints[{roots[0]}]={joints[roots[0]]!r}: on a floating base (base={base!r}) the root's "
                          "joint must be gi.Revolute(); its theta is part of the floating orientation")
     return parents, tuple(out)
+
+
+def _check_moves(links, joints, base):
+    """A chain with no coordinate (N = 0: a fixed base, every joint a weld, every link rigid) has
+    nothing to integrate: refuse it here rather than fail inside the kernel."""
+    if isinstance(base, str) or any(jt.kind != "W" for jt in joints) or any(lk.modes or lk.elements for lk in links):
+        return
+    raise ValueError("Chain joints are all gi.Weld() on a fixed base and every link is rigid: the chain has no "
+                     "coordinate (N = 0) and nothing moves; give a joint gi.Revolute() or a link modes=[...] or "
+                     "elements=n_e")
 
 
 def _check_joints(links, joints, base):
