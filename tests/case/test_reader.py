@@ -70,6 +70,15 @@ def test_invalid_toml_and_missing_file(tmp_path):
         gi.load_case(tmp_path / "nope.toml")
 
 
+def test_a_result_file_given_as_a_case_names_what_it_is(tmp_path):
+    # `gibbsimpact show result.npz` said "not UTF-8 text": name the file's kind and the way to read it.
+    import numpy as np
+
+    np.savez(tmp_path / "result.npz", t=np.zeros(2))
+    with pytest.raises(CaseError, match=r"a result file \(NPZ archive\), not a case file: .*gibbsimpact.load_result"):
+        gi.load_case(tmp_path / "result.npz")
+
+
 def test_case_error_is_value_error():
     assert issubclass(CaseError, ValueError)
     with pytest.raises(ValueError):

@@ -153,6 +153,10 @@ def load_case(path) -> Case:
     """
     path = Path(path)
     raw = path.read_bytes()
+    if raw.startswith(b"PK\x03\x04"):  # a zip: result.npz of Result.save or `gibbsimpact run`
+        raise CaseError(str(path), [("", "a result file (NPZ archive), not a case file: read it in Python with "
+                                         "gibbsimpact.load_result(path); the summary.json beside it (gibbsimpact run) "
+                                         "describes the run; give show/run the case's .toml file")])
     try:
         data = tomllib.loads(raw.decode("utf-8"))
     except UnicodeDecodeError as exc:
