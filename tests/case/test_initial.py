@@ -183,6 +183,17 @@ def test_singular_mass_matrix_is_reported(tmp_path):
     assert path == "links" and "singular" in msg and "rotary_inertia" in msg
 
 
+def test_a_free_base_at_gimbal_lock_is_a_valid_start(tmp_path):
+    # docs/case-format.md: theta_0 = +-90 deg is no singular start, a run re-charts the base there (theory
+    # §2.1). The case check computed M in the given chart and refused it; in the run's start chart M is
+    # regular. A single link without rotary inertia stays singular in every chart, and is still refused.
+    text = GOOD.replace("X1_m = -0.5", "X1_m = -0.5\ntheta_0_deg = 90.0")
+    case = gi.load_case(write(tmp_path, text))
+    assert case.q0[4] == pytest.approx(math.pi / 2, abs=1e-15)
+    err = problems_of(tmp_path, text.replace("rotary_inertia_kg_m = [5e-5, 2.5e-5, 2.5e-5]\n", ""))
+    assert [p for p, _ in err.problems] == ["links"] and "rotary_inertia" in err.problems[0][1]
+
+
 # -- without a chain, no problem blames a correct key (issue 23 item 11) ----------------------
 
 def test_a_slope_of_a_finite_element_link_is_not_judged_without_the_chain(tmp_path):

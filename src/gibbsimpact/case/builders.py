@@ -202,7 +202,7 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
     if q0 is not None and t_span is not _BAD:
         start_on_profiles(r, top, model, prescribed, q0, qdot0, t_span[0])
     if q0 is not None:
-        check_start(r, model, q0, qdot0, walls if walls is not _BAD else (), solver)
+        check_start(r, model, q0, qdot0, walls if walls is not _BAD else (), solver, prescribed)
     if r.problems:
         return None
     q0.setflags(write=False)  # a Case is not mutated; simulate_kwargs hands out copies

@@ -21,6 +21,7 @@ from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics
 from ..dynamics.inputs import is_angle_coordinate
 from ..model.model import FixedBase
 from ..contact.walls import describe
+from ..simulation.charts import charted, start_chart
 from ..simulation.joint_limits import joint_limits, limit_gaps
 from ..simulation.outside import outside_walls, point_name
 from ..simulation.simulate import simulate
@@ -225,13 +226,19 @@ def _joint_ranges_ok(r: _Reader, model, q0, coordinates: dict) -> bool:
     return ok
 
 
-def check_start(r: _Reader, model, q0, qdot0, walls, solver: dict) -> None:
+def check_start(r: _Reader, model, q0, qdot0, walls, solver: dict, prescribed=()) -> None:
     """Problems of the assembled initial state (q0, qdot0) (N,): a contact point beyond a wall by
     more than contact_tol (a joint, or with link contacts a link bent between its joints;
-    simulation.outside), a singular mass matrix, a state that overflows floating point."""
+    simulation.outside), a singular mass matrix, a state that overflows floating point.
+
+    The dynamics are evaluated in the chart the run starts in (simulation.charts.start_chart): a free
+    base at theta_0 = +-pi/2 is re-charted there, not refused (prescribed: the names of the
+    [[prescribed]] coordinates; a prescribed base angle keeps the given chart)."""
     tol = solver.get("contact_tol", _DEFAULTS["contact_tol"])
     for o in outside_walls(model, q0, walls, tol, solver.get("link_contacts", _DEFAULTS["link_contacts"])):
         r.add("initial", _outside_message(model, o, walls))
+    fixed = [model.coordinate_names.index(name) for name in prescribed] or None
+    model, q0, qdot0 = start_chart(model, q0, qdot0, charted(model, fixed))
     try:
         qddot0 = forward_dynamics(model, q0, qdot0)
     except SingularMassMatrixError as exc:
