@@ -648,6 +648,34 @@ def test_run_says_what_method_auto_chose_and_where_the_energy_went(tmp_path, cap
     assert audit["inputs"] == audit["damping_and_friction"] == audit["impacts"] == 0.0
     assert f"energy audit [J]: inputs 0, damping and friction 0, impacts 0, numerical {audit['numerical']:.3g}" in out
 
+_AT_GIMBAL_LOCK = """
+name = "lock"
+gravity_m_per_s2 = [0.0, 0.0, 0.0]
+[[links]]
+length_m = 1.0
+mass_per_length_kg_per_m = 1.0
+EI_N_m2 = 1.0  # a rigid link (no modes) still needs it
+rotary_inertia_kg_m = [1e-4, 1e-4, 1e-4]
+[initial.coordinates]
+theta_0_deg = 90.0
+[initial.velocities]
+theta_0_rad_per_s = 1.0
+theta_1_rad_per_s = 0.5
+[time]
+t_end_s = 0.01
+"""
+
+
+def test_run_report_names_the_recharts(tmp_path, capsys):
+    """A free base started at theta_0 = 90 deg re-charts at t0 (theory §2.1): the run report says so, and
+    that the base angles jump there, so the jump in timeseries.csv is not read as a fault."""
+    (tmp_path / "lock.toml").write_text(_AT_GIMBAL_LOCK)
+    code, out, err = run_main(["run", tmp_path / "lock.toml", "--no-plots", "--out", tmp_path / "o"], capsys)
+    assert code == 0
+    assert "1 re-chart of the free base at t = 0 s: theta_-1, theta_0, theta_1 jump there" in out
+    assert json.loads((tmp_path / "o" / "summary.json").read_text())["base_recharts"][0]["time_s"] == 0.0
+
+
 def test_run_report_counts_the_actuators_work_in_the_energy_audit(tmp_path, capsys):
     """A link whose hub follows a point-to-point move ([[prescribed]]): the run report's energy audit names the
     actuators' work, and the audit's parts add up to E(end) - E(t0) written in summary.json."""

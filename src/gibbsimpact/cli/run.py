@@ -12,6 +12,7 @@ import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
+from ..simulation.charts import recharts_text
 from .common import (EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_OUTPUT, EXIT_STOPPED,
                      OPTION_NAMES, _error, _load, _worst)
 from .outputs import Interrupts, write_outputs
@@ -247,6 +248,9 @@ def _say_run(result, report, say) -> None:
         say(f"  impact {k}: t = {rec.time:.6f} s  {joints}")
     if len(result.impacts) > 20:
         say(f"  ... {len(result.impacts)} impacts in all (impacts.csv)")
+    if result.charts:
+        say(recharts_text(result.charts) + ": theta_-1, theta_0, theta_1 jump there, the orientation does not "
+            "(base_qw ... base_qz in timeseries.csv; docs/theory.md §2.1)")
     what = "power-balance error E - W" if result.work is not None else "energy drift"
     say(f"energy: {E.total[0]:.9g} J -> {E.total[-1]:.9g} J; {what} over the whole run "
         f"{result.energy_error_whole_run_J:.3g} J (relative {result.energy_error_whole_run:.2e} of the scale "

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.shapes import link_deflection
+from ..simulation.charts import recharts_text
 from .geometry import is_planar
 from .decimate import COLUMNS_PER_INCH, DENSE_TURNS, envelope, minmax_decimate, visible_turns
 from .impacts import _impact_lines, _impact_note, _number_impacts
@@ -96,8 +97,7 @@ def _chart_marks(axes, result) -> str:
     for ax in axes:
         for t in times:
             ax.axvline(t, color="C4", ls="-.", lw=0.8, zorder=0, gid="rechart")
-    shown = ", ".join(f"{t:.6g}" for t in times[:8]) + (f", ... ({len(times)} in all)" if len(times) > 8 else "")
-    return (f"; {len(times)} re-chart{'s' if len(times) > 1 else ''} of the free base (dash-dotted) at t = {shown} s: "
+    return ("; " + recharts_text(result.charts) + " (dash-dotted): "
             "theta_-1, theta_0, theta_1 jump there to another chart of the same orientation (theory §2.1; "
             "Result.base_orientation, timeseries.csv base_qw ... base_qz, is continuous)")
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..dynamics.base_chart import RECHART_ANGLE, base_angles, chart_margin, rechart, root_rotation
 
-__all__ = ["ChartChange", "RECHART_ANGLE", "chart", "chart_event", "charted", "start_chart"]
+__all__ = ["ChartChange", "RECHART_ANGLE", "chart", "chart_event", "charted", "recharts_text", "start_chart"]
 
 
 class ChartChange(NamedTuple):
@@ -103,3 +103,13 @@ def hand_over(run, old, new) -> None:
         for name, value in list(vars(part).items()):
             if value is old:
                 setattr(part, name, new)
+
+
+def recharts_text(charts, limit: int = 8) -> str:
+    """'4 re-charts of the free base at t = 0.0332842, 0.289027, ... s' for Result.charts (the first
+    ``limit`` times [s]), '' when the run never re-charted: what the run report and angles.png say."""
+    times = [c.time for c in charts or ()]
+    if not times:
+        return ""
+    shown = ", ".join(f"{t:.6g}" for t in times[:limit]) + (f", ... ({len(times)} in all)" if len(times) > limit else "")
+    return f"{len(times)} re-chart{'s' if len(times) > 1 else ''} of the free base at t = {shown} s"
