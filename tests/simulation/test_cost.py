@@ -154,3 +154,15 @@ def test_stability_limit_of_an_undamped_mode_whose_eigenvalue_has_a_round_off_re
     data["links"][0]["EI_N_m2"] = 1e9
     est = case_from_dict(data, name="stiff").estimate_cost(t_end=1.0)
     assert est.h_stability == pytest.approx(stability_radius("DOP853", np.pi / 2) / est.omega_max, rel=1e-6)
+
+
+def test_the_cost_of_a_run_that_starts_at_gimbal_lock_is_that_of_its_start_chart():
+    # theta_0 = pi/2: the given chart's M is singular (`gibbsimpact show` died with LinAlgError); a run
+    # re-charts the base at t0 (theory §2.1). Without gravity and at rest the frequencies do not depend on
+    # the orientation: they are those of the link at theta_0 = 0.3 rad, where the chart is regular.
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")], rotary_inertia=(1e-4, 1e-4, 1e-4))
+    model = gi.Model([link], gravity=(0.0, 0.0, 0.0))
+    q0 = model.state(theta_0=np.pi / 2)
+    est = estimate_cost(model, q0, np.zeros(model.n_dof), (0.0, 0.01))
+    lam = linearised_eigenvalues(model, model.state(theta_0=0.3))   # the same state in a regular chart
+    assert est.omega_max == pytest.approx(float(np.abs(lam).max()), rel=1e-9)

@@ -67,6 +67,7 @@ from ..dynamics.forces import generalized_force
 from ..dynamics.gibbs_appell import forward_dynamics
 from ..dynamics.kinematics import joint_jacobians
 from .auto import AUTO, choose_method
+from .charts import charted, start_chart
 from .flight import SOLVERS
 # The linearised modes and the methods' stability and accuracy radii are in stability.py, so that
 # method="auto" reads them without this module's tie to simulate's defaults.
@@ -208,12 +209,15 @@ def estimate_cost(model, q0, qdot0, t_span, **options) -> CostEstimate:
         raise ValueError(f"estimate_cost {', '.join(unknown)}: not a keyword of simulate; give simulate's keywords "
                          f"({', '.join(defaults)})")
     o = {**defaults, **options}
+    q0, qdot0 = model.check_state(q0, qdot0, "q0", "qdot0")
+    # In the chart the run starts in: at theta_0 = +-pi/2 the given chart's M is singular (theory §2.1).
+    fixed = [model.coordinate_names.index(c) if isinstance(c, str) else int(c) for c in o["prescribed"] or ()]
+    model, q0, qdot0 = start_chart(model, q0, qdot0, charted(model, fixed or None))
     method, choice = o["method"], ""
     if method == AUTO:
         method, choice = choose_method(model, q0, t_span, o["max_step"])
     if method not in SOLVERS:
         raise ValueError(f"estimate_cost method={method!r} must be a solve_ivp method; use one of {', '.join(SOLVERS)}")
-    q0, qdot0 = model.check_state(q0, qdot0, "q0", "qdot0")
     t0, t_end = float(t_span[0]), float(t_span[1])
     Q_in = generalized_force(model, o["inputs"], t0, q0, qdot0)
     lam = linearised_eigenvalues(model, q0)
