@@ -67,3 +67,13 @@ def test_chain_refuses_a_chain_with_no_coordinate():
     bending = gi.Link(1.0, 1.0, 10.0, modes=[gi.Mode("clamped-free", "y")])
     model = gi.Model(gi.Chain([LK, bending], joints=[gi.Weld(), gi.Weld()], base=gi.FixedBase()))
     assert model.coordinate_names == ("delta_2_1",)
+
+
+def test_state_says_a_welded_joint_has_no_coordinate():
+    # Model.state(theta_2=...) on a weld said only "unknown coordinate"; it now names the weld.
+    model = gi.Model(gi.Chain([LK, LK], joints=[gi.Revolute(), gi.Weld(angle=0.3)], base=gi.FixedBase()))
+    with pytest.raises(ValueError, match=r"unknown coordinate 'theta_2' \(joint 2 is a gi.Weld: .*no coordinate\); "
+                                         r"this model has theta_1"):
+        model.state(theta_2=0.1)
+    with pytest.raises(ValueError, match=r"unknown coordinate 'theta_3'; this model"):
+        model.state(theta_3=0.1)

@@ -15,6 +15,7 @@ Coordinates (docs/theory.md §1), in this order::
 from __future__ import annotations
 
 import functools
+import re
 from math import isfinite
 from typing import Sequence
 
@@ -323,6 +324,14 @@ class Model:
             raise ValueError(f"{name} has non-finite entries: {', '.join(bad)}")
         return v
 
+    def _weld_hint(self, name: str) -> str:
+        """' (joint i is a gi.Weld: no coordinate)' when name is theta_i of a welded joint, else ''."""
+        joint = re.fullmatch(r"theta_([1-9][0-9]*)", name)
+        i = int(joint[1]) if joint else 0
+        if 1 <= i <= self.n_links and self.chain.joints[i - 1].kind == "W":
+            return f" (joint {i} is a gi.Weld: link {i} is clamped to its parent, no coordinate)"
+        return ""
+
     def state(self, **values) -> np.ndarray:
         """Build a q (or qdot) vector (N,) from coordinate names; missing ones are 0.
 
@@ -333,7 +342,7 @@ class Model:
         for k, v in values.items():
             name = k.replace("theta_m1", "theta_-1")
             if name not in self._names:
-                raise ValueError(f"unknown coordinate {k!r}; this model has {', '.join(self._names)}")
+                raise ValueError(f"unknown coordinate {k!r}{self._weld_hint(name)}; this model has {', '.join(self._names)}")
             q[self._names.index(name)] = float(v)
         return q
 
