@@ -10,6 +10,7 @@ import numpy as np
 
 from ..contact.walls import WALL_TYPES, is_compliant
 from .auto import AUTO, METHODS, choose_method
+from .contact_filter import checked_filter
 from .joint_limits import JOINT_LIMIT_MODES
 from .prescribed import prescription
 
@@ -92,11 +93,12 @@ class Settings:
     max_rhs_calls: int | None = None  # right-hand sides; None: no limit
     method_choice: str = ""  # why method="auto" chose ``method`` (gibbsimpact.simulation.auto); "" if not auto
     prescribed: object = None  # simulation.prescribed.Prescribed, or None: every coordinate free
+    contact_filter: object = None  # None, or contact_filter(q) -> (C,) bool (simulation.contact_filter)
 
     @classmethod
     def from_arguments(cls, t_span, walls, restitution, method, output_dt, progress, inputs, zeno_count,
                        max_impacts, joint_limit, joint_restitution, accumulation, link_contacts, prescribed=None,
-                       state=None, **positive) -> Settings:
+                       state=None, contact_filter=None, **positive) -> Settings:
         """Validate simulate's options (each error names the argument and what it must be).
 
         prescribed : simulate's ``prescribed``, checked against state = (model, q0, qdot0)
@@ -131,7 +133,8 @@ class Settings:
                    progress=progress, inputs=inputs, zeno_count=zeno_count, max_impacts=max_impacts, joint_limit=joint_limit,
                    joint_restitution=joint_restitution, accumulation=accumulation,
                    link_contacts=bool(link_contacts), in_step_check=in_step_check, max_cpu_time=max_cpu_time,
-                   max_rhs_calls=max_rhs_calls, prescribed=prescribed, **values)
+                   max_rhs_calls=max_rhs_calls, prescribed=prescribed, contact_filter=checked_filter(contact_filter),
+                   **values)
 
     def resolve_auto(self, model, q0) -> Settings:
         """These settings with method="auto" replaced by the method it chooses for model from q0 (N,)
@@ -150,6 +153,8 @@ class Settings:
     def record(self) -> dict:
         """The options as Result.settings stores them (plain values; inputs and progress are not kept)."""
         extra = {} if self.prescribed is None else {"prescribed": list(self.prescribed.names)}
+        if self.contact_filter is not None:  # the rule itself is code: its name is kept
+            extra["contact_filter"] = getattr(self.contact_filter, "__name__", type(self.contact_filter).__name__)
         return dict(
             method=self.method, method_choice=self.method_choice, rtol=self.rtol, atol=self.atol,
             restitution=self.restitution,

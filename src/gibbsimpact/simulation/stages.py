@@ -19,6 +19,7 @@ from ..dynamics.forces import CallbackError
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .accumulation import Accumulation
 from .compliant import COMPLIANT_EVENTS, CompliantContacts, compliant_event, compliant_gap_functions
+from .contact_filter import FilteredContacts
 from .contacts import Contacts, contact_band, event_spec, gap_lipschitz, impact_stage as solve_impact, phase_events
 from .equations import Equations
 from .flight import integrate_phase
@@ -122,11 +123,14 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     limits = joint_limits(model)
     _check_start(model, q0, qdot0, s, limits)
     limits = _watched(limits, s.prescribed)
-    contacts = Contacts(model, walls, s.link_contacts)
+    contacts = (Contacts(model, walls, s.link_contacts) if s.contact_filter is None else
+                FilteredContacts(model, walls, s.link_contacts, s.contact_filter))
     stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
     lipschitz = gap_lipschitz(model)
     band = contact_band(s.contact_tol, lipschitz, s.rtol, s.atol, q0)
     resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols, contacts.flex)
+    if s.contact_filter is not None:
+        contacts.resting = lambda: resting.active  # resting pairs are never filtered out
     compliant = (CompliantContacts(model, contacts, s.wall_restitution, lipschitz)
                  if any(map(is_compliant, walls)) else None)
     equations = Equations(model, s, q0, qdot0, resting, clock, compliant, stops)
