@@ -57,7 +57,8 @@ class FilteredContacts(Contacts):
 
     def watched(self, q) -> np.ndarray:
         """(C,) bool: the filter's answer at q (N,), checked (one bool per candidate)."""
-        w = np.asarray(self.contact_filter(q))
+        rule = self.contact_filter
+        w = np.asarray(rule(q, self.n_cols) if isinstance(rule, LeadFilter) else rule(q))
         if w.shape != (self.n_cols,):
             raise ValueError(f"simulate contact_filter returned shape {w.shape} at q = {np.asarray(q).tolist()}; "
                              f"it must return one bool per contact candidate {self.names}")
@@ -87,3 +88,42 @@ class FilteredContacts(Contacts):
         g, nrm, J, pts, valid = super().full(q)
         hidden = self._masked(q, g)
         return np.where(hidden, NOT_INTERIOR, g), nrm, J, pts, valid & ~hidden
+
+
+class LeadFilter:
+    """The rule "a listed point may begin a contact only where it leads the other listed points".
+
+        watched(c) = s_c >= s_k + clearance for every other listed point k,    s = (p - O) . direction
+
+    for the listed joint points c (indices into O1 .. O<P>, 0-based); every other candidate is watched
+    always. A compass gait's feet with direction = downhill along the slope: the swing foot may strike
+    only once it is ``clearance`` [m] ahead of the stance foot, past the scuff of straight legs.
+
+    Parameters
+    ----------
+    model : Model; points : sequence of >= 2 joint indices (0-based: O1 is 0)
+    direction : (3,) the direction of travel (normalised here); clearance : [m] >= 0
+    """
+
+    __name__ = "lead"
+
+    def __init__(self, model, points, direction, clearance: float):
+        self.model, self.points = model, np.asarray(points, dtype=int)
+        d = np.asarray(direction, dtype=float)
+        if d.shape != (3,) or not np.all(np.isfinite(d)) or np.linalg.norm(d) == 0.0:
+            raise ValueError(f"LeadFilter direction={direction!r} must be a non-zero 3-vector")
+        if len(self.points) < 2 or np.any((self.points < 0) | (self.points >= model.n_joints)):
+            raise ValueError(f"LeadFilter points={points!r} must be >= 2 joint indices in 0 .. {model.n_joints - 1}")
+        if not (np.isfinite(clearance) and clearance >= 0.0):
+            raise ValueError(f"LeadFilter clearance={clearance!r} must be a length >= 0 in metres")
+        self.direction, self.clearance = d / np.linalg.norm(d), float(clearance)
+
+    def __call__(self, q, n_cols=None) -> np.ndarray:
+        """(C,) bool at q (N,): the listed points that lead the others by the clearance, every other candidate."""
+        from ..dynamics.kinematics import joint_positions
+
+        s = joint_positions(self.model, np.asarray(q, dtype=float))[self.points] @ self.direction  # (k,) [m]
+        watched = np.ones(self.model.n_joints if n_cols is None else n_cols, dtype=bool)
+        others = np.array([np.max(np.delete(s, k)) for k in range(len(s))])
+        watched[self.points] = s >= others + self.clearance
+        return watched
