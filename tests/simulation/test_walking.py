@@ -165,3 +165,66 @@ def test_compass_gait_case_file_walks_with_its_filter(textbook_cycle):
     res = case.simulate(t_end=1.0)
     strikes = [r.time for r in res.impacts if np.any(r.impulses > 0)]
     assert strikes == pytest.approx([textbook_cycle[1]], rel=1e-8)
+
+
+# -- the rimless wheel (needs trees and welds: formulation.md §17) ------------------------------------
+
+N_SPOKES, SPOKE, MU_SPOKE, M_HUB, I_HUB, WHEEL_SLOPE = 6, 1.0, 0.1, 10.0, 0.5, np.radians(12.0)
+
+
+def rimless_wheel_speed(m, I_c, l, alpha, slope, g=G):
+    """McGeer's (1990) steady rolling speed |omega_end| [rad/s] just before each impact.
+
+    m [kg]: the wheel's whole mass (hub and spokes); I_c [kg m^2]: its inertia about its centre of
+    mass, which is the hub (the spokes are symmetric); l [m]: hub-to-foot length of a spoke;
+    alpha [rad]: half the angle between neighbouring spokes (pi / N); slope [rad].
+    A stance phase turns the wheel about its sticking foot by 2 alpha, from the spoke at slope - alpha
+    to slope + alpha from the vertical: the hub drops 2 l sin(alpha) sin(slope), so
+    (I_c + m l^2)(omega_end^2 - omega_start^2) / 2 = 2 m g l sin(alpha) sin(slope).
+    The plastic impact on the new foot keeps the angular momentum about it (the old foot leaves
+    with no impulse): the hub's velocity l omega is normal to the old spoke, at 2 alpha from the new
+    one, so I_c omega_end + m l^2 cos(2 alpha) omega_end = (I_c + m l^2) omega_start, i.e.
+    omega_start = r omega_end, r = (I_c + m l^2 cos 2 alpha) / (I_c + m l^2). A steady gait repeats
+    omega_end: omega_end^2 (1 - r^2) = 4 m g l sin(alpha) sin(slope) / (I_c + m l^2).
+    """
+    r = (I_c + m * l * l * np.cos(2 * alpha)) / (I_c + m * l * l)
+    return np.sqrt(4 * m * g * l * np.sin(alpha) * np.sin(slope) / ((I_c + m * l * l) * (1 - r * r)))
+
+
+def rimless_wheel():
+    """Spoke 1 is the root, its O1 at the hub (with the hub's RigidBody); spokes 2..N welded to it at the hub."""
+    spokes = [gi.Link(SPOKE, MU_SPOKE, 1.0, bodies=(gi.RigidBody(M_HUB, inertia=(I_HUB / 2, I_HUB / 2, I_HUB), at=0.0),))]
+    spokes += [gi.Link(SPOKE, MU_SPOKE, 1.0) for _ in range(N_SPOKES - 1)]
+    joints = [gi.Revolute()] + [gi.Weld(angle=2 * np.pi * k / N_SPOKES) for k in range(1, N_SPOKES)]
+    chain = gi.Chain(spokes, joints=joints, parents=[-1] + [0] * (N_SPOKES - 1), attach=[None] + [0.0] * (N_SPOKES - 1),
+                     base="planar")
+    return gi.Model(chain, gravity=(0.0, -G, 0.0))
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not hasattr(gi, "Weld"), reason="rimless wheel: needs trees and gi.Weld (issue 28 items 1-2)")
+@pytest.mark.parametrize("omega0", [0.9, 1.3, 2.0])
+def test_rigid_rimless_wheel_reaches_mcgeers_steady_speed(omega0):
+    """From any of several initial speeds [rad/s] (about the stance foot, right after a strike) the wheel's
+    speed just before a strike tends to rimless_wheel_speed: omega_end^2 converges like r^(2k), r = 0.531
+    here, so 16 strikes leave 1e-9 of the initial difference: <= 1e-6 relative, every test's integration
+    error (rtol 1e-10) far below it."""
+    model, alpha = rimless_wheel(), np.pi / N_SPOKES
+    m = M_HUB + N_SPOKES * MU_SPOKE * SPOKE
+    I_c = I_HUB + N_SPOKES * MU_SPOKE * SPOKE ** 3 / 3
+    expected = rimless_wheel_speed(m, I_c, SPOKE, alpha, WHEEL_SLOPE)
+    normal = np.array([np.sin(WHEEL_SLOPE), np.cos(WHEEL_SLOPE), 0.0])
+    # Spoke 1 stands on its foot at the origin, at alpha uphill of the slope normal (its neighbour N touches
+    # too: right after a strike), turning clockwise (downhill) at omega0 about the foot.
+    down = -alpha - WHEEL_SLOPE - np.pi / 2  # spoke 1's direction hub -> foot
+    hub = -SPOKE * np.array([np.cos(down), np.sin(down)])
+    q0 = model.state(X1=hub[0], X2=hub[1], theta_1=down)
+    v_hub = -omega0 * np.array([-hub[1], hub[0]])  # omega = -omega0 about the foot: v = omega x (hub - foot)
+    qd0 = model.state(X1=v_hub[0], X2=v_hub[1], theta_1=-omega0)
+    ground = gi.Plane(point=(0.0, 0.0, 0.0), normal=tuple(normal), friction=2.0)
+    res = gi.simulate(model, q0, qd0, (0.0, 30.0), walls=[ground], restitution=0.0, max_impacts=40,
+                      link_contacts=False)
+    strikes = [r for r in res.impacts if np.any(r.impulses > 0)]
+    assert len(strikes) >= 16, (res.status, len(strikes))
+    omega_end = [-r.qdot_before[model.coordinate_names.index("theta_1")] for r in strikes]
+    assert omega_end[15] == pytest.approx(expected, rel=1e-6)
