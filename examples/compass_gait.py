@@ -31,14 +31,15 @@ from gibbsimpact.simulation.contact_filter import LeadFilter
 T_END = min(5.5, float(os.environ.get("GIBBSIMPACT_EXAMPLE_T_END", "inf")))
 OUT = Path(os.environ.get("GIBBSIMPACT_EXAMPLE_OUT") or tempfile.mkdtemp(prefix="compass_gait_"))
 EI, ZETA, MODES = 50.0, 0.05, (0, 1, 2, 3)  # 0 modes: rigid legs
+SWEEP_EI = (20.0, 50.0, 200.0, 1000.0)  # [N m^2], 2 modes per leg
 
 case = gi.load_case(Path(__file__).resolve().parents[1] / "cases" / "compass_gait.toml")
 ground, rule = case.walls[0], case.contact_filter
 downhill = rule.direction
 
 
-def biped(n_modes: int):
-    """The case's biped with n_modes clamped-clamped y-modes per leg (0: rigid, as in the case)."""
+def biped(n_modes: int, EI: float = EI):
+    """The case's biped with n_modes clamped-clamped y-modes per leg of stiffness EI [N m^2] (0: rigid)."""
     modes = [gi.Mode("clamped-clamped", "y", k) for k in range(1, n_modes + 1)]
     damping = ZETA if n_modes else 0.0
     leg1 = gi.Link(1.0, 5.0, EI, modes=modes, damping=damping, bodies=(gi.RigidBody(10.0),))
@@ -115,41 +116,65 @@ def strikes(res):
     return np.diff(np.r_[0.0, t]), np.diff(np.r_[0.0, s])
 
 
-x_rigid = np.r_[case.q0[2:], case.qdot0[2:]]
-print(f"compass gait on a 1.5 deg slope, t_end = {T_END:g} s; bending legs: EI = {EI:g} N m^2, damping {ZETA:g}\n")
-print(f"{'legs':>10} {'|P(x)-x|':>9} {'period [s]':>11} {'step [m]':>10} {'speed [m/s]':>11} "
-      f"{'|delta| max [mm]':>16} {'CPU of 6 steps [s]':>18}")
-runs, table, x = {}, {}, x_rigid
-for n in MODES:
-    model = biped(n)
+def gait(model, x):
+    """(x on the limit cycle (Newton when T_END >= 1 s), |P(x) - x|, the Result of a run of T_END from it, its
+    CPU time [s])."""
     residual = np.nan
     if T_END >= 1.0:
         x, residual = limit_cycle(model, x)
     x = on_ground(model, x)
     start = time.process_time()
-    runs[n] = walk(model, x, T_END, output_dt=0.01)
-    cpu = time.process_time() - start
-    period, step = strikes(runs[n])
-    defl = max((np.abs(runs[n].q[:, idx]).max() for idx in model.delta_index if idx.size), default=0.0)
-    table[n] = (period, step)
-    if len(period):
-        print(f"{'rigid' if n == 0 else f'{n} mode(s)':>10} {residual:9.1e} {period.mean():11.6f} {step.mean():10.6f} "
-              f"{step.mean() / period.mean():11.6f} {1e3 * defl:16.3f} {cpu:18.1f}")
-    # The next model's start: its one more mode per leg at rest, (theta, delta_1, delta_2) and their rates.
-    x = np.concatenate([np.r_[h[:2 + n], 0.0, h[2 + n:], 0.0] for h in np.split(x, 2)])
+    res = walk(model, x, T_END, output_dt=0.01)
+    return x, residual, res, time.process_time() - start
 
-if all(len(p) for p, _ in table.values()):
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3.4))
-    for n, (period, step) in table.items():
-        k = np.arange(1, len(period) + 1)
-        label = "rigid legs" if n == 0 else f"{n} mode(s) per leg"
-        ax1.plot(k, period, "o-", label=label)
-        ax2.plot(k, 100 * step, "o-", label=label)
-    ax1.set(xlabel="step", ylabel="step period [s]")
-    ax2.set(xlabel="step", ylabel="step length along the slope [cm]")
+
+def more_modes(x, n):
+    """x of n modes per leg with one more mode per leg, at rest: (theta, delta_1, delta_2) and their rates."""
+    return np.concatenate([np.r_[h[:2 + n], 0.0, h[2 + n:], 0.0] for h in np.split(x, 2)])
+
+
+def report(label, residual, res, cpu):
+    """One row of the table; (mean period [s], mean step [m]) of the run, or None without a strike."""
+    period, step = strikes(res)
+    if not len(period):
+        return None
+    defl = max((np.abs(res.q[:, idx]).max() for idx in res.model.delta_index if idx.size), default=0.0)
+    print(f"{label:>18} {residual:9.1e} {len(period):4d} {period.mean():11.6f} {step.mean():10.6f} "
+          f"{step.mean() / period.mean():11.6f} {1e3 * defl:10.3f} {cpu:8.1f}")
+    return period.mean(), step.mean()
+
+
+print(f"compass gait on a 1.5 deg slope, t_end = {T_END:g} s; bending legs: damping {ZETA:g}\n")
+print(f"{'legs':>18} {'|P(x)-x|':>9} {'hits':>4} {'period [s]':>11} {'step [m]':>10} {'speed [m/s]':>11} "
+      f"{'|delta| mm':>10} {'CPU [s]':>8}")
+x = np.r_[case.q0[2:], case.qdot0[2:]]
+runs, rows, cycles = {}, {}, {}
+for n in MODES:  # convergence in the number of modes at EI
+    cycles[n], residual, runs[n], cpu = gait(biped(n), x)
+    rows[n] = report("rigid" if n == 0 else f"EI {EI:g}, {n} mode(s)", residual, runs[n], cpu)
+    x = more_modes(cycles[n], n)
+sweep = {}
+for ei in SWEEP_EI:  # how stiffness changes the gait, 2 modes per leg
+    _, residual, res, cpu = gait(biped(2, ei), cycles[2])
+    sweep[ei] = report(f"EI {ei:g}, 2 modes", residual, res, cpu)
+
+if rows[0] is not None and all(v is not None for v in sweep.values()):
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9.5, 3.5))
+    ei = np.array(SWEEP_EI)
+    ax1.semilogx(ei, [100 * (sweep[e][0] / rows[0][0] - 1) for e in ei], "o-", label="step period")
+    ax1.semilogx(ei, [100 * (sweep[e][1] / rows[0][1] - 1) for e in ei], "s-", label="step length")
+    ax1.axhline(0.0, color="k", lw=0.6)
+    ax1.set(xlabel="leg bending stiffness EI [N m$^2$] (2 modes per leg)", ylabel="change from rigid legs [%]")
     ax1.legend(fontsize=8)
-    fig.suptitle(f"compass gait on its limit cycle: bending legs (EI = {EI:g} N m$^2$, $\\zeta$ = {ZETA:g}) "
-                 "vs rigid", fontsize=10)
+    res = runs[MODES[-1]]
+    for i, name in enumerate(("leg 1", "leg 2")):
+        ax2.plot(res.t, 1e3 * res.q[:, res.model.delta_index[i][0]], label=f"{name}: first mode")
+    for t in (r.time for r in res.impacts if np.any(r.impulses > 0)):
+        ax2.axvline(t, color="0.7", lw=0.6)
+    ax2.set(xlabel="t [s] (grey: heel strikes)", ylabel="modal amplitude [mm]")
+    ax2.legend(fontsize=8)
+    fig.suptitle(f"compass gait on its limit cycle, bending legs ($\\zeta$ = {ZETA:g}); right: EI = {EI:g} N m$^2$, "
+                 f"{MODES[-1]} modes", fontsize=10)
     fig.tight_layout()
     fig.savefig(OUT / "compass_gait_steps.png", dpi=90)
     plt.close(fig)
