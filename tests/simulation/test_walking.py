@@ -159,10 +159,13 @@ def test_lead_filter_watches_a_foot_only_ahead_of_the_other(rigid_biped, textboo
 
 
 def test_compass_gait_case_file_walks_with_its_filter(textbook_cycle):
-    """cases/compass_gait.toml holds the limit cycle and the [contact_filter]: its first strike at the
-    textbook period."""
+    """cases/compass_gait.toml holds the limit cycle and the [contact_filter] (which `show` states): its first
+    strike at the textbook period."""
+    from gibbsimpact.cli.commands import describe_case
+
     case = gi.load_case(CASES / "compass_gait.toml")
     assert isinstance(case.contact_filter, LeadFilter) and case.contact_filter.clearance == CLEARANCE
+    assert "contact filter: lead: O1, O3 may begin a contact only 0.05 m ahead" in describe_case(case)
     res = case.simulate(t_end=1.0)
     strikes = [r.time for r in res.impacts if np.any(r.impulses > 0)]
     assert strikes == pytest.approx([textbook_cycle[1]], rel=1e-8)

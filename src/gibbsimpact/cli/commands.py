@@ -149,6 +149,8 @@ def describe_case(case) -> str:
             lines.append(f"  inputs[{k}] on {spec.coordinate}: {describe_input(spec, angle)}")
     else:
         lines.append("inputs: none")
+    if case.contact_filter is not None:
+        lines.append(f"contact filter: {case.contact_filter.describe()}")
     if case.prescribed:
         lines.append("prescribed (the coordinate follows its profile; its actuator supplies the effort):")
         for name, prof in case.prescribed:

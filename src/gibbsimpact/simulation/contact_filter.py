@@ -118,6 +118,13 @@ class LeadFilter:
             raise ValueError(f"LeadFilter clearance={clearance!r} must be a length >= 0 in metres")
         self.direction, self.clearance = d / np.linalg.norm(d), float(clearance)
 
+    def describe(self) -> str:
+        """One line for `gibbsimpact show`: the rule, its points, clearance and direction."""
+        points = ", ".join(f"O{j + 1}" for j in self.points)
+        d = ", ".join(f"{c:.6g}" for c in self.direction)
+        return (f"lead: {points} may begin a contact only {self.clearance:g} m ahead of the other(s) along ({d}); "
+                "resting contacts are never filtered")
+
     def __call__(self, q, n_cols=None) -> np.ndarray:
         """(C,) bool at q (N,): the listed points that lead the others by the clearance, every other candidate."""
         from ..dynamics.kinematics import joint_positions
