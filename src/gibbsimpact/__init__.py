@@ -15,7 +15,7 @@ import importlib as _importlib
 import sys as _sys
 
 from .dynamics import Energy, SingularMassMatrixError, profiles
-from .model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, RigidBody, SlidingPrismatic
+from .model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, RigidBody, SlidingPrismatic, Weld
 from .model.modes import Mode, natural_frequency
 from .simulation.results import ImpactRecord, Result
 from .simulation.simulate import simulate
@@ -30,7 +30,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Case", "CaseError", "Chain", "Circle", "Energy", "FixedBase", "FixedPrismatic", "ImpactRecord", "Link", "Mode", "Model", "Plane",
-    "Result", "Revolute", "RigidBody", "SingularMassMatrixError", "SlidingPrismatic", "Sphere", "ValidityWarning", "derive_equations", "load_case", "load_result", "natural_frequency", "profiles", "simulate", "sweep", "__version__",
+    "Result", "Revolute", "RigidBody", "SingularMassMatrixError", "SlidingPrismatic", "Sphere", "ValidityWarning", "Weld", "derive_equations", "load_case", "load_result", "natural_frequency", "profiles", "simulate", "sweep", "__version__",
 ]
 
 # The module paths of the flat layout, before the split by stage (gibbsimpact.walls, ...):

@@ -77,6 +77,8 @@ def end_joints(model) -> np.ndarray:
     """
     n = model.n_links
     kinds = model.joint_kinds
+    if not model.chain.serial:  # a tree (no prismatic joints): link i's frame origin and its tip point
+        return np.array([(i, t) for i, t in enumerate(model.tip_points)], dtype=int).reshape(n, 2)
     extra, k = {}, n + 1
     for j in range(1, n):
         if kinds[j] != "R":

@@ -42,6 +42,10 @@ come from frames.py, the body moments P_i, Pv_i, m_r,i, q_l (item 5) from moment
    a Pb link adds int mu r a0 to F and int mu phi_l a0 to the own part of h.
 7. *Two twists* (frames.py): S_D(j) = S_D + [j >= f2] S2_D, and every trace above
    is summed over the pieces, each with the composite of its later start frame.
+9. *Trees* (formulation §17, docs/theory.md §6.5.1). Composites sum over subtrees (each frame's
+   added to its parent's), f_a <= f_b reads "f_a is f_b or an ancestor" (layout._anc): M_ab's
+   first term is skipped, an exact zero, where the two share no frame; a parent's delta has one
+   twist piece per child (layout._piece), summed like the second twists of item 7.
 8. *Foreshortening* (formulation §15; moments._fs_moments). A stiffened link's own shapes are
    phi_l = e_{a_l} psi_l - e_x eta_l(x), eta = H(x) delta, and rddot0 = -beta e_x: with
    s_l = int mu eta_l r, sd_l = int mu eta_l rdot, z_l = T s_l, x_o = T e_x (world),
@@ -55,7 +59,7 @@ come from frames.py, the body moments P_i, Pv_i, m_r,i, q_l (item 5) from moment
 
 from __future__ import annotations
 
-from .layout import _CI, _F_G, _H, _LI, JOINT_PB, _mmax, inline
+from .layout import _CI, _F_G, _H, _LI, JOINT_PB, _anc, _mmax, _piece, _tree_tables, inline
 from .mat4 import _mm, _mmt
 from .moments import _fs_offsets, _own_source, _sd_offsets, _sd_stride
 
@@ -75,13 +79,18 @@ def assemble(fdat, idat, q, vel, B, V, SD, ws, M, h, dV, pris, ends):
     _own_terms(fdat, idat, q, vel, B, V, SD, SDS, mmax + 1, ws, dV, h, pris)
     if ends is not None:
         _fs_own_terms(fdat, idat, vel, B, SD, SDS, ws, dV, h)
-    # Composites: sums over the links from frame j outwards (one backward pass).
-    for i in range(n - 1, -1, -1):
+    # Composites: sums over the subtree of frame j (one backward pass: children come after their
+    # parent, so each frame's composite is complete when it is added to its parent's; serial: j - 1).
+    tt = _tree_tables(idat)
+    for j in range(n, 0, -1):
+        i = idat[tt + j]
+        if i < 0:
+            continue
         for a in range(4):
-            V[MUC + i, a] += V[MUC + i + 1, a]
+            V[MUC + i, a] += V[MUC + j, a]
             for b in range(4):
-                B[PIC + i, a, b] += B[PIC + i + 1, a, b]
-                B[FC + i, a, b] += B[FC + i + 1, a, b]
+                B[PIC + i, a, b] += B[PIC + j, a, b]
+                B[FC + i, a, b] += B[FC + j, a, b]
     # X_d = Pi^c_{f_d} S_d^T
     for d in range(N):
         _mmt(B, PIC + idat[_H + _CI * d + 2], SS + d, XS + d)
@@ -241,9 +250,11 @@ def _mass_matrix(fdat, idat, B, V, SD, SDS, ws, M, pris, ends):
 
         M_ab = tr(S_a Pi^c_{f_b} S_b^T) + [o_b >= 0, f_a <= o_b] e_b.(S_a y_b)
                + [o_a >= 0, f_b <= o_a] e_a.(S_b y_a) + [o_a = o_b] Mpsi_(l_a l_b)
-               + the second twists' terms (_second_twist_mass)
+               + the other pieces' terms (second twists, a tree's extra entries: _piece_mass)
 
     (o: the link whose material the coordinate deforms, -1 if none; f: first frame it moves;
+    "f_a <= f_b" read as "f_a is f_b or an ancestor of it" (_anc; on a serial chain the same): the
+    first term vanishes when neither is, the branch-induced sparsity of formulation §17;
     X_b = Pi^c_{f_b} S_b^T in B[XS + b]). One loop with no call per entry but _e_sy's: a call
     passing arrays costs a reference count each.
     """
@@ -253,27 +264,30 @@ def _mass_matrix(fdat, idat, B, V, SD, SDS, ws, M, pris, ends):
         fc = idat[_H + _CI * c + 2]
         for d in range(c, N):
             fd = idat[_H + _CI * d + 2]
-            if fc <= fd:
+            nested = True
+            if _anc(idat, fc, fd):
                 a = c
                 b = d
             else:
                 a = d
                 b = c
+                nested = _anc(idat, fd, fc)  # False: two branches of a tree, no frame in common
             fa = idat[_H + _CI * a + 2]
             fb = idat[_H + _CI * b + 2]
             # tr(S_a X_b); S has a zero last row
             val = 0.0
-            for r in range(3):
-                for k in range(4):
-                    val += B[SS + a, r, k] * B[XS + b, k, r]
+            if nested:
+                for r in range(3):
+                    for k in range(4):
+                        val += B[SS + a, r, k] * B[XS + b, k, r]
             ob = idat[_H + _CI * b + 3]
             oa = idat[_H + _CI * a + 3]
-            if ob >= 0 and fa <= ob:
+            if ob >= 0 and _anc(idat, fa, ob):
                 # e_b . (S_a y_b): a moves the link that b deforms
                 val += _e_sy(B, V, SS + a, YY + b, EE + b)
                 if ends is not None:
                     val += _fs_sz(idat, B, SD, SDS, TS, SS + a, b)
-            if oa >= 0 and fb <= oa:
+            if oa >= 0 and _anc(idat, fb, oa):
                 val += _e_sy(B, V, SS + b, YY + a, EE + a)
                 if ends is not None:
                     val += _fs_sz(idat, B, SD, SDS, TS, SS + b, a)
@@ -291,39 +305,41 @@ def _mass_matrix(fdat, idat, B, V, SD, SDS, ws, M, pris, ends):
                 if ends is not None and idat[bl + 6] >= 0:
                     mmax = _mmax(idat)
                     val += SD[_fs_offsets(ob * SDS, mmax)[3] + mmax * la + lb]
-            if pris is not None and (idat[_H + _CI * a + 5] >= 0 or idat[_H + _CI * b + 5] >= 0):
-                val = _second_twist_mass(idat, B, V, SD, SDS, ws, a, b, val)
+            if (pris is not None and (idat[_H + _CI * a + 5] >= 0 or idat[_H + _CI * b + 5] >= 0)) \
+                    or idat[_H + _CI * a + 7] > 0 or idat[_H + _CI * b + 7] > 0:
+                val = _piece_mass(idat, B, V, SD, SDS, ws, a, b, val)
             M[c, d] = val
             M[d, c] = val
 
 
-def _second_twist_mass(idat, B, V, SD, SDS, ws, a, b, val):
-    """val plus the terms of M_ab from second twists (item 7; _mass_matrix's a, b): with
-    S_a(j) = S_a + [j >= f2_a] S2_a, every pair of pieces but (S_a, S_b) adds
-    tr(S_a' Pi^c_max(start a', start b') S_b'^T), and e_b.(S2_a y_b), e_a.(S2_b y_a) where the
-    second twist's frame f2 <= the deformed link o."""
+def _piece_mass(idat, B, V, SD, SDS, ws, a, b, val):
+    """val plus the terms of M_ab from the pieces of the twists but (S_a, S_b) (items 2, 7;
+    _mass_matrix's a, b): with S_a(j) = sum of the pieces (_piece) whose start frame is j or an
+    ancestor of j, every pair of pieces but the first two adds tr(S_a' Pi^c_s S_b'^T) where the
+    starts are nested (s the deeper one), and e_b.(S_a' y_b), e_a.(S_b' y_a) where the piece's
+    start is the deformed link o or an ancestor of it."""
     TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
     N = idat[1]
-    fa = idat[_H + _CI * a + 2]
-    fb = idat[_H + _CI * b + 2]
     oa = idat[_H + _CI * a + 3]
     ob = idat[_H + _CI * b + 3]
-    f2a = idat[_H + _CI * a + 5]
-    f2b = idat[_H + _CI * b + 5]
-    for pa in range(2):
-        if pa == 1 and f2a < 0:
+    for pa in range(2 + idat[_H + _CI * a + 7]):
+        sa, st_a = _piece(idat, N, a, pa)
+        if sa < 0:
             continue
-        sa = SS + a + pa * N
-        st_a = fa if pa == 0 else f2a
-        for pb_ in range(2):
-            if (pb_ == 1 and f2b < 0) or (pa == 0 and pb_ == 0):
+        for pb_ in range(2 + idat[_H + _CI * b + 7]):
+            sb, st_b = _piece(idat, N, b, pb_)
+            if sb < 0 or (pa == 0 and pb_ == 0):
                 continue
-            st = max(st_a, fb if pb_ == 0 else f2b)
-            val += _tr_sps(B, sa, PIC + st, SS + b + pb_ * N)
-    if f2a >= 0 and ob >= 0 and f2a <= ob:
-        val += _e_sy(B, V, SS + N + a, YY + b, EE + b) + _fs_sz(idat, B, SD, SDS, TS, SS + N + a, b)
-    if f2b >= 0 and oa >= 0 and f2b <= oa:
-        val += _e_sy(B, V, SS + N + b, YY + a, EE + a) + _fs_sz(idat, B, SD, SDS, TS, SS + N + b, a)
+            if _anc(idat, st_a, st_b):
+                val += _tr_sps(B, SS + sa, PIC + st_b, SS + sb)
+            elif _anc(idat, st_b, st_a):
+                val += _tr_sps(B, SS + sa, PIC + st_a, SS + sb)
+        if pa > 0 and ob >= 0 and _anc(idat, st_a, ob):
+            val += _e_sy(B, V, SS + sa, YY + b, EE + b) + _fs_sz(idat, B, SD, SDS, TS, SS + sa, b)
+    for pb_ in range(1, 2 + idat[_H + _CI * b + 7]):
+        sb, st_b = _piece(idat, N, b, pb_)
+        if sb >= 0 and oa >= 0 and _anc(idat, st_b, oa):
+            val += _e_sy(B, V, SS + sb, YY + a, EE + a) + _fs_sz(idat, B, SD, SDS, TS, SS + sb, a)
     return val
 
 
@@ -338,16 +354,13 @@ def _twist_forces(fdat, idat, B, V, ws, vel, dV, h, pris):
     TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
     N = idat[1]
     for c in range(N):
-        s = SS + c
-        f = idat[_H + _CI * c + 2]
-        for piece in range(2):
-            if piece == 1:
-                if pris is None:
-                    break
-                f = idat[_H + _CI * c + 5]
-                if f < 0:
-                    break
-                s = SS + N + c
+        for piece in range(2 + idat[_H + _CI * c + 7]):
+            if piece == 1 and pris is None:
+                continue
+            s, f = _piece(idat, N, c, piece)
+            if s < 0:
+                continue
+            s += SS
             g = 0.0
             for r in range(3):
                 x = 0.0

@@ -77,7 +77,7 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
     dynamics = (job & _DYNAMICS) != 0
     energies = (job & (JOB_ENERGY | JOB_MOMENTUM)) != 0
     mmax = _mmax(idat)
-    ws = work_slots(n, N, mmax)
+    ws = work_slots(n, N, mmax, idat[7])
     nB, nV = work_sizes(ws, N, energies, dynamics)
     B = np.zeros((nB, 4, 4))
     V = np.zeros((nV, 4))
@@ -171,5 +171,5 @@ def _observables(fdat, idat, q, qd, job, out, L, B, V, SD, ws, part, k, pris, en
             for a in range(9):
                 out[o + a] = part[3 + a]
     frame_outputs(idat, B, ws, out, L, job, npts, k)
-    if pris is not None and job & (JOB_POINTS | JOB_JACOBIANS):
+    if idat[3] > 0 and job & (JOB_POINTS | JOB_JACOBIANS):
         _extra_points(fdat, idat, q, B, ws, out, L, job, npts, k)

@@ -19,6 +19,12 @@ The items are numbered as in the derivation of the kernel package's docstring
    T_i, Td_i and the qddot-free Tdd0_i come from the forward recursion
    T' = T G, Td' = Td G + T Gd, Tdd0' = Tdd0 G + 2 Td Gd + T Gdd0.
 
+8. *Trees* (formulation §17, docs/theory.md §6.5.1). Link i starts again from its parent's frame
+   (_restart) and applies A_p(x_a) (_end_step with the attachment table) and its joint, a constant
+   rotation first (_constant_rotation; a weld turns by its fixed angle, with no twist). A parent's
+   delta gets one twist per child (the first child's at B[ss + c], the others' at extra entries):
+   "downstream" is "in the subtree" (layout._anc).
+
 6. *Prismatic joints* (docs/theory.md §7.1, §7.6). A Pa carriage and a Pb guide are
    local transforms like the others (_pa_step, _pb_step): each coordinate they
    depend on gets its world twist.
@@ -34,8 +40,8 @@ import math
 
 import numpy as np
 
-from .layout import (_CI, _F_BASE, _H, _LI, BASE_FIXED, BASE_FREE, END_RIGID, JOINT_PA, JOINT_PB, JOINT_R,
-                     _joint_field, inline)
+from .layout import (_CI, _F_BASE, _H, _LI, BASE_FIXED, BASE_FREE, END_GENERAL, END_RIGID, JOINT_PA, JOINT_PB, JOINT_R,
+                     JOINT_WELD, _joint_field, _tree_tables, inline)
 from .mat4 import _conjugate, _copy4, _mm, _mm_add, _put_skew, _zero4, rodrigues_directional
 from .moments import _fs_tables
 
@@ -88,9 +94,12 @@ def _rot_step(B, w, si, axis, th, thd, vel):
 _E_V, _E_R, _E_DR, _E_D2R, _E_G, _E_L, _E_DRK, _E_TN, _E_U, _E_S = 3, 4, 5, 6, 7, 10, 11, 12, 15, 16
 
 
-def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
+def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends, at=-1):
     """T <- T E(delta) for the end of ``link`` (T, Td, Tdd0 = B[w], B[w+1], B[w+2]);
-    B[ss + c] = the world twist of each end coordinate c of the link.
+    B[ss + c] = the world twist of each end coordinate c of the link. With an attachment table
+    at fdat[at:] (at >= 0: [x_a, t(x_a) (3 m), phi(x_a) (3 m), H(x_a) (m m, a stiffened link)]),
+    A(x_a) of formulation §17 instead: the same transform with x_a, t(x_a), phi(x_a), H(x_a) in the
+    place of l, end_t, end_phi, H(l).
 
     E = [[R(phi), t], [0, 1]], t = l e_x + end_t^T delta, phi = end_phi^T delta;
     Ed = [[dR[phidot], tdot], [0, 0]], Edd0 = [[d2R[phidot, phidot], 0], [0, 0]];
@@ -107,6 +116,9 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
     off = idat[base + 3]
     kind = idat[base + 4]
     l = fdat[off + 20]
+    if at >= 0:
+        l = fdat[at]
+        kind = END_RIGID if m == 0 else END_GENERAL  # t(x_a), phi(x_a) need not vanish
     if ends is None or kind == END_RIGID:
         # E = Trans(l e_x): the origin column gains l times the x column.
         for r in range(4):
@@ -120,6 +132,11 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends):
     oHl = -1
     if idat[base + 6] >= 0:
         oHl = _fs_tables(fdat, idat[base + 6], m)[8]
+    if at >= 0:
+        o_t = at + 1
+        o_phi = o_t + 3 * m
+        if oHl >= 0:
+            oHl = o_phi + 3 * m
     _end_transform(fdat, q, qd, B, w, l, m, d0, o_t, o_phi, oHl)
     _end_twists(fdat, q, B, w, ss + d0, m, d0, o_t, o_phi, oHl)
     _apply_local(B, w, w + _E_G, vel, w + _E_TN)
@@ -580,6 +597,33 @@ def _pb_step(fdat, idat, link, q, qd, vel, B, w, ss):
             B[w + 1, r, 3] += a * B[w + 1, r, 0] + dd * B[w, r, 0]
 
 
+def _restart(fdat, B, w, ts, tds, tdds, p):
+    """The running frame T, Td, Tdd0 (B[w], B[w+1], B[w+2]) := frame p's (B[ts + p], ...), or the
+    fixed base's T_0 (fdat) at rest when p < 0: a link whose parent is not the link before it."""
+    if p < 0:
+        _zero4(B, w + 1)
+        _zero4(B, w + 2)
+        for a in range(4):
+            for b in range(4):
+                B[w, a, b] = fdat[_F_BASE + 4 * a + b]
+        return
+    _copy4(B, ts + p, w)
+    _copy4(B, tds + p, w + 1)
+    _copy4(B, tdds + p, w + 2)
+
+
+def _constant_rotation(fdat, o, B, w, vel):
+    """T <- T Rot(R) for a joint's constant rotation R (3, 3) at fdat[o:] (row-major), applied
+    before its Rz (formulation §17): T, Td, Tdd0 (B[w], B[w+1], B[w+2]) each times R (R constant)."""
+    for k in range(w, w + (3 if vel else 1)):
+        for r in range(4):
+            x0 = B[k, r, 0]
+            x1 = B[k, r, 1]
+            x2 = B[k, r, 2]
+            for b in range(3):
+                B[k, r, b] = x0 * fdat[o + b] + x1 * fdat[o + 3 + b] + x2 * fdat[o + 6 + b]
+
+
 def chain_frames(fdat, idat, q, qd, vel, B, ws, pris, ends):
     """Position stage: the frames of the n links and of the tip into B[ts + i], i = 0 .. n (and
     their time derivatives into B[tds + i], B[tdds + i] when vel); the world twists into B[ss + c].
@@ -607,14 +651,23 @@ def chain_frames(fdat, idat, q, qd, vel, B, ws, pris, ends):
         if idat[2] == BASE_FREE:
             for c in range(3, 5):
                 _rot_step(B, w, ss + c, idat[_H + _CI * c + 1], q[c], qd[c], vel)
+    tt = _tree_tables(idat)
     for i in range(n):
         base = _H + _CI * N + _LI * i
         th = idat[base + 2]
         jk = idat[base + 5]
-        # R and Pb joints sit at the host's tip: the host's end E_(i-1) first (docs/theory.md §7.1).
-        if i > 0 and jk != JOINT_PA:
-            _end_step(fdat, idat, i - 1, q, qd, vel, B, w, ss, ends)
-        if pris is None or jk == JOINT_R:
+        p = idat[tt + i]
+        if i > 0 and p != i - 1:  # a tree (formulation §17): start again from the parent's frame
+            _restart(fdat, B, w, ts, tds, tdds, p)
+        # R and Pb joints sit at the host's tip, or at x_a on the parent: the host's E_p or A_p(x_a)
+        # first (docs/theory.md §7.1, formulation §17).
+        if p >= 0 and jk != JOINT_PA:
+            _end_step(fdat, idat, p, q, qd, vel, B, w, ss + idat[base + 9], ends, idat[base + 8])
+        if idat[base + 7] >= 0:
+            _constant_rotation(fdat, idat[base + 7], B, w, vel)
+        if jk == JOINT_WELD:
+            _rot_step(B, w, w + 3, 2, _joint_field(fdat, idat, i, 0), 0.0, vel)
+        elif pris is None or jk == JOINT_R:
             _rot_step(B, w, ss + th, idat[_H + _CI * th + 1], q[th], qd[th], vel)
         elif jk == JOINT_PA:
             _pa_step(fdat, idat, i, q, qd, vel, B, w, ss)

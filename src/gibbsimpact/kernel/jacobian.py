@@ -59,7 +59,7 @@ def state_jacobian(fdat, idat, q, qd, Q, pris, ends, out):
         return -1.0
     n = idat[0]
     mmax = _mmax(idat)
-    ws = work_slots(n, N, mmax)
+    ws = work_slots(n, N, mmax, idat[7])
     nB, nV = work_sizes(ws, N, True, True)
     B = np.zeros((nB, 4, 4))
     V = np.zeros((nV, 4))

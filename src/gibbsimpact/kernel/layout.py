@@ -11,17 +11,24 @@ from __future__ import annotations
 import numpy as np
 
 # -- data layout --------------------------------------------------------------
-# idat: [n, N, base kind, X, prismatic (0/1), general ends (0/1), 0, 0] + per coordinate (N rows of _CI ints)
-#       (X: extra contact points, the tips of host links whose child joint is prismatic)
-#       + per link (n rows of _LI ints)
+# idat: [n, N, base kind, X, prismatic (0/1), general ends (0/1), offset of the tree tables, NE]
+#       + per coordinate (N rows of _CI ints) + per link (n rows of _LI ints) + the tree tables
+#       (X: extra contact points, the tips of host links whose child joint is prismatic, then the
+#       tips of the leaves but the last link; NE: extra twist entries, _tree_tables)
 _H = 8
-_CI = 6  # kind, axis, first frame, own link (-1), local index, first frame of a second twist (-1)
-# m, first delta index in q, joint variable index in q, offset in fdat, end kind, joint kind,
-# offset in fdat of the foreshortening tables (-1: a linear beam; model/packing._fs_tables)
-_LI = 7
+# kind, axis, first frame, own link (-1), local index, first frame of a second twist (-1),
+# first extra twist entry (-1), number of extra twist entries (their stride: the own link's m)
+_CI = 8
+# m, first delta index in q, joint variable index in q (-1: a weld), offset in fdat, end kind,
+# joint kind, offset in fdat of the foreshortening tables (-1: a linear beam; model/packing._fs_tables),
+# offset in fdat of the joint's constant rotation (9, row-major; -1: none), offset in fdat of the
+# attachment table on the parent (-1: the parent's tip; [x_a, t (3 m_p), phi (3 m_p), H(x_a) (m_p m_p,
+# a stiffened parent)]), r: the twists of the parent's deltas acting on this link are B[SS + r + c]
+# (c their index in q; r = 0 for the parent's first child, 2 N + e - c_0 for an extra twist entry e)
+_LI = 10
 KIND_TRANSLATION, KIND_ROTATION, KIND_MODE, KIND_PA, KIND_PB = 0, 1, 2, 3, 4
 END_RIGID, END_GENERAL = 0, 2  # a link end fixed to its frame, or moved by its modes
-JOINT_R, JOINT_PA, JOINT_PB = 0, 1, 2
+JOINT_R, JOINT_PA, JOINT_PB, JOINT_WELD = 0, 1, 2, 3
 BASE_FIXED, BASE_FREE, BASE_PLANAR = 0, 1, 2
 # fdat: base T0 (16), g~ (4), then per link: P0+Sigma (16), m_r0 (4), length,
 #       cx (m), c1 (m), Mpsi (m*m), K (m*m), end_t (3m), end_phi (3m),
@@ -60,12 +67,45 @@ def inline(f):
 _W_SIZE = 24
 
 
-def work_slots(n, N, mmax):
-    """Offsets of a kernel call's work arrays for n links, N coordinates and at most mmax own
-    modes a link: (TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE).
+def _tree_tables(idat):
+    """Offset in idat of the tree tables (formulation §17), n1 = n + 1 frames (link frames 0 .. n-1,
+    frame n the last link's tip): parent frame par[j] (n1; -1 on the base), ancestor table
+    anc[a, b] (n1 n1; 1 when frame a is b or an ancestor of b), the anchor frame of each extra
+    twist entry (NE), the number L of leaf tips among the contact points and their links (L)."""
+    return idat[6]
+
+
+def _anc(idat, a, b):
+    """True when frame a is frame b or one of its ancestors (_tree_tables): a coordinate whose
+    twist acts from frame a moves frame b. On a serial chain, a <= b."""
+    n1 = idat[0] + 1
+    return idat[idat[6] + n1 + n1 * a + b] != 0
+
+
+def _piece(idat, N, c, k):
+    """(slot, start frame) of piece k of coordinate c's twist, or (-1, -1) where it has none:
+    k = 0 its twist S_c (B[SS + slot]) from its first frame f_c, k = 1 its second twist S2_c from
+    f2_c (item 7), k >= 2 its extra twist entries (a parent's delta acting on its second, third ..
+    child, formulation §17; _tree_tables). Slots relative to SS."""
+    b = _H + _CI * c
+    if k == 0:
+        return c, idat[b + 2]
+    if k == 1:
+        return (N + c, idat[b + 5]) if idat[b + 5] >= 0 else (-1, -1)
+    if k - 2 >= idat[b + 7]:
+        return -1, -1
+    e = idat[b + 6] + (k - 2) * idat[_H + _CI * N + _LI * idat[b + 3]]
+    return 2 * N + e, idat[_tree_tables(idat) + (idat[0] + 1) * (idat[0] + 2) + e]
+
+
+def work_slots(n, N, mmax, ne=0):
+    """Offsets of a kernel call's work arrays for n links, N coordinates, at most mmax own
+    modes a link and ne extra twist entries: (TS, TDS, TDDS, SS, WK, PS, PVS, PIC, FC, XS, MR, MRD,
+    QV, QDV, MUC, YY, EE).
 
     B (k, 4, 4): T, Td, Tdd0 of frames 0 .. n (n + 1 each, from TS, TDS, TDDS), twists S_c then
-    second twists S2_c (2 N, from SS), _W_SIZE work slots (from WK): what frames, points and
+    second twists S2_c (2 N, from SS), then the extra twist entries (ne: a parent's delta acting on
+    its second, third .. child, _tree_tables), _W_SIZE work slots (from WK): what frames, points and
     Jacobians need; then the body moments P, Pv (n + 1 each, from PS, PVS): what energies and
     momenta need too; then the composites Pi^c, F^c (n + 1 each) and X_d (N, from XS): what M, h
     and dV need too. V (k, 4): m_r and mdot_r (n + 1 each), q_l and qd_l (mmax + 1 a link each,
@@ -73,7 +113,7 @@ def work_slots(n, N, mmax):
     """
     n1 = n + 1
     SS = 3 * n1
-    WK = SS + 2 * N
+    WK = SS + 2 * N + ne
     PS = WK + _W_SIZE
     PIC = PS + 2 * n1
     QV = 2 * n1

@@ -7,7 +7,7 @@ Kinetic energy per link: 1/2 tr(Td P Td^T) + tr(Td Pv T^T) + 1/2 int mu vdot^2
 from __future__ import annotations
 
 from .layout import (_CI, _F_G, _H, _LI, _S_FR, _S_JAC, _S_PTS, JOB_FRAMES, JOB_JACOBIANS, JOB_POINTS, JOINT_PB,
-                     JOINT_R, _mmax, inline)
+                     JOINT_R, _anc, _mmax, _piece, _tree_tables, inline)
 from .mat4 import _mm, _mmt
 from .moments import _fs_offsets, _fs_tables, _own, _own_source, _sd_offsets, _sd_stride
 
@@ -116,74 +116,89 @@ def frame_outputs(idat, B, ws, out, L, job, npts, k):
                     out[o + 16 + 4 * a + b] = B[tds + j, a, b]
                     out[o + 32 + 4 * a + b] = B[tdds + j, a, b]
         if job & JOB_JACOBIANS:
-            o = L[_S_JAC] + 3 * N * (npts * k + j)
-            for c in range(N):
-                if idat[_H + _CI * c + 2] <= j:
-                    f2 = idat[_H + _CI * c + 5]
-                    for a in range(3):
-                        s = B[ss + c, a, 3]
-                        for b in range(3):
-                            s += B[ss + c, a, b] * B[ts + j, b, 3]
-                        if 0 <= f2 <= j:
-                            s += B[ss + N + c, a, 3]
-                            for b in range(3):
-                                s += B[ss + N + c, a, b] * B[ts + j, b, 3]
-                        out[o + N * a + c] = s
+            _point_jacobian(idat, B, ss, B[ts + j, 0, 3], B[ts + j, 1, 3], B[ts + j, 2, 3], j, out,
+                            L[_S_JAC] + 3 * N * (npts * k + j))
+
+
+def _point_jacobian(idat, B, ss, p0, p1, p2, j, out, o):
+    """dp/dq (3, N) into out[o:] (row-major) for a point p [m] fixed to frame j: for every coordinate
+    c, the sum of (S p)[:3] over the pieces S of c's twist (assemble._piece) whose start frame is j
+    or an ancestor of j (layout._anc); 0 where none is."""
+    N = idat[1]
+    for c in range(N):
+        for a in range(3):
+            out[o + N * a + c] = 0.0
+        for piece in range(2 + idat[_H + _CI * c + 7]):
+            sl, f = _piece(idat, N, c, piece)
+            if sl < 0 or not _anc(idat, f, j):
+                continue
+            for a in range(3):
+                x = out[o + N * a + c] + B[ss + sl, a, 3]
+                x += B[ss + sl, a, 0] * p0
+                x += B[ss + sl, a, 1] * p1
+                x += B[ss + sl, a, 2] * p2
+                out[o + N * a + c] = x
 
 
 def _extra_points(fdat, idat, q, B, ws, out, L, job, npts, k):
-    """State k's extra contact points into the point and Jacobian sections of out (layout L):
-    the tips of host links h whose child joint is prismatic (contact points n + 1 ..):
-    p = T_h (l_h e_x + sum end_t_k delta_k, 1),  dp/dq_c = (S_c p)[:3] for f_c <= h,
-    R_h end_t_k for h's own delta_k (docs/theory.md §7.1: E_h is not on the chain's path);
-    a stiffened host adds u_f(l) = -1/2 delta^T H(l) delta along e_x and -(H(l) delta)_k to end_t_k's x."""
-    ts, TDS, TDDS, ss, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
-    o_pts = L[_S_PTS]
-    o_jac = L[_S_JAC]
+    """State k's extra contact points into the point and Jacobian sections of out (layout L): the
+    tips of host links whose child joint is prismatic (contact points n + 1 ..), then the tips of
+    a tree's leaves but the last link (formulation §17: every link end that carries no child;
+    _tree_tables), each by _tip_point."""
     n = idat[0]
     N = idat[1]
     x = n + 1
     for i in range(1, n):
-        if idat[_H + _CI * N + _LI * i + 5] == JOINT_R:
+        if idat[_H + _CI * N + _LI * i + 5] == JOINT_R or idat[_H + _CI * N + _LI * i + 5] > JOINT_PB:
             continue
-        h = i - 1
-        hb = _H + _CI * N + _LI * h
-        m = idat[hb]
-        d0 = idat[hb + 1]
-        off = idat[hb + 3]
-        o_t = off + 21 + 2 * m + 2 * m * m
-        t0 = fdat[off + 20]
-        t1 = 0.0
-        t2 = 0.0
-        oHl = -1 if idat[hb + 6] < 0 else _fs_tables(fdat, idat[hb + 6], m)[8]
-        for c in range(m):
-            for j in range(m if oHl >= 0 else 0):
-                t0 -= 0.5 * q[d0 + c] * fdat[oHl + m * c + j] * q[d0 + j]
-            t0 += fdat[o_t + 3 * c] * q[d0 + c]
-            t1 += fdat[o_t + 3 * c + 1] * q[d0 + c]
-            t2 += fdat[o_t + 3 * c + 2] * q[d0 + c]
-        p0 = B[ts + h, 0, 0] * t0 + B[ts + h, 0, 1] * t1 + B[ts + h, 0, 2] * t2 + B[ts + h, 0, 3]
-        p1 = B[ts + h, 1, 0] * t0 + B[ts + h, 1, 1] * t1 + B[ts + h, 1, 2] * t2 + B[ts + h, 1, 3]
-        p2 = B[ts + h, 2, 0] * t0 + B[ts + h, 2, 1] * t1 + B[ts + h, 2, 2] * t2 + B[ts + h, 2, 3]
-        if job & JOB_POINTS:
-            o = o_pts + 3 * (npts * k + x)
-            out[o] = p0
-            out[o + 1] = p1
-            out[o + 2] = p2
-        if job & JOB_JACOBIANS:
-            o = o_jac + 3 * N * (npts * k + x)
-            for c in range(N):
-                if idat[_H + _CI * c + 2] <= h:
-                    for a in range(3):
-                        out[o + N * a + c] = (B[ss + c, a, 3] + B[ss + c, a, 0] * p0 + B[ss + c, a, 1] * p1
-                                              + B[ss + c, a, 2] * p2)
-            for c in range(m):
-                eta = 0.0
-                for j in range(m if oHl >= 0 else 0):
-                    eta += fdat[oHl + m * c + j] * q[d0 + j]
-                for a in range(3):
-                    s = -B[ts + h, a, 0] * eta
-                    for b in range(3):
-                        s += B[ts + h, a, b] * fdat[o_t + 3 * c + b]
-                    out[o + N * a + d0 + c] = s
+        _tip_point(fdat, idat, q, B, ws, out, L, job, npts, k, i - 1, x)
         x += 1
+    o = _tree_tables(idat) + (n + 1) * (n + 2) + idat[7]
+    for r in range(idat[o]):
+        _tip_point(fdat, idat, q, B, ws, out, L, job, npts, k, idat[o + 1 + r], x)
+        x += 1
+
+
+def _tip_point(fdat, idat, q, B, ws, out, L, job, npts, k, h, x):
+    """Contact point x of state k: the tip of link h, which is no frame origin (_extra_points):
+    p = T_h (l_h e_x + sum end_t_k delta_k, 1),  dp/dq_c = (S_c p)[:3] for the twists that move
+    frame h (_point_jacobian), R_h end_t_k for h's own delta_k (docs/theory.md §7.1: E_h is not on
+    the chain's path); a stiffened host adds u_f(l) = -1/2 delta^T H(l) delta along e_x and
+    -(H(l) delta)_k to end_t_k's x."""
+    ts, TDS, TDDS, ss, WK, PS, PVS, PIC, FC, XS, MR, MRD, QV, QDV, MUC, YY, EE = ws
+    N = idat[1]
+    hb = _H + _CI * N + _LI * h
+    m = idat[hb]
+    d0 = idat[hb + 1]
+    off = idat[hb + 3]
+    o_t = off + 21 + 2 * m + 2 * m * m
+    t0 = fdat[off + 20]
+    t1 = 0.0
+    t2 = 0.0
+    oHl = -1 if idat[hb + 6] < 0 else _fs_tables(fdat, idat[hb + 6], m)[8]
+    for c in range(m):
+        for j in range(m if oHl >= 0 else 0):
+            t0 -= 0.5 * q[d0 + c] * fdat[oHl + m * c + j] * q[d0 + j]
+        t0 += fdat[o_t + 3 * c] * q[d0 + c]
+        t1 += fdat[o_t + 3 * c + 1] * q[d0 + c]
+        t2 += fdat[o_t + 3 * c + 2] * q[d0 + c]
+    p0 = B[ts + h, 0, 0] * t0 + B[ts + h, 0, 1] * t1 + B[ts + h, 0, 2] * t2 + B[ts + h, 0, 3]
+    p1 = B[ts + h, 1, 0] * t0 + B[ts + h, 1, 1] * t1 + B[ts + h, 1, 2] * t2 + B[ts + h, 1, 3]
+    p2 = B[ts + h, 2, 0] * t0 + B[ts + h, 2, 1] * t1 + B[ts + h, 2, 2] * t2 + B[ts + h, 2, 3]
+    if job & JOB_POINTS:
+        o = L[_S_PTS] + 3 * (npts * k + x)
+        out[o] = p0
+        out[o + 1] = p1
+        out[o + 2] = p2
+    if job & JOB_JACOBIANS:
+        o = L[_S_JAC] + 3 * N * (npts * k + x)
+        _point_jacobian(idat, B, ss, p0, p1, p2, h, out, o)
+        for c in range(m):
+            eta = 0.0
+            for j in range(m if oHl >= 0 else 0):
+                eta += fdat[oHl + m * c + j] * q[d0 + j]
+            for a in range(3):
+                s = -B[ts + h, a, 0] * eta
+                for b in range(3):
+                    s += B[ts + h, a, b] * fdat[o_t + 3 * c + b]
+                out[o + N * a + d0 + c] = s

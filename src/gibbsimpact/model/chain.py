@@ -168,7 +168,7 @@ class Link:
 
 @dataclass(frozen=True)
 class Chain:
-    """A serial chain of links on a free-flying or a fixed base.
+    """A chain of links on a free-flying or a fixed base: serial, or a tree (parents, attach).
 
     Free base (``base="free"``, the default): joint O_1 (proximal end of link 1)
     flies freely; two massless virtual links of zero length and link 1's joint
@@ -188,16 +188,27 @@ class Chain:
     d_i = protruding length [m]). Prismatic joints make the chain planar: a
     fixed or a planar floating base, in-plane bending only.
 
+    Trees (formulation §17): ``parents[i]`` is the 0-based index of an earlier link or -1 for
+    the base, ``attach[i]`` the abscissa x_a [m] on the parent where link i's joint sits (None:
+    the parent's tip), deflection and foreshortening of the parent included:
+    T_i = T_p A_p(x_a) J_i. A floating base floats the one root link (parents[0] = -1 and no
+    other -1); a fixed base may carry several roots. gi.Weld(angle) joins two links rigidly
+    (no coordinate). Prismatic joints stand in serial chains only (parents a path, no attach).
+
     Parameters
     ----------
     links : sequence of Link (n >= 1)
     joints : sequence of n joints, or None for all revolute
     base : "free" (spatial floating base), "planar" or FixedBase
+    parents : sequence of n ints, or None for the serial chain [-1, 0, 1, ..., n - 2]
+    attach : sequence of n abscissae [m] (or None entries: the parent's tip), or None: all tips
     """
 
     links: tuple
     joints: tuple | None = None
     base: object = "free"
+    parents: tuple | None = None
+    attach: tuple | None = None
 
     def __post_init__(self):
         links = self.links
@@ -225,13 +236,39 @@ class Chain:
         for k, jt in enumerate(joints):
             if not isinstance(jt, JOINT_TYPES):
                 raise ValueError(
-                    f"Chain joints[{k}]={jt!r} is not a joint; use gi.Revolute(), gi.SlidingPrismatic(...) "
-                    "or gi.FixedPrismatic(...)")
+                    f"Chain joints[{k}]={jt!r} is not a joint; use gi.Revolute(), gi.SlidingPrismatic(...), "
+                    "gi.FixedPrismatic(...) or gi.Weld(...)")
         object.__setattr__(self, "joints", joints)
         if not (self.base in ("free", "planar") or isinstance(self.base, FixedBase)):
             raise ValueError(f"Chain base={self.base!r} must be 'free', 'planar' or "
                              "gi.FixedBase(position=(b1, b2), angle=beta)")
+        parents, attach = _check_tree(links, joints, self.base, self.parents, self.attach)
+        object.__setattr__(self, "parents", parents)
+        object.__setattr__(self, "attach", attach)
         _check_joints(links, joints, self.base)
+
+    @property
+    def serial(self) -> bool:
+        """True when every link hangs at the tip of the link before it (parents [-1, 0, 1, ...],
+        no attach): today's serial chain."""
+        return self.parents == tuple(range(-1, len(self.links) - 1)) and all(a is None for a in self.attach)
+
+    @property
+    def children(self) -> tuple:
+        """children[i]: the links whose parent is link i, in link order (tuple of n tuples)."""
+        return tuple(tuple(j for j, p in enumerate(self.parents) if p == i) for i in range(len(self.links)))
+
+    @property
+    def leaves(self) -> tuple:
+        """The links that carry no child, in link order."""
+        return tuple(i for i, c in enumerate(self.children) if not c)
+
+    @property
+    def free_tips(self) -> tuple:
+        """The links whose tip carries no child (every child attached at x_a < l, or none): their
+        tips are contact points of their own (formulation §17), in link order."""
+        return tuple(i for i, c in enumerate(self.children)
+                     if not any(self.attach[j] in (None, self.links[i].length) for j in c))
 
     @property
     def n_links(self) -> int:
@@ -246,12 +283,74 @@ class Chain:
     def planar(self) -> bool:
         """True when the chain moves in the X1-X2 plane only (docs/theory.md §8):
         a planar free base, or any prismatic joint."""
-        return self.base == "planar" or any(j.kind != "R" for j in self.joints)
+        return self.base == "planar" or any(j.kind in ("Pa", "Pb") for j in self.joints)
+
+
+def _check_tree(links, joints, base, parents, attach) -> tuple:
+    """(parents, attach) as tuples after the rules of formulation §17; a ValueError names the
+    argument and the fix."""
+    n = len(links)
+    if parents is None:
+        parents = tuple(range(-1, n - 1))
+    try:
+        parents = tuple(parents)
+    except TypeError:
+        raise ValueError(f"Chain parents={parents!r} must be a list of n = {n} link indices (-1: the base)") from None
+    if len(parents) != n:
+        raise ValueError(f"Chain parents has {len(parents)} entries for {n} links; give one parent per link "
+                         "(-1 for the base)")
+    for i, p in enumerate(parents):
+        if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or not -1 <= p < i:
+            raise ValueError(f"Chain parents[{i}]={p!r} must be -1 (the base) or the 0-based index of an earlier "
+                             f"link (0 .. {i - 1}): list the links parent first")
+    parents = tuple(int(p) for p in parents)
+    roots = [i for i, p in enumerate(parents) if p < 0]
+    if isinstance(base, str) and len(roots) > 1:
+        raise ValueError(f"Chain parents[{roots[1]}]=-1: a floating base (base={base!r}) floats one root link; "
+                         "attach links " + ", ".join(str(r) for r in roots[1:]) + " to a link (or use "
+                         "gi.FixedBase(...), which may carry several roots)")
+    if attach is None:
+        attach = (None,) * n
+    try:
+        attach = tuple(attach)
+    except TypeError:
+        raise ValueError(f"Chain attach={attach!r} must be a list of n = {n} abscissae [m] or None") from None
+    if len(attach) != n:
+        raise ValueError(f"Chain attach has {len(attach)} entries for {n} links; give one per link (None: the "
+                         "parent's tip)")
+    out = []
+    for i, (p, a) in enumerate(zip(parents, attach)):
+        if a is None:
+            out.append(None)
+            continue
+        if p < 0:
+            raise ValueError(f"Chain attach[{i}]={a!r}: link {i} stands on the base (parents[{i}] = -1); give None "
+                             "(place a root with the base's position instead)")
+        lp = links[p].length
+        if isinstance(a, bool) or not isinstance(a, Real) or not np.isfinite(a) or not 0.0 <= a <= lp:
+            raise ValueError(f"Chain attach[{i}]={a!r} must be an abscissa in [0, {lp:g}] m on its parent, "
+                             f"links[{p}] (or None for the parent's tip)")
+        out.append(float(a))
+    serial = parents == tuple(range(-1, n - 1)) and all(a is None for a in out)
+    for k, jt in enumerate(joints):
+        if jt.kind in ("Pa", "Pb") and not serial:
+            raise ValueError(f"Chain joints[{k}]={jt!r}: prismatic joints stand in serial chains only (parents=None, "
+                             "attach=None); in a tree, give this link a gi.Revolute() or gi.Weld()")
+    if isinstance(base, str) and joints[roots[0]].kind != "R":
+        raise ValueError(f"Chain joints[{roots[0]}]={joints[roots[0]]!r}: on a floating base (base={base!r}) the root's "
+                         "joint must be gi.Revolute(); its theta is part of the floating orientation")
+    return parents, tuple(out)
 
 
 def _check_joints(links, joints, base):
     """The rules of docs/theory.md §8, §7.3, §7.4 for prismatic joints."""
-    prismatic = [k for k, j in enumerate(joints) if j.kind != "R"]
+    prismatic = [k for k, j in enumerate(joints) if j.kind in ("Pa", "Pb")]
+    planar = base == "planar" or prismatic
+    for k, jt in enumerate(joints):
+        R = getattr(jt, "axis_rotation", None) or getattr(jt, "rotation", None)
+        if planar and R is not None and not np.allclose(np.asarray(R)[:, 2], (0.0, 0.0, 1.0), atol=1e-12):
+            raise ValueError(f"Chain joints[{k}]={jt!r}: a planar chain (base='planar' or prismatic joints) moves in "
+                             "the X1-X2 plane; its joints' rotations must keep the z axis (R e_z = e_z)")
     if base == "planar" and joints[0].kind != "R":
         raise ValueError(f"Chain joints[0] (joint 1)={joints[0]!r}: on a planar free base (base='planar') joint 1 "
                          "must be gi.Revolute(); its theta_1 is the floating orientation")

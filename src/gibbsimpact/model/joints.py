@@ -1,7 +1,7 @@
-"""The joints of a chain (docs/theory.md §7): Revolute (R), SlidingPrismatic (Pa) and FixedPrismatic
-(Pb), and the FixedBase a chain may stand on instead of flying freely (docs/theory.md §8).
+"""The joints of a chain (docs/theory.md §7): Revolute (R), SlidingPrismatic (Pa), FixedPrismatic
+(Pb) and Weld (W, no coordinate; formulation §17), and the FixedBase a chain may stand on instead of flying freely (docs/theory.md §8).
 
-Each is a frozen dataclass, validated once when it is built; ``kind`` ('R', 'Pa', 'Pb') is
+Each is a frozen dataclass, validated once when it is built; ``kind`` ('R', 'Pa', 'Pb', 'W') is
 what the rest of the package reads.
 """
 
@@ -13,14 +13,61 @@ from numbers import Real
 import numpy as np
 
 
+def _rotation(name: str, value):
+    """``value`` as a proper rotation matrix (3, 3) (a tuple of rows), or None; a ValueError names
+    the argument ``name``."""
+    if value is None:
+        return None
+    R = np.asarray(value, dtype=float) if not isinstance(value, str) else np.zeros(0)
+    if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R @ R.T, np.eye(3), atol=1e-12) \
+            or np.linalg.det(R) <= 0:
+        raise ValueError(f"{name}={value!r} must be a proper rotation matrix (3, 3): R R^T = I to 1e-12 "
+                         "and det R = +1 (e.g. scipy.spatial.transform.Rotation.from_euler('x', 90, degrees=True)"
+                         ".as_matrix())")
+    return tuple(tuple(float(v) for v in row) for row in R)
+
+
 @dataclass(frozen=True)
 class Revolute:
     """A revolute joint: link i turns by theta_i [rad] about the z axis at the host's tip (docs/theory.md §7.2).
 
-    G_i = E_(i-1) Rz(theta_i); on a fixed base E_0 = I (the motor sits at the base origin).
+    J_i = Rot(R) Rz(theta_i) (formulation §17): G_i = E_(i-1) J_i, or A_p(x_a) J_i in a tree; on a
+    fixed base E_0 = I (the motor sits at the base origin).
+
+    Parameters
+    ----------
+    axis_rotation : (3, 3) array_like or None
+        R, a constant rotation applied before Rz(theta) that orients the joint axis: link i turns
+        about R e_z of the parent's frame (a 3D leg's hip axis). None: the identity (R e_z = e_z).
     """
 
+    axis_rotation: tuple | None = None
     kind = "R"
+
+    def __post_init__(self):
+        object.__setattr__(self, "axis_rotation", _rotation("Revolute axis_rotation", self.axis_rotation))
+
+
+@dataclass(frozen=True)
+class Weld:
+    """A welded joint: link i is clamped to its parent at a fixed angle, with no coordinate
+    (formulation §17): J_i = Rot(R) Rz(angle).
+
+    Parameters
+    ----------
+    angle : float
+        gamma [rad], link i's axis turned about the parent's z axis (after R).
+    rotation : (3, 3) array_like or None
+        R, a constant rotation (3D); None: the identity.
+    """
+
+    angle: float = 0.0
+    rotation: tuple | None = None
+    kind = "W"
+
+    def __post_init__(self):
+        object.__setattr__(self, "angle", _joint_angle("Weld", self.angle))
+        object.__setattr__(self, "rotation", _rotation("Weld rotation", self.rotation))
 
 
 @dataclass(frozen=True)
@@ -151,4 +198,4 @@ class FixedPrismatic:
 
 
 #: Joint types a chain accepts.
-JOINT_TYPES = (Revolute, SlidingPrismatic, FixedPrismatic)
+JOINT_TYPES = (Revolute, SlidingPrismatic, FixedPrismatic, Weld)

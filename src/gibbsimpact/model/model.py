@@ -22,14 +22,14 @@ import numpy as np
 
 from ..kernel import compiled, output, variant
 from .chain import Chain, Link
-from .joints import JOINT_TYPES, FixedBase, FixedPrismatic, Revolute, SlidingPrismatic
+from .joints import JOINT_TYPES, FixedBase, FixedPrismatic, Revolute, SlidingPrismatic, Weld
 from .packing import pack
 from .shapes import DEFAULT_QUADRATURE, LinkData, gauss_legendre, link_deflection, link_integrals, shape_functions
 
 # Link, the joints and the shape functions lived in this module before it was split (joints.py,
 # chain.py, shapes.py); imports of them from gibbsimpact.model.model keep working.
 __all__ = [
-    "DEFAULT_QUADRATURE", "Link", "Revolute", "FixedBase", "SlidingPrismatic", "FixedPrismatic", "JOINT_TYPES",
+    "DEFAULT_QUADRATURE", "Link", "Revolute", "FixedBase", "SlidingPrismatic", "FixedPrismatic", "Weld", "JOINT_TYPES",
     "Chain", "gauss_legendre", "LinkData", "shape_functions", "link_deflection", "link_integrals", "Model",
 ]
 
@@ -96,7 +96,11 @@ class Model:
         base = {"free": ["X1", "X2", "X3", "theta_-1", "theta_0"], "planar": ["X1", "X2"]}.get(
             chain.base if chain.free_base else "", [])
         kinds = [j.kind for j in chain.joints]
-        names = base + [f"theta_{i}" if kd == "R" else f"d_{i}" for i, kd in enumerate(kinds, start=1)]
+        # a weld has no coordinate (formulation §17): joint variables in link order, welds skipped
+        names = base + [f"theta_{i}" if kd == "R" else f"d_{i}" for i, kd in enumerate(kinds, start=1) if kd != "W"]
+        joint_index = []
+        for kd in kinds:
+            joint_index.append(-1 if kd == "W" else len(base) + len(joint_index) - joint_index.count(-1))
         delta_index = []
         directions = []
         k = len(names)
@@ -112,11 +116,12 @@ class Model:
         self._delta_index = tuple(delta_index)
         # The same indices as slices (each link's modes are contiguous): cheap views in the kernel.
         self._delta_slice = tuple(slice(int(d[0]), int(d[-1]) + 1) if d.size else slice(0, 0) for d in delta_index)
-        self._theta_index = tuple(range(len(base), len(base) + n))
-        self._bending = tuple([""] * (len(base) + n) + directions)
+        self._theta_index = tuple(joint_index)
+        n_joint = n - kinds.count("W")
+        self._bending = tuple([""] * (len(base) + n_joint) + directions)
         # Unit of each coordinate: angles and FE node slopes in rad, the rest in m.
         units = ["m", "m", "m", "rad", "rad"][:len(base)]
-        units += ["rad" if kd == "R" else "m" for kd in kinds]
+        units += ["rad" if kd == "R" else "m" for kd in kinds if kd != "W"]
         for lk, ld in zip(chain.links, self._links):
             units += (["m", "rad"] * (ld.K.shape[0] // 2)) if lk.elements else ["m"] * ld.K.shape[0]
         self._units = tuple(units)
@@ -137,7 +142,7 @@ class Model:
     delta_index = property(lambda self: self._delta_index, doc="Indices of each link's modal coordinates in q.")
     delta_slice = property(lambda self: self._delta_slice, doc="The same as slices of q.")
     theta_index = property(lambda self: self._theta_index,
-                           doc="Index in q of joint i's variable (theta_i or d_i), i = 1..n.")
+                           doc="Index in q of joint i's variable (theta_i or d_i), i = 1..n; -1 for a weld.")
     joint_index = theta_index
     free_base = property(lambda self: self._chain.free_base,
                          doc="True for a floating base: X1..X3, theta_-1, theta_0 ('free') or X1, X2 ('planar') in q.")
@@ -217,15 +222,37 @@ class Model:
             return self._n_joints  # computed once: the event layer asks for it at every gap evaluation
         except AttributeError:
             pass
-        P = self._n_joints = self._chain.n_links + 1 + sum(
-            1 for i, j in enumerate(self._chain.joints) if i > 0 and j.kind != "R")
+        P = self._n_joints = self._chain.n_links + 1 + len(self.extra_tips)
         return P
+
+    @property
+    def extra_tips(self) -> tuple:
+        """The links (0-based) whose tips are contact points but no frame origin, in contact-point
+        order (n_joints): hosts of a prismatic child joint, then the leaves of a tree but the last
+        link (formulation §17: every link end that carries no child)."""
+        joints = self._chain.joints
+        hosts = [i - 1 for i, j in enumerate(joints) if i > 0 and j.kind in ("Pa", "Pb")]
+        return tuple(hosts + [i for i in self._chain.free_tips if i != len(joints) - 1])
+
+    @property
+    def tip_points(self) -> tuple:
+        """Index in joint_positions (n_joints) of the contact point at each link's tip (n,): the
+        frame origin of its first child attached at the tip, the tip frame n for the last link,
+        or its extra tip point (extra_tips)."""
+        chain, n = self._chain, self._chain.n_links
+        extra = {h: n + 1 + k for k, h in enumerate(self.extra_tips)}
+        out = []
+        for i in range(n):
+            at_tip = [j for j in chain.children[i] if chain.attach[j] in (None, chain.links[i].length)
+                      and chain.joints[j].kind in ("R", "W")]
+            out.append(n if i == n - 1 else (at_tip[0] if at_tip else extra[i]))
+        return tuple(out)
 
     @property
     def contact_point_names(self) -> tuple:
         """A label per contact point (P,): 'O1' ... and 'tip of link i' for the extra tips."""
         names = [f"O{j}" for j in range(1, self._chain.n_links + 2)]
-        names += [f"tip of link {i}" for i, j in enumerate(self._chain.joints) if i > 0 and j.kind != "R"]
+        names += [f"tip of link {h + 1}" for h in self.extra_tips]
         return tuple(names)
 
     def check_state(self, q, qdot=None, name_q: str = "q", name_qdot: str = "qdot"):

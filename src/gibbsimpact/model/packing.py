@@ -9,9 +9,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..kernel.layout import (_CI, _F_LINKS, _GAUSS, _H, _LI, BASE_FIXED, BASE_FREE, BASE_PLANAR, END_GENERAL, END_RIGID,
-                             JOINT_PA, JOINT_PB, JOINT_R, KIND_MODE, KIND_PA, KIND_PB, KIND_ROTATION, KIND_TRANSLATION)
+                             JOINT_PA, JOINT_PB, JOINT_R, JOINT_WELD, KIND_MODE, KIND_PA, KIND_PB, KIND_ROTATION,
+                             KIND_TRANSLATION)
 from .elements import assemble as assemble_elements, element_stiffness, hermite_shape
-from .shapes import foreshortening_matrix, mass_points, shape_functions
+from .shapes import foreshortening_matrix, mass_points, section_tables, shape_functions
 
 
 def _pb_tables(link):
@@ -61,19 +62,79 @@ def _fs_tables(link, quadrature):
     return [[G, k.size, 0], x, wm, psi.ravel(), k, l, H[:, k, l].ravel(), Hl.ravel()]
 
 
+def _tree_tables(model):
+    """The tree tables of the kernel (kernel.layout._tree_tables) and the extra twist entries:
+    (tables (I,) int64, NE, first (n,), slot (n,)): a link p with r > 1 children has its deltas'
+    twists on children 2 .. r as extra entries e = first[p] + (j - 1) m_p + k (anchor: child j),
+    and slot[i] = layout's r of link i (the twists of its parent's deltas acting on it)."""
+    chain = model.chain
+    n, N = model.n_links, model.n_dof
+    par = list(chain.parents) + [n - 1]
+    anc = np.zeros((n + 1, n + 1), dtype=np.int64)
+    for b in range(n + 1):
+        a = b
+        while a >= 0:
+            anc[a, b] = 1
+            a = par[a]
+    anchors, first, slot = [], np.full(n, -1), np.zeros(n, dtype=np.int64)
+    for p, kids in enumerate(chain.children):
+        m, d0 = model.delta_index[p].size, (model.delta_index[p][0] if model.delta_index[p].size else 0)
+        if len(kids) > 1 and m:
+            first[p] = len(anchors)
+            for j, ch in enumerate(kids[1:]):
+                slot[ch] = 2 * N + len(anchors) - d0
+                anchors += [ch] * m
+    leaves = [i for i in chain.free_tips if i != n - 1]
+    tables = np.concatenate([par, anc.ravel(), anchors, [len(leaves)], leaves]).astype(np.int64)
+    return tables, len(anchors), first, slot
+
+
+def _first_frame(chain, p):
+    """The first frame that link p's deltas move: its first child's, the tip frame n for the last
+    link, and n for any other leaf too (a leaf's deltas move no frame: their twists stay zero)."""
+    kids = chain.children[p]
+    return kids[0] if kids else chain.n_links
+
+
+def _tree_block(model, i):
+    """fdat blocks of link i's joint (formulation §17): its constant rotation R (9) or None, and
+    its attachment table on the parent [x_a, t(x_a) (3 m_p), phi(x_a) (3 m_p), H(x_a) (m_p m_p,
+    a stiffened parent)] or None (the parent's tip: its end tables)."""
+    chain = model.chain
+    jt = chain.joints[i]
+    R = getattr(jt, "axis_rotation", None) or getattr(jt, "rotation", None)
+    rot = None if R is None else np.asarray(R, dtype=float).ravel()
+    xa, p = chain.attach[i], chain.parents[i]
+    if xa is None:
+        return rot, None
+    host = chain.links[p]
+    t, phi = section_tables(host, xa)
+    table = [[xa], t.ravel(), phi.ravel()]
+    if host.stiffened:
+        table.append(foreshortening_matrix(host, [xa])[0].ravel())
+    return rot, np.concatenate(table)
+
+
 def pack(model):
     """The model as (fdat float64 (F,), idat int64 (I,)) for the kernel."""
     n, N = model.n_links, model.n_dof
     free = model.free_base
-    base_kind = BASE_FIXED if not free else (BASE_PLANAR if model.chain.base == "planar" else BASE_FREE)
-    idat = np.zeros(_H + _CI * N + _LI * n, dtype=np.int64)
+    chain = model.chain
+    base_kind = BASE_FIXED if not free else (BASE_PLANAR if chain.base == "planar" else BASE_FREE)
+    tables, NE, first, slot = _tree_tables(model)
+    idat = np.zeros(_H + _CI * N + _LI * n + tables.size, dtype=np.int64)
     idat[0], idat[1], idat[2] = n, N, base_kind
-    idat[3] = sum(1 for i, jt in enumerate(model.chain.joints) if i > 0 and jt.kind != "R")
-    idat[4] = int(any(jt.kind != "R" for jt in model.chain.joints))  # the kernel variant (variant())
-    idat[5] = int(any(not ld.end_is_rigid for ld in model.link_data))  # a link end moved by its modes
+    idat[3] = len(model.extra_tips)
+    idat[4] = int(any(jt.kind in ("Pa", "Pb") for jt in chain.joints))  # the kernel variant (variant())
+    # a link end moved by its modes, or a child attached along a flexible parent
+    idat[5] = int(any(not ld.end_is_rigid for ld in model.link_data)
+                  or any(a is not None and model.delta_index[p].size for a, p in zip(chain.attach, chain.parents)))
+    idat[6], idat[7] = _H + _CI * N + _LI * n, NE
+    idat[idat[6]:] = tables
     ci = idat[_H:_H + _CI * N].reshape(N, _CI)
-    li = idat[_H + _CI * N:].reshape(n, _LI) if n else np.zeros((0, _LI), dtype=np.int64)
+    li = idat[_H + _CI * N:idat[6]].reshape(n, _LI) if n else np.zeros((0, _LI), dtype=np.int64)
     ci[:, 3] = -1
+    ci[:, 6] = -1
     if base_kind == BASE_FREE:
         for a in range(3):
             ci[a, :3] = (KIND_TRANSLATION, a, 0)
@@ -86,24 +147,28 @@ def pack(model):
          np.append(model.gravity, 0.0)]
     off = _F_LINKS
     axis_of = {"y": 1, "z": 2}
-    joint_of = {"R": JOINT_R, "Pa": JOINT_PA, "Pb": JOINT_PB}
+    joint_of = {"R": JOINT_R, "Pa": JOINT_PA, "Pb": JOINT_PB, "W": JOINT_WELD}
     for i, (ld, lk, jt) in enumerate(zip(model.link_data, model.chain.links, model.chain.joints)):
         th = model.theta_index[i]
         idx = model.delta_index[i]
         m = idx.size
         jk = joint_of[jt.kind]
-        if jk == JOINT_R:
+        if jk == JOINT_WELD:
+            pass  # no coordinate
+        elif jk == JOINT_R:
             ci[th, :3] = (KIND_ROTATION, 2, i)
         elif jk == JOINT_PA:
             ci[th, :3] = (KIND_PA, 0, i)
         else:
             # d_i moves frames i.. by a translation and deforms link i (its own shape chi, slot m).
-            ci[th] = (KIND_PB, 1, i, i, m, 0)
+            ci[th, :6] = (KIND_PB, 1, i, i, m, 0)
         for l, c in enumerate(idx):
-            ci[c] = (KIND_MODE, axis_of[ld.directions[l]], i + 1, i, l, 0)
+            ci[c, :6] = (KIND_MODE, axis_of[ld.directions[l]], _first_frame(chain, i), i, l, 0)
+            if first[i] >= 0:
+                ci[c, 6:] = (first[i] + l, len(chain.children[i]) - 1)
         # A moving end always takes the Rodrigues path (exact at phi = 0: R = I, dR[u] = a skew(u)).
         end = END_RIGID if ld.end_is_rigid else END_GENERAL
-        li[i] = (m, idx[0] if m else 0, th, off, end, jk, -1)
+        li[i] = (m, idx[0] if m else 0, th, off, end, jk, -1, -1, -1, slot[i])
         P0 = np.array(ld.P0, dtype=float)
         J = ld.J_body
         # Rotary inertia as a pseudo-inertia: Sigma = tr(J)/2 I - J (module docstring, item 5).
@@ -122,12 +187,16 @@ def pack(model):
         if lk.stiffened:
             li[i, 6] = off + sum(np.size(b) for b in block)
             block += _fs_tables(lk, model.quadrature)
+        for field, table in zip((7, 8), _tree_block(model, i)):
+            if table is not None:
+                li[i, field] = off + sum(np.size(b) for b in block)
+                block.append(table)
         f += block
         off += sum(np.size(b) for b in block)
     # A second twist (B[ss + N + c]): the protruding length D of a flexible Pb link that carries
     # a Pa carriage moves the carriage's frame i.. once more, through its deflection (_pa_step).
     ci[:, 5] = -1
-    for i, jt in enumerate(model.chain.joints):
+    for i, jt in enumerate(chain.joints):
         if i > 0 and jt.kind == "Pa" and model.chain.joints[i - 1].kind == "Pb" and model.delta_index[i - 1].size:
             ci[model.theta_index[i - 1], 5] = i
     fdat = np.ascontiguousarray(np.concatenate([np.ravel(np.asarray(b, dtype=float)) for b in f]))

@@ -266,6 +266,30 @@ def _stiffness(link: Link, quadrature, directions) -> np.ndarray:
     return K
 
 
+def section_tables(link: Link, x: float) -> tuple[np.ndarray, np.ndarray]:
+    """The section of a link at abscissa x [m] per unit coordinate: t (m, 3), the displacement
+    (0, v, w)(x) [m per unit delta_k], and phi (m, 3), the rotation vector (theta_x, -w'(x), v'(x))
+    [rad per unit delta_k] (formulation §2 at x = l: end_t, end_phi; §17: A_p(x_a) of a tree).
+    Values below 1e-12 (t) and 1e-12 / l (phi) are exact zeros: clamped-clamped and pinned-pinned
+    shapes vanish at x = l to round-off, so that the tip transform is constant."""
+    l = link.length
+    directions = shape_functions(link, [x], 0)[0]
+    v = shape_functions(link, [x], 0)[1][:, 0]
+    dv = shape_functions(link, [x], 1)[1][:, 0]
+    m = len(directions)
+    t = np.zeros((m, 3))
+    phi = np.zeros((m, 3))
+    for k, direction in enumerate(directions):
+        t[k, _AXIS[direction]] = v[k]
+        if direction == "y":
+            phi[k, 2] = dv[k]
+        else:
+            phi[k, 1] = -dv[k]
+    t[np.abs(t) < 1e-12] = 0.0
+    phi[np.abs(phi) < 1e-12 / l] = 0.0
+    return t, phi
+
+
 def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE) -> LinkData:
     """Precompute the modal integrals of ``link`` (:class:`LinkData`) over its mass points.
 
@@ -281,8 +305,6 @@ def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE)
     psi = psi + lever * shape_functions(link, x, 1)[1]
     x = x + lever
     K = _stiffness(link, quadrature, directions)
-    end_v = shape_functions(link, [l], 0)[1][:, 0]
-    end_dv = shape_functions(link, [l], 1)[1][:, 0]
     m = len(directions)
     axes = [_AXIS[d] for d in directions]
     P_b, m_rb = body_remainder(link)
@@ -309,19 +331,7 @@ def link_integrals(link: Link, quadrature: tuple[int, int] = DEFAULT_QUADRATURE)
     D[km[:, None], km[None, :], ax[:, None], ax[None, :]] = int_psipsi
     M_dd = np.einsum("klaa->kl", D)
 
-    end_t = np.zeros((m, 3))
-    end_phi = np.zeros((m, 3))
-    for k, direction in enumerate(directions):
-        end_t[k, axes[k]] = end_v[k]
-        # phi = (theta_x, -w'(l), v'(l))
-        if direction == "y":
-            end_phi[k, 2] = end_dv[k]
-        else:
-            end_phi[k, 1] = -end_dv[k]
-    # Clamped-clamped and pinned-pinned shapes vanish at x = l to round-off;
-    # treat |value| < 1e-12 as exact zeros so the tip transform is constant.
-    end_t[np.abs(end_t) < 1e-12] = 0.0
-    end_phi[np.abs(end_phi) < 1e-12 / l] = 0.0
+    end_t, end_phi = section_tables(link, l)
     J_body = l * np.diag(link.rotary_inertia)
     E0 = np.eye(4)
     E0[0, 3] = l

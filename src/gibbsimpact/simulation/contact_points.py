@@ -24,6 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..model.shapes import section_tables
 from ..contact.candidates import body_candidates
 from .contacts import link_columns
 
@@ -60,6 +61,8 @@ def describe_point(model, j: int) -> str:
     'tip of link 3' (the last link), and for the points after O_(n+1) 'tip of link 1, guide of joint 2'
     or 'tip of link 1, host of carriage 2'."""
     n = model.n_links
+    if not model.chain.serial:
+        return _describe_tree_point(model, j)
     if j <= n:
         return {"R": f"joint {j}", "Pa": f"carriage of joint {j}",
                 "Pb": f"rear end of link {j}, behind its guide"}[model.joint_kinds[j - 1]]
@@ -68,6 +71,36 @@ def describe_point(model, j: int) -> str:
     joint = _tip_joint(model, j)
     what = "guide" if model.joint_kinds[joint - 1] == "Pb" else "host of carriage"
     return f"tip of link {joint - 1}, {what} {'of joint ' if what == 'guide' else ''}{joint}"
+
+
+def _describe_tree_point(model, j: int) -> str:
+    """describe_point for a tree (formulation §17; no prismatic joints): 'joint 3 on link 1 at
+    x = 0.4 m', 'weld 2 at the tip of link 1', 'tip of link 4' (a link end that carries no child)."""
+    n, chain = model.n_links, model.chain
+    if j > n:
+        return f"tip of link {n if j == n + 1 else model.extra_tips[j - n - 2] + 1}"
+    i = j - 1
+    what = "weld" if chain.joints[i].kind == "W" else "joint"
+    p, xa = chain.parents[i], chain.attach[i]
+    if p < 0:
+        return f"{what} {j} on the base"
+    return f"{what} {j} " + (f"at the tip of link {p + 1}" if xa is None else f"on link {p + 1} at x = {xa:g} m")
+
+
+def _tree_joint_point(model, j: int) -> ContactPoint:
+    """_joint_point for a tree: a joint on the base is fixed to its frame; a joint at x_a on its
+    parent p moves with p's shape functions where they move the section x_a (or the tip); a link end
+    that carries no child is free unless a body sits there."""
+    n, chain = model.n_links, model.chain
+    name, text = f"O{j}", describe_point(model, j)
+    if j > n:
+        h = n - 1 if j == n + 1 else model.extra_tips[j - n - 2]
+        return ContactPoint(name, text, h if _end_moves(model, h) else None, not _tip_body(model, h))
+    p, xa = chain.parents[j - 1], chain.attach[j - 1]
+    if p < 0:
+        return ContactPoint(name, text, None, False)
+    moves = _end_moves(model, p) if xa is None else bool(np.any(section_tables(chain.links[p], xa)[0]))
+    return ContactPoint(name, text, p if moves else None, False)
 
 
 def _tip_joint(model, j: int) -> int:
@@ -89,6 +122,8 @@ def _tip_body(model, i: int) -> bool:
 def _joint_point(model, j: int) -> ContactPoint:
     """ContactPoint of O_j (1-based)."""
     n, kinds = model.n_links, model.joint_kinds
+    if not model.chain.serial:
+        return _tree_joint_point(model, j)
     name, text = f"O{j}", describe_point(model, j)
     if j == n + 1:  # the chain's tip (held by a body attached there)
         return ContactPoint(name, text, n - 1 if _end_moves(model, n - 1) else None, not _tip_body(model, n - 1))

@@ -81,6 +81,13 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
 
     if not isinstance(model, Model):
         raise ValueError(f"derive_equations model={model!r} must be a gibbsimpact.Model")
+    rotated = [i + 1 for i, jt in enumerate(model.chain.joints) if getattr(jt, "axis_rotation", None) is not None]
+    if not model.chain.serial or "W" in model.joint_kinds or rotated:
+        # The symbolic recursion follows one path of revolute joints about each link's z axis.
+        raise NotImplementedError(
+            "derive_equations: trees (Chain parents/attach), welds (gi.Weld) and rotated revolute axes "
+            "(Revolute(axis_rotation=...)) are not derived symbolically yet (formulation §17); the numeric kernel "
+            "simulates them (tests/kernel/test_tree_kernel.py checks it against closed forms and a Lagrange route)")
     if model.chain.base == "planar" or any(k != "R" for k in model.joint_kinds):
         # The symbolic recursion builds revolute joints behind a spatial free or a fixed base only.
         raise NotImplementedError(

@@ -1,0 +1,57 @@
+"""Chain(parents, attach), Weld and Revolute(axis_rotation): validation and the coordinates of a
+tree (formulation §17)."""
+
+import numpy as np
+import pytest
+
+import gibbsimpact as gi
+
+LK = gi.Link(1.0)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(parents=[-1, 2, 0]), r"parents\[1\]=2 must be -1 \(the base\) or the 0-based index of an earlier link"),
+    (dict(parents=[-1, 0]), r"parents has 2 entries for 3 links"),
+    (dict(parents=[-1, 0, -1]), r"parents\[2\]=-1: a floating base \(base='free'\) floats one root link"),
+    (dict(parents=[-1, 0, 0], attach=[None, 1.5, None]), r"attach\[1\]=1.5 must be an abscissa in \[0, 1\] m"),
+    (dict(parents=[-1, 0, 0], attach=[0.5, None, None]), r"attach\[0\]=0.5: link 0 stands on the base"),
+    (dict(parents=[-1, 0, 0], joints=[gi.Weld(), gi.Revolute(), gi.Revolute()]),
+     r"on a floating base \(base='free'\) the root's joint must be gi.Revolute\(\)"),
+    (dict(parents=[-1, 0, 0], base=gi.FixedBase(),
+          joints=[gi.Revolute(), gi.Revolute(), gi.FixedPrismatic(range=(0.2, 0.5))]),
+     r"prismatic joints stand in serial chains only"),
+    (dict(base="planar", joints=[gi.Revolute(), gi.Weld(rotation=[[1, 0, 0], [0, 0, -1], [0, 1, 0]]), gi.Revolute()]),
+     r"a planar chain .* must keep the z axis"),
+])
+def test_chain_refuses_bad_trees(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        gi.Chain([LK, LK, LK], **kwargs)
+
+
+def test_joints_refuse_bad_rotations():
+    with pytest.raises(ValueError, match=r"(?s)Revolute axis_rotation=.* must be a proper rotation matrix"):
+        gi.Revolute(axis_rotation=np.diag([1.0, 1.0, -1.0]))
+    with pytest.raises(ValueError, match=r"Weld angle='a' must be a finite number of radians"):
+        gi.Weld(angle="a")
+
+
+def test_tree_coordinates_skip_welds_and_default_is_the_serial_chain():
+    """Coordinates: the base's, the joint variables in link order without the welds, then the deltas;
+    parents=None is today's serial chain."""
+    cf = gi.Mode("clamped-free", "y")
+    chain = gi.Chain([gi.Link(1.0, modes=[cf]), LK, gi.Link(0.5, modes=[cf])],
+                     joints=[gi.Revolute(), gi.Weld(0.3), gi.Revolute()], parents=[-1, 0, 0], attach=[None, 0.5, None])
+    model = gi.Model(chain)
+    assert model.coordinate_names == ("X1", "X2", "X3", "theta_-1", "theta_0", "theta_1", "theta_3", "delta_1_1",
+                                      "delta_3_1")
+    assert model.theta_index == (5, -1, 6)
+    assert chain.children == ((1, 2), (), ()) and chain.free_tips == (1, 2)
+    assert model.contact_point_names == ("O1", "O2", "O3", "O4", "tip of link 2")
+    serial = gi.Chain([LK, LK])
+    assert serial.parents == (-1, 0) and serial.attach == (None, None) and serial.serial
+
+
+def test_symbolic_derivation_refuses_trees():
+    model = gi.Model(gi.Chain([LK, LK], parents=[-1, 0], attach=[None, 0.5], base=gi.FixedBase()))
+    with pytest.raises(NotImplementedError, match=r"trees \(Chain parents/attach\), welds"):
+        gi.derive_equations(model)
