@@ -43,10 +43,10 @@ joints = [gi.Revolute()] + [gi.Weld(angle=2 * np.pi * k / N) for k in range(1, N
 model = gi.Model(gi.Chain(spokes, joints=joints, parents=[-1] + [0] * (N - 1), attach=[None] + [0.0] * (N - 1),
                           base="planar"), gravity=(0.0, -G, 0.0))
 ground = gi.Plane(point=(0.0, 0.0, 0.0), normal=(np.sin(SLOPE), np.cos(SLOPE), 0.0), friction=2.0)
-down = -ALPHA - SLOPE - np.pi / 2                # spoke 1, hub -> foot, right after a strike
+down = ALPHA - SLOPE - np.pi / 2                 # spoke 1 (the front foot), hub -> foot, after a strike
 hub = -L * np.array([np.cos(down), np.sin(down)])
 fig, ax = plt.subplots(figsize=(5.5, 3.4))
-for omega0 in (0.9, 1.3, 2.0):
+for omega0 in (1.2, 1.5, 1.8):
     v = -omega0 * np.array([-hub[1], hub[0]])
     res = gi.simulate(model, model.state(X1=hub[0], X2=hub[1], theta_1=down),
                       model.state(X1=v[0], X2=v[1], theta_1=-omega0), (0.0, T_END), walls=[ground],

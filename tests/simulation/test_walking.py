@@ -228,28 +228,30 @@ def rimless_wheel():
 
 @pytest.mark.slow
 @pytest.mark.skipif(not hasattr(gi, "Weld"), reason="rimless wheel: needs trees and gi.Weld (issue 28 items 1-2)")
-@pytest.mark.parametrize("omega0", [0.9, 1.3, 2.0])
+@pytest.mark.parametrize("omega0", [1.2, 1.5, 1.8])
 def test_rigid_rimless_wheel_reaches_mcgeers_steady_speed(omega0):
-    """From any of several initial speeds [rad/s] (about the stance foot, right after a strike) the wheel's
-    speed just before a strike tends to rimless_wheel_speed: omega_end^2 converges like r^(2k), r = 0.531
-    here, so 16 strikes leave 1e-9 of the initial difference: <= 1e-6 relative, every test's integration
-    error (rtol 1e-10) far below it."""
+    """From several initial speeds [rad/s] (about the stance foot, right after a strike) the wheel's speed
+    just before a strike tends to rimless_wheel_speed: omega_end^2 converges like r^(2k), r = 0.531 here,
+    so 13 strikes leave 1e-7 of the initial difference: <= 1e-6 relative, the integration error (rtol
+    1e-10) far below it. The speeds keep the wheel vaulting (omega0 > 0.95 rad/s: 1/2 (I_c + m l^2)
+    omega0^2 > m g l (1 - cos(alpha - slope))) and its foot down (omega^2 l < g cos(alpha + slope) up to
+    the first strike)."""
     model, alpha = rimless_wheel(), np.pi / N_SPOKES
     m = M_HUB + N_SPOKES * MU_SPOKE * SPOKE
     I_c = I_HUB + N_SPOKES * MU_SPOKE * SPOKE ** 3 / 3
     expected = rimless_wheel_speed(m, I_c, SPOKE, alpha, WHEEL_SLOPE)
     normal = np.array([np.sin(WHEEL_SLOPE), np.cos(WHEEL_SLOPE), 0.0])
-    # Spoke 1 stands on its foot at the origin, at alpha uphill of the slope normal (its neighbour N touches
+    # Spoke 1 stands on its foot at the origin, alpha downhill of the slope normal seen from the hub (spoke N touches
     # too: right after a strike), turning clockwise (downhill) at omega0 about the foot.
-    down = -alpha - WHEEL_SLOPE - np.pi / 2  # spoke 1's direction hub -> foot
+    down = alpha - WHEEL_SLOPE - np.pi / 2  # spoke 1 (the front foot): hub -> foot
     hub = -SPOKE * np.array([np.cos(down), np.sin(down)])
     q0 = model.state(X1=hub[0], X2=hub[1], theta_1=down)
     v_hub = -omega0 * np.array([-hub[1], hub[0]])  # omega = -omega0 about the foot: v = omega x (hub - foot)
     qd0 = model.state(X1=v_hub[0], X2=v_hub[1], theta_1=-omega0)
     ground = gi.Plane(point=(0.0, 0.0, 0.0), normal=tuple(normal), friction=2.0)
-    res = gi.simulate(model, q0, qd0, (0.0, 30.0), walls=[ground], restitution=0.0, max_impacts=40,
-                      link_contacts=False)
+    res = gi.simulate(model, q0, qd0, (0.0, 14.0), walls=[ground], restitution=0.0, link_contacts=False)
     strikes = [r for r in res.impacts if np.any(r.impulses > 0)]
-    assert len(strikes) >= 16, (res.status, len(strikes))
+    assert res.status == "finished" and len(strikes) >= 13, (res.status, len(strikes))
     omega_end = [-r.qdot_before[model.coordinate_names.index("theta_1")] for r in strikes]
-    assert omega_end[15] == pytest.approx(expected, rel=1e-6)
+    assert omega_end[12] == pytest.approx(expected, rel=1e-6)
+    assert abs(omega_end[0] / expected - 1) > 1e-3  # it started away from the steady speed
