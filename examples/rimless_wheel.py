@@ -37,7 +37,8 @@ if not hasattr(gi, "Weld"):
     print("this gibbsimpact has no trees (gi.Weld): the simulation needs issue 28's items 1-2")
     sys.exit(0)
 
-spokes = [gi.Link(L, MU, 1.0, bodies=(gi.RigidBody(M_HUB, inertia=(I_HUB / 2, I_HUB / 2, I_HUB), at=0.0),))]
+hub_body = gi.RigidBody(M_HUB, inertia=(I_HUB / 2, I_HUB / 2, I_HUB), at=0.0)  # a disc
+spokes = [gi.Link(L, MU, 1.0, bodies=(hub_body,))]
 spokes += [gi.Link(L, MU, 1.0) for _ in range(N - 1)]
 joints = [gi.Revolute()] + [gi.Weld(angle=2 * np.pi * k / N) for k in range(1, N)]
 model = gi.Model(gi.Chain(spokes, joints=joints, parents=[-1] + [0] * (N - 1), attach=[None] + [0.0] * (N - 1),
@@ -45,7 +46,7 @@ model = gi.Model(gi.Chain(spokes, joints=joints, parents=[-1] + [0] * (N - 1), a
 ground = gi.Plane(point=(0.0, 0.0, 0.0), normal=(np.sin(SLOPE), np.cos(SLOPE), 0.0), friction=2.0)
 down = ALPHA - SLOPE - np.pi / 2                 # spoke 1 (the front foot), hub -> foot, after a strike
 hub = -L * np.array([np.cos(down), np.sin(down)])
-fig, ax = plt.subplots(figsize=(5.5, 3.4))
+fig, (ax, ax_err) = plt.subplots(1, 2, figsize=(9.5, 3.4))
 for omega0 in (1.2, 1.5, 1.8):
     v = -omega0 * np.array([-hub[1], hub[0]])
     res = gi.simulate(model, model.state(X1=hub[0], X2=hub[1], theta_1=down),
@@ -56,8 +57,10 @@ for omega0 in (1.2, 1.5, 1.8):
     print(f"omega0 = {omega0} rad/s: {res.status}, {len(w)} strikes; last speed before a strike "
           f"{w[-1] if len(w) else np.nan:.9f} rad/s (relative to McGeer {w[-1] / omega_end - 1 if len(w) else np.nan:+.1e})")
     ax.plot(np.arange(1, len(w) + 1), w, "o-", ms=3, label=f"$\\omega_0$ = {omega0} rad/s")
+    ax_err.semilogy(np.arange(1, len(w) + 1), np.abs(w / omega_end - 1), "o-", ms=3)
 ax.axhline(omega_end, color="k", lw=0.8, ls="--", label="McGeer (1990)")
 ax.set(xlabel="strike", ylabel="speed before the strike [rad/s]")
+ax_err.set(xlabel="strike", ylabel="|relative difference from McGeer|")
 ax.legend(fontsize=8)
 fig.tight_layout()
 fig.savefig(OUT / "rimless_wheel_speed.png", dpi=90)

@@ -218,7 +218,8 @@ def rimless_wheel_speed(m, I_c, l, alpha, slope, g=G):
 
 def rimless_wheel():
     """Spoke 1 is the root, its O1 at the hub (with the hub's RigidBody); spokes 2..N welded to it at the hub."""
-    spokes = [gi.Link(SPOKE, MU_SPOKE, 1.0, bodies=(gi.RigidBody(M_HUB, inertia=(I_HUB / 2, I_HUB / 2, I_HUB), at=0.0),))]
+    hub = gi.RigidBody(M_HUB, inertia=(I_HUB / 2, I_HUB / 2, I_HUB), at=0.0)  # a disc
+    spokes = [gi.Link(SPOKE, MU_SPOKE, 1.0, bodies=(hub,))]
     spokes += [gi.Link(SPOKE, MU_SPOKE, 1.0) for _ in range(N_SPOKES - 1)]
     joints = [gi.Revolute()] + [gi.Weld(angle=2 * np.pi * k / N_SPOKES) for k in range(1, N_SPOKES)]
     chain = gi.Chain(spokes, joints=joints, parents=[-1] + [0] * (N_SPOKES - 1), attach=[None] + [0.0] * (N_SPOKES - 1),

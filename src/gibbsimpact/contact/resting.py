@@ -220,8 +220,9 @@ def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> Constrain
 def mixed_constraint_data(model, walls, q, qd, Q, pairs, n_joints: int, flex, velocities=True):
     """resting.ConstraintData of pairs (k, 2) some of which are span pairs (column >= n_joints) or leaf tips
     (span_resting.leaf_tip_columns): the joint pairs from the compiled contact terms (resting.constraint_data),
-    the span pairs from span_resting.span_point_terms at x*, the leaf tips from tip_point_terms, then W (N, k), M^-1 W, G = W^T M^-1 W and, with
-    velocities, equation (3) of resting.py (lam, qdd). Shapes and units as ConstraintData."""
+    the span pairs from span_resting.span_point_terms at x*, the leaf tips from tip_point_terms, then W (N, k),
+    M^-1 W, G = W^T M^-1 W and, with velocities, equation (3) of resting.py (lam, qdd). Shapes and units as
+    ConstraintData."""
     pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
     k, N = len(pairs), model.n_dof
     tips = leaf_tip_columns(model)
