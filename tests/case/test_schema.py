@@ -101,6 +101,11 @@ def with_key(range_key, value):
         else:
             wall[key] = value
         return d, f"walls[1].{key}"
+    if section == "contact_filter":
+        d["contact_filter"] = {"rule": "lead", "points": ["O1", "O2"], "direction": [1.0, 0.0, 0.0],
+                               "clearance_m": 0.05}
+        d["contact_filter"][key] = [value, 0.0, 0.0] if key == "direction" else value
+        return d, f"contact_filter.{key}"
     if section == "initial":
         coords.pop("X1_m")
         d["initial"][key] = [value, 0.0, 0.0]
