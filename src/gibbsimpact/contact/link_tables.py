@@ -204,10 +204,12 @@ _TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _tables(model) -> _Tables:
+    # The tables do not depend on the free base's chart (Model.with_base_chart): one per chart root.
+    root = model.chart_root
     try:
-        return _TABLES[model]
+        return _TABLES[root]
     except KeyError:
-        t = _TABLES[model] = _Tables(model)
+        t = _TABLES[root] = _Tables(root)
         return t
 
 

@@ -70,7 +70,9 @@ def diagnose_singular(model, q: np.ndarray) -> str:
     if model.chain.base == "free" and abs(np.cos(q[4])) < 1e-6:
         causes.append(
             f"gimbal lock: theta_0 = {q[4]:.6g} rad is at +-pi/2 where Rx(theta_-1) Ry(theta_0) Rz(theta_1) "
-            "loses a rotation; start away from it"
+            "loses a rotation, a singularity of this chart of the base's orientation, not of the motion: simulate "
+            "runs through it (it re-charts the base, formulation §18); for one state, take the same orientation "
+            "in another chart (gibbsimpact.dynamics.base_chart.rechart, Model.with_base_chart)"
         )
     if model.chain.base == "free" and model.n_links == 1 and model.link_data[0].J_body[0, 0] == 0.0:
         causes.append(

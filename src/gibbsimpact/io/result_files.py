@@ -3,7 +3,8 @@
 Files (docs/case-format.md, "Output files"):
 
 * ``timeseries.csv``: one row per sample: t, phase, every coordinate and
-  velocity by name with its unit, the joint positions, the energies.
+  velocity by name with its unit, the joint positions (and, for a spatial free base, its
+  chart-free orientation base_qw .. base_qz: Result.base_orientation), the energies.
 * ``impacts.csv``: one row per contact (an impact with k simultaneous
   contacts gives k rows sharing its ``impact`` number).
 * ``episodes.csv``: one row per collision episode (Result.episodes): its times, walls,
@@ -52,6 +53,7 @@ from ..simulation.results import ImpactRecord, Result
 from ..contact.walls import describe
 from .contact_force_files import (_force_point_names, compliant_force_columns, contact_force_columns,
                                   has_contact_forces, stop_force_columns)
+from .chart_files import base_summary, chart_arrays, charts_from
 from .episode_files import EPISODE_COLUMNS, episode_rows, episode_cell
 from .plain_data import model_from_dict, model_to_dict, wall_from_dict, wall_to_dict
 
@@ -174,13 +176,15 @@ def write_timeseries_csv(result: Result, path, every: int = 1) -> Path:
     P = result.joint_positions()[r]  # (K', n+1, 3)
     header = ["t_s", "phase"] + coordinate_columns(model) + velocity_columns(model)
     header += [f"O{j + 1}_X{a + 1}_m" for j in range(P.shape[1]) for a in range(3)]
+    Q = result.base_orientation  # (K, 4) of a spatial free base: chart-free (q's angles are its current chart's)
+    header += ["base_qw", "base_qx", "base_qy", "base_qz"] if Q is not None else []
     header += ["kinetic_J", "gravity_J", "strain_J", "total_J"]
     if result.work is not None:
         header += ["work_inputs_J", "work_damping_J"] + (["work_actuators_J"] if result.work.shape[1] > 2 else [])
     header += effort_columns(result)
     K = len(r)
-    cols = [result.q[r], result.qdot[r], P.reshape(K, 3 * P.shape[1]),
-            np.column_stack((E.kinetic, E.gravity, E.strain, E.total))[r]]
+    cols = [result.q[r], result.qdot[r], P.reshape(K, 3 * P.shape[1])] + ([Q[r]] if Q is not None else [])
+    cols.append(np.column_stack((E.kinetic, E.gravity, E.strain, E.total))[r])
     if result.work is not None:
         cols.append(result.work[r])
     if result.effort is not None:
@@ -448,6 +452,7 @@ def summary(result: Result, case=None) -> dict:
     if result.prescribed:
         d["prescribed_coordinates"] = list(result.prescribed)
         d["effort_final"] = dict(zip(effort_columns(result), (float(v) for v in result.effort[-1])))
+    d.update(base_summary(result))
     d["n_samples"] = int(len(result.t))
     return _json_safe(d)
 
@@ -568,11 +573,8 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         arrays["friction_forces"] = np.asarray(result.friction_forces, dtype=float)
     if result.stop_forces is not None:
         arrays["stop_forces"] = np.asarray(result.stop_forces, dtype=float)
-    if result.compliant_forces is not None:
-        arrays["compliant_forces"] = np.asarray(result.compliant_forces, dtype=float)
-        arrays["compliant_points"] = np.asarray(result.compliant_points, dtype=float)
-        arrays["compliant_integrals"] = np.asarray(result.compliant_integrals, dtype=float)
-        arrays["compliant_contacts"] = np.array(result.compliant_contacts, dtype=float).reshape(-1, 5)
+    arrays.update(chart_arrays(result))
+    arrays.update(_compliant_arrays(result))
     meta = {
         "format": "gibbsimpact.Result",
         "format_version": FORMAT_VERSION,
@@ -596,6 +598,16 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
     with atomic_path(path) as tmp:
         np.savez_compressed(tmp, **arrays)
     return path
+
+
+def _compliant_arrays(result) -> dict:
+    """The compliant contacts' forces, points, integrals and contacts of a Result as NPZ arrays ({} without)."""
+    if result.compliant_forces is None:
+        return {}
+    return {"compliant_forces": np.asarray(result.compliant_forces, dtype=float),
+            "compliant_points": np.asarray(result.compliant_points, dtype=float),
+            "compliant_integrals": np.asarray(result.compliant_integrals, dtype=float),
+            "compliant_contacts": np.array(result.compliant_contacts, dtype=float).reshape(-1, 5)}
 
 
 def load_result(path, with_metadata: bool = False):
@@ -655,6 +667,7 @@ def load_result(path, with_metadata: bool = False):
         compliant_integrals=a.get("compliant_integrals"),
         compliant_contacts=[CompliantContact(int(r[0]), int(r[1]), *map(float, r[2:]))
                             for r in a.get("compliant_contacts", np.zeros((0, 5)))],
+        **charts_from(a),
     )
     if with_metadata:
         return res, _untag(meta.get("metadata", {}))

@@ -23,7 +23,7 @@ import numpy as np
 from ..kernel import compiled, output, variant
 from .chain import Chain, Link
 from .joints import JOINT_TYPES, FixedBase, FixedPrismatic, Revolute, SlidingPrismatic, Weld
-from .packing import pack
+from .packing import base_block, pack, with_base_block
 from .shapes import DEFAULT_QUADRATURE, LinkData, gauss_legendre, link_deflection, link_integrals, shape_functions
 
 # Link, the joints and the shape functions lived in this module before it was split (joints.py,
@@ -35,6 +35,8 @@ __all__ = [
 
 
 _F64 = np.dtype(np.float64)
+_EYE3 = np.eye(3)
+_EYE3.setflags(write=False)
 
 
 @functools.cache
@@ -126,6 +128,8 @@ class Model:
             units += (["m", "rad"] * (ld.K.shape[0] // 2)) if lk.elements else ["m"] * ld.K.shape[0]
         self._units = tuple(units)
         self._base_transform = None if chain.free_base else chain.base.transform
+        self._chart = _EYE3  # R_ref of the spatial free base (formulation §18; with_base_chart)
+        self._chart_root = self
         K = np.zeros((k, k))
         for d, ld in zip(delta_index, self._links):
             K[np.ix_(d, d)] = ld.K
@@ -150,6 +154,12 @@ class Model:
     joint_kinds = property(lambda self: tuple(j.kind for j in self._chain.joints),
                            doc="'R', 'Pa' or 'Pb' per joint (n,).")
     base_transform = property(lambda self: self._base_transform, doc="T_0 (4, 4) of a fixed base, None for a free one.")
+    base_chart = property(lambda self: self._chart, doc=(
+        "R_ref (3, 3), the reference orientation the free base's angles are measured from: "
+        "T_1 = Trans(X) R_ref Rx(theta_-1) Ry(theta_0) Rz(theta_1) (I unless made by with_base_chart)."))
+    chart_root = property(lambda self: self._chart_root, doc=(
+        "The model this one is a base chart of (with_base_chart), itself for a model built by Model(...): "
+        "everything but R_ref is the root's, so per-model tables may be keyed on it."))
     coordinate_units = property(lambda self: self._units, doc="Unit of each coordinate, 'm' or 'rad' (N,).")
     bending_directions = property(
         lambda self: self._bending, doc="Per coordinate: 'y' or 'z' for an elastic coordinate, '' otherwise (N,).")
@@ -162,6 +172,34 @@ class Model:
         state = self.__dict__.copy()
         state.pop("_kernel_call", None)
         return state
+
+    def with_base_chart(self, R_ref) -> "Model":
+        """The same model with the free base's angles measured from R_ref (formulation §18).
+
+        T_1 = Trans(X) R_ref Rx(theta_-1) Ry(theta_0) Rz(theta_1): X stays the world position of O_1,
+        the three angles turn the base from the orientation R_ref instead of from the world axes, so
+        a run can move the chart's singularity (theta_0 = +-pi/2) away from the motion. This model is
+        not changed; the new one shares every table with it and differs in the packed base transform
+        only (model/packing.base_block).
+
+        R_ref : (3, 3) rotation matrix (orthonormal to 1e-9, det +1).
+        """
+        if self._chain.base != "free":
+            raise ValueError(f"with_base_chart: the chain's base is {self._chain.base!r}; only a spatial free base "
+                             "(base='free') has a chart of three angles")
+        R = np.array(R_ref, dtype=float)
+        if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R.T @ R, _EYE3, rtol=0.0, atol=1e-9) \
+                or np.linalg.det(R) <= 0.0:
+            raise ValueError(f"with_base_chart R_ref={np.asarray(R_ref).tolist()} must be a (3, 3) rotation matrix (R^T R = I to 1e-9, "
+                             "det R = +1), e.g. the current base orientation R_ref Rx Ry Rz of the old chart")
+        R.setflags(write=False)
+        root = self._chart_root
+        new = object.__new__(Model)
+        new.__dict__.update({k: v for k, v in root.__dict__.items() if k not in ("_kernel_data", "_kernel_call")})
+        new._chart = R
+        fdat, idat, zeros, v = root.kernel_data
+        new._kernel_data = (with_base_block(fdat, base_block(new)), idat, np.zeros_like(zeros), v)
+        return new
 
     @property
     def kernel_data(self):

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kernel.layout import (_CI, _F_LINKS, _GAUSS, _H, _LI, BASE_FIXED, BASE_FREE, BASE_PLANAR, END_GENERAL, END_RIGID,
-                             JOINT_PA, JOINT_PB, JOINT_R, JOINT_WELD, KIND_MODE, KIND_PA, KIND_PB, KIND_ROTATION,
-                             KIND_TRANSLATION)
+from ..kernel.layout import (_CI, _F_BASE, _F_LINKS, _GAUSS, _H, _LI, BASE_FIXED, BASE_FREE, BASE_PLANAR, END_GENERAL,
+                             END_RIGID, JOINT_PA, JOINT_PB, JOINT_R, JOINT_WELD, KIND_MODE, KIND_PA, KIND_PB,
+                             KIND_ROTATION, KIND_TRANSLATION)
 from .elements import assemble as assemble_elements, element_stiffness, hermite_shape
 from .shapes import foreshortening_matrix, mass_points, section_tables, shape_functions
 
@@ -60,6 +60,29 @@ def _fs_tables(link, quadrature):
                 np.einsum("g,gkl->kl", wm * x, H).ravel(), np.einsum("g,gj,gkl->jkl", wm, psi, H).ravel(),
                 np.einsum("g,gki,glj->kilj", wm, H, H).ravel()]
     return [[G, k.size, 0], x, wm, psi.ravel(), k, l, H[:, k, l].ravel(), Hl.ravel()]
+
+
+def base_block(model) -> np.ndarray:
+    """T_0 (4, 4), the kernel's base transform (fdat[_F_BASE:_F_BASE + 16], row-major).
+
+    Fixed base: its constant transform. Spatial free base: [[R_ref, 0], [0, 1]] with R_ref the model's
+    base chart (formulation §18; I unless Model.with_base_chart changed it): the kernel writes X into the
+    origin column and turns by Rx(theta_-1) Ry(theta_0) after it, so T_1 = Trans(X) R_ref Rx Ry Rz(theta_1).
+    Planar base: I.
+    """
+    if not model.free_base:
+        return np.asarray(model.base_transform, dtype=float)
+    T = np.eye(4)
+    if model.chain.base == "free":
+        T[:3, :3] = model.base_chart
+    return T
+
+
+def with_base_block(fdat: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """A copy of a packed fdat (F,) whose base transform is T (4, 4) (base_block)."""
+    out = fdat.copy()
+    out[_F_BASE:_F_BASE + 16] = np.ravel(T)
+    return out
 
 
 def _tree_tables(model):
@@ -143,7 +166,7 @@ def pack(model):
     elif base_kind == BASE_PLANAR:
         for a in range(2):
             ci[a, :3] = (KIND_TRANSLATION, a, 0)
-    f = [np.eye(4).ravel() if free else np.asarray(model.base_transform, dtype=float).ravel(),
+    f = [base_block(model).ravel(),
          np.append(model.gravity, 0.0)]
     off = _F_LINKS
     axis_of = {"y": 1, "z": 2}

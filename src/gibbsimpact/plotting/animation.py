@@ -28,7 +28,7 @@ def _stage(result, rows, n_points: int, planar: bool):
     """The animation's figure with its walls and fixed axes: (fig, ax, floor X2 [m] of 3D shadows or None)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    all_pts = np.concatenate([_scene_points(result.model, result.q[i], n_points)
+    all_pts = np.concatenate([_scene_points(result.model_at(i), result.q[i], n_points)
                               for i in rows[:: max(1, len(rows) // 40)]])
     fig = _figure((5.2, 5.4) if planar else (5.8, 6.0))
     FigureCanvasAgg(fig)
@@ -80,10 +80,11 @@ def _put(artist, P, planar: bool):
         artist.set_data_3d(*_to3(P))
 
 
-def _pose(actors, result, q, time: float, flash: float, n_points: int, floor, planar: bool):
-    """Put the chain at q into the artists; the points of impacts less than ``flash`` [s] before
-    ``time`` [s] get stars (wall) or diamonds (end stop)."""
-    model = result.model
+def _pose(actors, result, q, time: float, flash: float, n_points: int, floor, planar: bool, model=None):
+    """Put the chain at q into the artists; the points of impacts less than ``flash`` [s] before ``time`` [s]
+    get stars (wall) or diamonds (end stop). model: q's chart of the free base (Result.model_at of its
+    sample), default result.model."""
+    model = result.model if model is None else model
     O = transforms(model, q)[:, :3, 3]
     recent = [rec for rec in result.impacts if 0.0 <= time - rec.time < flash]
     hit = sorted({j for rec in recent for j, _, _ in _split_contacts(rec)[0] if j <= len(O)})
@@ -101,6 +102,11 @@ def _pose(actors, result, q, time: float, flash: float, n_points: int, floor, pl
     if floor is not None:
         for sh, p in zip(actors["shadows"], _shadow_points(model, q, n_points, floor)):
             _put(sh, p, planar)
+
+
+def _pose_sample(actors, result, k: int, time: float, flash: float, n_points: int, floor, planar: bool):
+    """_pose at sample k, in its chart of the free base (Result.model_at)."""
+    _pose(actors, result, result.q[k], time, flash, n_points, floor, planar, result.model_at(k))
 
 
 def animate(result, path, fps: int = 20, speed: float = 0.25, n_points: int = 41, max_frames: int = 400,
@@ -135,7 +141,7 @@ def animate(result, path, fps: int = 20, speed: float = 0.25, n_points: int = 41
     imp_t = result.impact_times
 
     def draw(f):
-        _pose(actors, result, result.q[rows[f]], times[f], flash, n_points, floor, planar)
+        _pose_sample(actors, result, rows[f], times[f], flash, n_points, floor, planar)
         text = f"{title}t = {times[f]:.3f} s   impacts so far: {int(np.count_nonzero(imp_t <= times[f]))}"
         last = bool(status) and f == len(times) - 1
         label.set_text(text + ("\n" + "\n".join(textwrap.wrap(status, 70)) if last else ""))

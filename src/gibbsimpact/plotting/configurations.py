@@ -11,7 +11,7 @@ from ..dynamics.kinematics import transforms
 from .geometry import (_run_camera, _scene_extent_2d, _scene_extent_3d, _scene_points, _stop_point, _to3,
                        is_planar)
 from .impacts import _episode_contacts, _range_text, impact_groups
-from .labels import _point_label, _sample_at, _split_contacts, _status_box, _title
+from .labels import _point_label, _sample_index, _split_contacts, _status_box, _title
 from .scene import _draw_chain_2d, _draw_chain_3d, _draw_links, _draw_walls_2d, _draw_walls_3d, _setup_3d
 from .style import _STOP_MARKER, _T0_STYLE, _figure, _given_axes, _joint_colour, _legend
 
@@ -20,7 +20,8 @@ _MAX_PANELS = 12  # the initial state and at most 11 contact episodes
 
 class _Panel(NamedTuple):
     """One configuration drawing: time [s], q (N,), title, impacting contact points, [(point, normal (3,),
-    where it touched (3,) or None)] or None, end-stop joints; episode: 1-based impact numbers or None."""
+    where it touched (3,) or None)] or None, end-stop joints; episode: 1-based impact numbers or None;
+    model: the model of q's chart of the free base (Result.model_at)."""
     t: float
     q: np.ndarray
     text: str
@@ -28,6 +29,7 @@ class _Panel(NamedTuple):
     normals: list | None
     stops: tuple
     episode: tuple | None = None
+    model: object = None
 
 
 def _episode_panel(result, first: int, last: int) -> _Panel:
@@ -43,15 +45,17 @@ def _episode_panel(result, first: int, last: int) -> _Panel:
     t_a, t_b = imps[first].time, imps[last].time
     when = f"t = {t_a:.6f} s" if first == last else f"t = {t_a:.6f} \u2026 {t_b:.6f} s"
     head = f"impact {first + 1}" if first == last else f"impacts {_range_text(first + 1, last + 1)}"
-    return _Panel(t_a, _sample_at(result, t_a), f"{head}: {when}, {_episode_contacts(result, first, last)}",
-                  tuple(j for j, _, _ in normals), normals, tuple(stops), (first + 1, last + 1))
+    k = _sample_index(result, t_a)
+    return _Panel(t_a, result.q[k], f"{head}: {when}, {_episode_contacts(result, first, last)}",
+                  tuple(j for j, _, _ in normals), normals, tuple(stops), (first + 1, last + 1), result.model_at(k))
 
 
 def _panels(result) -> list:
     """The panels of plot_configurations: the initial state, the impact groups (impacts.impact_groups: the
     collision episodes of a run; the first ones and the last, _MAX_PANELS in all) and, without impacts or
     when the run stopped after its last impact, the final state."""
-    panels = [_Panel(float(result.t[0]), result.q[0], f"t = {result.t[0]:.6g} s (initial)", (), None, ())]
+    panels = [_Panel(float(result.t[0]), result.q[0], f"t = {result.t[0]:.6g} s (initial)", (), None, (),
+                     model=result.model_at(0))]
     t_end = float(result.t[-1])
     last = result.impacts[-1].time if result.impacts else -np.inf
     final = not result.impacts or (result.status != "finished" and t_end > last + 1e-9 * max(1.0, abs(t_end)))
@@ -62,7 +66,8 @@ def _panels(result) -> list:
     panels += [_episode_panel(result, a, b) for a, b in episodes]
     if final:
         end = "final" if result.status == "finished" else f"stopped: {result.status}"
-        panels.append(_Panel(t_end, result.q[-1], f"t = {t_end:.6g} s ({end})", (), None, ()))
+        panels.append(_Panel(t_end, result.q[-1], f"t = {t_end:.6g} s ({end})", (), None, (),
+                             model=result.model_at(len(result.t) - 1)))
     return panels
 
 
@@ -89,7 +94,7 @@ def _draw_panels_2d(result, axes, panels, n_points, all_pts):
     extent = _scene_extent_2d(result, all_pts)
     for a, p in zip(axes, panels):
         _draw_walls_2d(a, result.walls, extent)
-        _draw_chain_2d(a, result.model, p.q, n_points, p.hit, p.normals, arrow=0.12 * (extent[1] - extent[0]),
+        _draw_chain_2d(a, p.model, p.q, n_points, p.hit, p.normals, arrow=0.12 * (extent[1] - extent[0]),
                        stops=p.stops)
         a.set_xlim(extent[0], extent[1])
         a.set_ylim(extent[2], extent[3])
@@ -109,7 +114,7 @@ def _draw_panels_3d(result, axes, panels, n_points, all_pts, own: bool):
     view = _run_camera(result, all_pts)
     for a, p in zip(axes, panels):
         _draw_walls_3d(a, result.walls, lo, hi)
-        _draw_chain_3d(a, result.model, p.q, n_points, p.hit, p.normals, floor=lo[1], arrow=0.12 * (hi[0] - lo[0]),
+        _draw_chain_3d(a, p.model, p.q, n_points, p.hit, p.normals, floor=lo[1], arrow=0.12 * (hi[0] - lo[0]),
                        stops=p.stops)
         _setup_3d(a, lo, hi, view, zoom=0.92 if own else 1.0)
         if own:  # inside the panel's box: the panels touch
@@ -154,7 +159,7 @@ def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
         panels, fig = panels[:len(axes)], axes[0].figure
     n = len(panels)
     ncols = n if n <= 3 else (2 if n == 4 else (3 if n <= 9 else 4))
-    all_pts = np.concatenate([_scene_points(model, p.q, n_points) for p in panels])
+    all_pts = np.concatenate([_scene_points(p.model, p.q, n_points) for p in panels])
     title = _configurations_title(result, panels, case_name,
                                   (3.7 if planar else (5.0 if ncols > 1 else 6.0)) * ncols)
     note = ("red star: impacting point; red arrow: wall normal into the free region"
@@ -182,10 +187,10 @@ def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
 def _impact_points(result) -> tuple[np.ndarray, np.ndarray]:
     """Where the impacts touched (M, 3) [m] (ImpactRecord.points, else the joint O_j) and where the
     end-stop impacts were (S, 3) [m] (the guide or carriage)."""
-    model = result.model
     impact_points, stop_points = [], []
     for rec in result.impacts:
-        q = _sample_at(result, rec.time)
+        k = _sample_index(result, rec.time)
+        q, model = result.q[k], result.model_at(k)
         hits, stops = _split_contacts(rec)
         if hits:
             O = transforms(model, q)[:, :3, 3]
@@ -197,18 +202,18 @@ def _impact_points(result) -> tuple[np.ndarray, np.ndarray]:
 def _draw_trajectory(ax, result, n_points, P, planar: bool, floor=None):
     """Joint paths P (K, P, 3) [m], the chain at t0 (dashed grey) and at the end (link colours), the
     impact points (red stars) and end stops (red diamonds), into 2D or 3D axes."""
-    model = result.model
+    model, first, last = result.model, result.model_at(0), result.model_at(len(result.t) - 1)
     put = (lambda Q: (Q[..., 0], Q[..., 1])) if planar else _to3
     for j in range(P.shape[1]):
         ax.plot(*put(P[:, j]), lw=0.9, color=_joint_colour(j), label=f"path of {_point_label(model, j + 1)}",
                 zorder=2)
-    _draw_links(lambda Q, **st: ax.plot(*put(Q), solid_capstyle="round", **st), model, result.q[0], n_points,
+    _draw_links(lambda Q, **st: ax.plot(*put(Q), solid_capstyle="round", **st), first, result.q[0], n_points,
                 lw=_T0_STYLE["lw"], colour=_T0_STYLE["color"], label=False, ls=_T0_STYLE["ls"], zorder=2.5)
     ax.plot(*put(np.zeros((0, 3))), label="chain at $t_0$", **_T0_STYLE)
     if planar:
-        _draw_chain_2d(ax, model, result.q[-1], n_points, labels=True)
+        _draw_chain_2d(ax, last, result.q[-1], n_points, labels=True)
     else:
-        _draw_chain_3d(ax, model, result.q[-1], n_points, floor=floor)
+        _draw_chain_3d(ax, last, result.q[-1], n_points, floor=floor)
     impact_points, stop_points = _impact_points(result)
     if len(impact_points):
         ax.plot(*put(impact_points), "*", ms=10, color="red", mec="darkred", zorder=5, ls="none", label="impacts")
@@ -223,9 +228,9 @@ def plot_trajectory(result, case_name=None, n_points: int = 41, ax=None):
 
     ax : None (a new figure) or one Axes (3D, ``projection="3d"``, for a spatial run).
     """
-    model = result.model
     P = result.joint_positions()
-    all_pts = np.concatenate([P.reshape(-1, 3)] + [_scene_points(model, q, n_points) for q in result.q[[0, -1]]])
+    all_pts = np.concatenate([P.reshape(-1, 3)] + [_scene_points(result.model_at(k), result.q[k], n_points)
+                                                   for k in (0, len(result.t) - 1)])
     planar = is_planar(result)
     own = ax is None
     if not own:

@@ -107,9 +107,12 @@ def _scene_points(model, q, n_points: int = 41) -> np.ndarray:
 
 
 def is_planar(result) -> bool:
-    """True when the chain stays in the X1-X2 plane (X3, theta_-1, theta_0, z-modes ~ 0) and every
-    wall has a curve as its section with that plane."""
+    """True when the chain stays in the X1-X2 plane (X3, theta_-1, theta_0, z-modes ~ 0, and no re-chart of the
+    free base: its angles are then measured from another orientation) and every wall has a curve as its section
+    with that plane."""
     model = result.model
+    if getattr(result, "base_chart", None) is not None:
+        return False
     # Only the spatial free base has X3, theta_-1, theta_0 (a planar one has X1, X2 only).
     idx = [2, 3, 4] if model.chain.base == "free" else []
     idx += [k for k, d in enumerate(model.bending_directions) if d == "z"]

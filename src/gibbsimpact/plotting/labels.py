@@ -38,9 +38,14 @@ def _is_stop(wall) -> bool:
     return int(wall) < 0
 
 
+def _sample_index(result, time: float) -> int:
+    """Index of the first sample at or after ``time`` (an impact time: the state before the impact)."""
+    return min(int(np.searchsorted(result.t, time, side="left")), len(result.t) - 1)
+
+
 def _sample_at(result, time: float) -> np.ndarray:
     """q at the first sample at or after ``time`` (an impact time: the state before the impact)."""
-    return result.q[min(int(np.searchsorted(result.t, time, side="left")), len(result.t) - 1)]
+    return result.q[_sample_index(result, time)]
 
 
 def _stop_label(result, joint: int, q) -> str:

@@ -72,7 +72,8 @@ class Episode(NamedTuple):
     resting_time : [s] the time with a pair of it resting
     energy_before, energy_after : [J] E = T + V_g + V_s at start and at end (with inputs or damping their
         work over the episode is in the difference)
-    restitution : e_eff (module docstring), NaN when it did not start with an impact
+    restitution : e_eff (module docstring), NaN when it did not start with an impact (or the free base was
+        re-charted during it)
     non_contact_share : |w_R^T M_RR^-1 (p(end) - p^- - P)_R| / |w_R^T M_RR^-1 p^-_R|, what the other forces
         (gravity, inputs, the velocity terms) changed of the approach during the episode: e_eff describes an
         impulsive collision when it is small (0.005 for the arm of issue 26), and it moves e_eff by up to that
@@ -164,8 +165,9 @@ def _samples(result) -> _Samples:
     """_Samples of the Result (one Contacts.gaps_batch call over every sample)."""
     contact_tol, rtol, atol, link_contacts = _run_settings(result)
     model, K = result.model, len(result.t)
-    contacts = Contacts(model, tuple(result.walls), link_contacts)
-    gap = contacts.gaps_batch(np.asarray(result.q, dtype=float))
+    # Each sample's gaps in its own chart of the free base (Result.per_chart).
+    gap = result.per_chart(lambda m, qs: Contacts(m, tuple(result.walls), link_contacts).gaps_batch(qs),
+                           np.asarray(result.q, dtype=float))
     # b = max(2 contact_tol, L_q (atol + rtol max|q|)) at every sample (contacts.contact_band).
     band = np.maximum(2.0 * contact_tol, gap_lipschitz(model) * (atol + rtol * np.abs(result.q).max(axis=1)))
     force = np.zeros(gap.shape)
@@ -238,12 +240,12 @@ def _trapezoid(t, f) -> np.ndarray:
 def _resting_impulse(result, s: _Samples, k0: int, k1: int) -> np.ndarray:
     """Integral over the samples k0 ... k1 of the generalised resting-contact forces
     sum_(w, j) J_j^T (n_w lambda_wj + f_t,wj) (N,) [N s, N m s per coordinate]."""
-    model, N = result.model, result.model.n_dof
-    F = s.force[k0:k1 + 1, :, :model.n_joints]
+    N, P = result.model.n_dof, result.model.n_joints
+    F = s.force[k0:k1 + 1, :, :P]
     Ft = None if result.friction_forces is None else np.asarray(result.friction_forces)[k0:k1 + 1]
     Q = np.zeros((k1 - k0 + 1, N))
     for k in np.flatnonzero(F.any(axis=(1, 2))):
-        p, J = joint_positions_and_jacobians(model, result.q[k0 + k])
+        p, J = joint_positions_and_jacobians(result.model_at(k0 + k), result.q[k0 + k])
         for w, wall in enumerate(result.walls):
             f = wall.normal(p) * F[k, w][:, None] + (0.0 if Ft is None else Ft[k, w])  # (P, 3) [N]
             Q[k] += np.einsum("jcn,jc->n", J, f)
@@ -254,7 +256,7 @@ def _first_contact(result, s: _Samples, k0: int, impacts: list):
     """(M (N, N), p^- (N,), w (N,)) at the first sample k0 of an episode (module docstring): the mass matrix, the
     momenta before, and the generalised direction of the first contact (an impact's W Lambda / sum Lambda, or
     J_j^T n_j of the compliant pair whose force rises first); None when the episode starts otherwise."""
-    model, q0 = result.model, result.q[k0]
+    model, q0 = result.model_at(k0), result.q[k0]
     if impacts and int(s.after[impacts[0]]) == k0 + 1:
         first = result.impacts[impacts[0]]
         total = float(np.sum(first.impulses))
@@ -273,13 +275,15 @@ def _first_contact(result, s: _Samples, k0: int, impacts: list):
 
 def _restitution(result, s: _Samples, k0: int, k1: int, impacts: list) -> tuple[float, float]:
     """(e_eff, non-contact share) of the episode of samples k0 ... k1 and impacts (module docstring); NaN, NaN
-    when its first sample is not the state before an impact or a compliant contact's start, or the first
-    impact carried no impulse."""
+    when its first sample is not the state before an impact or a compliant contact's start, the first
+    impact carried no impulse, or the free base was re-charted during the episode."""
     nan = (float("nan"), float("nan"))
+    if any(k0 < c.sample <= k1 for c in result.charts):
+        return nan  # the base's generalised momenta of two charts of the free base do not add (Result.charts)
     first = _first_contact(result, s, k0, impacts)
     if first is None:
         return nan
-    model, (M0, p_before, w_full) = result.model, first
+    model, (M0, p_before, w_full) = result.model_at(k0), first
     # P: the impacts' M (qdot+ - qdot-) (exact, no Jacobian needed), the resting forces' integral, and the
     # compliant forces' (integrated with the state).
     P = sum(mass_matrix(model, result.q[s.after[i]]) @ (result.impacts[i].qdot_after - result.impacts[i].qdot_before)

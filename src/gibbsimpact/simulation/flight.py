@@ -319,8 +319,10 @@ def integrate_phase(
         benchmarks and for tests that show what the check finds
     gap_batch : g(qs (K, N)) -> (K, W, J), the gaps of several states at once
         (default: gap_matrix state by state)
-    extra : None, or (fun(t, y) -> (m,), direction (m,) of +1 / -1): m more event functions,
-        sign changes at step ends only (module docstring); event index K + i
+    extra : None, or (fun(t, y) -> (m,), direction (m,) of +1 / -1[, inside (m,) bool]): m more event
+        functions (module docstring), event index K + i; inside (default all True) says which are also
+        sampled inside the steps; the others (a smooth function of the state, e.g. the chart event of
+        simulation.charts) by their sign change at the step ends only, which needs no dense output
     gap_single : g(q, row, column) -> float [m], one entry of the gap matrix (default: from
         gap_matrix); the root search of one event calls it many times
     jac : None, or J(t, y) -> (2N, 2N) the Jacobian of rhs, for an implicit method (Radau, BDF,
@@ -374,6 +376,7 @@ class _Phase:
         self.extra = extra
         if extra is not None:
             self.x_fun, self.x_dir = extra[0], np.asarray(extra[1], dtype=float)
+            self.x_inside = np.asarray(extra[2], dtype=bool) if len(extra) > 2 else np.ones(self.x_dir.size, bool)
             self.X_prev = np.asarray(self.x_fun(t0, y0), dtype=float)
         self.min_gap = float(g0.min()) if g0.size else np.inf
         self.t_a, self.y_a, self.f_a = t0, y0.copy(), self.derivative(t0, y0)
@@ -423,9 +426,11 @@ class _Phase:
         roots = {}
         if self.extra is not None:
             X_b = np.asarray(self.x_fun(t_b, y_b), dtype=float)
-            if dense is None:
-                dense = _interpolant(solver)
-            roots.update(self._extra_roots(h, t_b, X_b, dense))
+            v_a, v_b = -self.x_dir * self.X_prev, -self.x_dir * X_b  # v = sgn X falls through 0 at an event
+            if self.x_inside.any() or np.any((v_a >= 0.0) & (v_b <= 0.0)):
+                if dense is None:
+                    dense = _interpolant(solver)
+                roots.update(self._extra_roots(h, t_b, X_b, dense))
         if np.any(crossed) or np.any(examine):
             if dense is None:
                 dense = _interpolant(solver)
@@ -484,14 +489,16 @@ class _Phase:
         3/4 of the step (a state that does not change, e.g. a sticking contact, lets the solver take
         long steps over which a force can reach the cone and come back)."""
         t_a, x_fun, roots = self.t_a, self.x_fun, {}
-        ts = np.concatenate(([t_a], t_a + _S_CHECK * h, [t_b]))
+        ts = np.concatenate(([t_a], t_a + _S_CHECK * h, [t_b])) if self.x_inside.any() else np.array([t_a, t_b])
         Xs = [self.X_prev] + [np.asarray(x_fun(tk, dense(tk)), dtype=float) for tk in ts[1:-1]] + [X_b]
         for i in range(len(self.x_dir)):
             def x_i(t, i=i):
                 return float(x_fun(t, dense(t))[i])
 
             sgn = -float(self.x_dir[i])  # v = sgn X_i falls from >= 0 to <= 0 at a crossing
-            bracket = _earliest_bracket(lambda t: sgn * x_i(t), ts, [sgn * X[i] for X in Xs])
+            at = slice(None) if self.x_inside[i] else [0, -1]  # an end-only event: its values at the step ends
+            bracket = _earliest_bracket(lambda t: sgn * x_i(t), ts[at], [sgn * X[i] for X in np.array(Xs)[at]],
+                                        depth=3 if self.x_inside[i] else 0)
             if bracket is not None:
                 roots[self.n_gap + i] = brentq(x_i, *bracket, xtol=4 * _EPS, rtol=4 * _EPS)
         return roots

@@ -68,7 +68,7 @@ def joint_limits(model) -> tuple[Limit, ...]:
     joints = model.chain.joints
     links = model.chain.links
     for i, jt in enumerate(joints):
-        if jt.kind not in ("Pa", "Pb"):  # revolutes and welds (no coordinate) have no range
+        if jt.kind not in ("Pa", "Pb"):  # a revolute or a weld (no coordinate) has no limits
             continue
         k = model.theta_index[i]
         lo, hi = jt.range

@@ -27,6 +27,8 @@ class Chunk(NamedTuple):
     compliant: tuple | None = None  # compliant normal forces (k, W, C) [N], their points (k, W, C, 3) [m] and
     # integrals (k, 3 + N) (simulation.compliant); None: no compliant force on these samples
     stops: np.ndarray | None = None  # (k, L) [N or N m] forces of the held end stops; None: all zero
+    chart: np.ndarray | None = None  # (3, 3) R_ref of the free base's chart of these samples (model.base_chart)
+    change: object = None  # the ChartChange (simulation.charts) whose sample after it this chunk is
 
 
 def one_sample(E: Energy) -> Energy:
@@ -60,7 +62,7 @@ class Recorder:
         # Energy of every stored sample: needed for the flight-phase drift, then handed
         # to the Result so res.energy() does not evaluate M at every sample again.
         self.chunks = [Chunk(np.array([t0]), q0[None, :], qdot0[None, :], np.array([0]), np.zeros((1, n_work)),
-                              one_sample(energy(model, q0, qdot0)), 0.0, None)]
+                              one_sample(energy(model, q0, qdot0)), 0.0, None, chart=model.base_chart)]
         self.n_impacts = 0
 
     def impact(self, rec, q, phase):
@@ -76,7 +78,7 @@ class Recorder:
             if conserving else 0.0
         self.chunks.append(Chunk(np.array([rec.time]), q[None, :].copy(), rec.qdot_after[None, :].copy(),
                                   np.array([phase]), work, one_sample(rec.energy_after), 0.0, rec,
-                                  balance=jump))
+                                  balance=jump, chart=self.model.base_chart))
         self.n_impacts += 1
 
     def flight(self, T, Y, phase, forces=None, friction=None, compliant=None, stops=None):
@@ -101,7 +103,8 @@ class Recorder:
         err = float(np.abs(balance).max() / scale) if T.size else 0.0
         extra = None if compliant is None else (*compliant, Y[:, 2 * N + nw:])
         self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces,
-                                  friction, float(balance[-1]) if T.size else 0.0, extra, stops))
+                                  friction, float(balance[-1]) if T.size else 0.0, extra, stops,
+                                  self.model.base_chart))
 
     def mode(self, t, q, qdot, phase, forces, friction, stops=None):
         """After a contact-mode decision at t: its contact forces (W, P) and friction forces (W, P, 3) [N]
@@ -118,7 +121,36 @@ class Recorder:
             return
         self.chunks.append(Chunk(np.array([t]), q[None, :].copy(), qdot[None, :].copy(), np.array([phase]),
                                   last.work[-1:].copy(), one_sample(energy(self.model, q, qdot)), 0.0, None,
-                                  forces[None].copy(), friction[None].copy(), stops=S[None].copy()))
+                                  forces[None].copy(), friction[None].copy(), stops=S[None].copy(),
+                                  chart=self.model.base_chart))
+
+    def chart(self, t, q, qdot, phase, change):
+        """A re-chart at t (simulation.charts): the state (q, qdot) (N,) in the new chart (self.model's, already
+        handed over) as a new sample, the ChartChange with its index. The chart keeps E; its jump, round-off,
+        counts in the whole-run balance like that of an impact that should conserve E."""
+        last = self.chunks[-1]
+        E = one_sample(energy(self.model, q, qdot))
+        last_forces = None if last.forces is None else last.forces[-1:].copy()
+        last_friction = None if last.friction is None else last.friction[-1:].copy()
+        last_stops = None if last.stops is None else last.stops[-1:].copy()
+        last_compliant = None if last.compliant is None else tuple(a[-1:].copy() for a in last.compliant)
+        change = change._replace(sample=sum(c.t.size for c in self.chunks))
+        self.chunks.append(Chunk(np.array([t]), q[None, :].copy(), qdot[None, :].copy(), np.array([phase]),
+                                  last.work[-1:].copy(), E, 0.0, None, last_forces, last_friction,
+                                  float(E.total[0] - last.energy.total[-1]), last_compliant, last_stops,
+                                  chart=self.model.base_chart, change=change))
+
+    @property
+    def chart_changes(self) -> list:
+        """The ChartChange of every re-chart, in time order."""
+        return [c.change for c in self.chunks if c.change is not None]
+
+    def base_charts(self):
+        """R_ref (K, 3, 3) of every sample's chart (simulation.charts), or None when no sample has another
+        chart than I (a run that never re-charted: its angles are measured from the world axes)."""
+        if not self.chart_changes:
+            return None
+        return np.concatenate([np.broadcast_to(c.chart, (c.t.size, 3, 3)) for c in self.chunks])
 
     def ends_with(self, T) -> bool:
         """Whether the last chunk holds the samples T (the same array)."""

@@ -140,6 +140,13 @@ class Result:
         generalised impulse int sum_j J_j^T (n F_n + F_t) dt (N,)
     compliant_contacts : list of CompliantContact (gibbsimpact.simulation.compliant): every contact of a
         pair on a compliant wall, its start and end events and approach speed v_0; [] without compliant walls
+    base_chart : (K, 3, 3) or None: R_ref of every sample's chart of a spatial free base (formulation §18,
+        docs/theory.md §1.1): the base frame is T_1 = Trans(X) R_ref Rx(theta_-1) Ry(theta_0) Rz(theta_1), so q
+        alone no longer fixes the orientation once a run re-charted; None when it never did (R_ref = I).
+        The angles theta_-1, theta_0, theta_1 in q are the current chart's and jump at a re-chart;
+        use base_orientation for a chart-free orientation, chart_segments / model_at for kinematics
+    charts : list of ChartChange (gibbsimpact.simulation.charts): every re-chart, its time, the index of the
+        sample after it (the sample before has the same time), the old angles and the new R_ref
     episodes : list of Episode (property, computed from the above at its first use;
         gibbsimpact.simulation.episodes, docs/theory.md §14.7): the collision episodes, each the
         impacts and resting phases of one meeting of the chain with the walls. The chain is the body
@@ -181,6 +188,8 @@ class Result:
     compliant_points: np.ndarray | None = None
     compliant_integrals: np.ndarray | None = None
     compliant_contacts: list = field(default_factory=list)
+    base_chart: np.ndarray | None = None
+    charts: list = field(default_factory=list)
     _energy_cache: Energy | None = field(default=None, repr=False)
     # Not an __init__ argument: dataclasses.replace (new samples or forces) must not carry it over.
     _episodes_cache: list | None = field(default=None, init=False, repr=False)
@@ -256,23 +265,60 @@ class Result:
                 "actuators": float(W[2]) if len(W) > 2 else 0.0, "impacts": impacts,
                 "numerical": float(self.energy_error_whole_run_J)}
 
+    def chart_segments(self) -> list:
+        """[(model, slice of samples)]: the runs of consecutive samples in one chart of the free base, each with
+        the model of that chart (Model.with_base_chart; Result.model itself when the run never re-charted).
+        Any kinematics of q[k] must use the model of k's segment."""
+        K = len(self.t)
+        if self.base_chart is None:
+            return [(self.model, slice(0, K))]
+        starts = [0] + [c.sample for c in self.charts if 0 < c.sample < K]
+        return [(self.model.with_base_chart(self.base_chart[a]), slice(a, b)) for a, b in zip(starts, starts[1:] + [K])]
+
+    def model_at(self, k: int):
+        """The model of sample k's chart (chart_segments): kinematics of q[k] are model_at(k)'s."""
+        if self.base_chart is None:
+            return self.model
+        return self.model.with_base_chart(self.base_chart[k])
+
+    def per_chart(self, fn, *arrays):
+        """fn(model, *(a[segment] for a in arrays)) over the chart segments, joined along the first axis
+        (a NamedTuple result field by field): a batch kinematics function of every sample in its own chart."""
+        parts = [fn(m, *(a[sl] for a in arrays)) for m, sl in self.chart_segments()]
+        if len(parts) == 1:
+            return parts[0]
+        if isinstance(parts[0], tuple):
+            return type(parts[0])(*(np.concatenate(f) for f in zip(*parts)))
+        return np.concatenate(parts)
+
+    @property
+    def base_orientation(self) -> np.ndarray | None:
+        """(K, 4) unit quaternions [w, x, y, z] of the free base frame's world orientation R_ref Rx Ry Rz at every
+        sample, chart-free and continuous (each sign chosen to follow the last; w >= 0 at the first sample);
+        None for a base that is not spatial-free (docs/theory.md §1.1)."""
+        from ..dynamics.base_chart import base_orientation_matrix, quaternion
+
+        if self.model.chain.base != "free":
+            return None
+        return quaternion(base_orientation_matrix(self.model, self.q, self.base_chart))
+
     def energy(self) -> Energy:
         """Energy(kinetic, gravity, strain, total), each an array (K,) [J]."""
         if self._energy_cache is None:
-            self._energy_cache = energies(self.model, self.q, self.qdot)
+            self._energy_cache = self.per_chart(energies, self.q, self.qdot)
         return self._energy_cache
 
     def joint_positions(self) -> np.ndarray:
         """O_1 ... O_(n+1) at every sample, shape (K, n+1, 3) [m]."""
         from ..dynamics.kinematics import joint_positions_batch
 
-        return joint_positions_batch(self.model, self.q)
+        return self.per_chart(joint_positions_batch, self.q)
 
     def joint_velocities(self) -> np.ndarray:
         """Absolute joint velocities at every sample, shape (K, n+1, 3) [m/s]."""
         from ..dynamics.kinematics import joint_velocities_batch
 
-        return joint_velocities_batch(self.model, self.q, self.qdot)
+        return self.per_chart(joint_velocities_batch, self.q, self.qdot)
 
     @property
     def episodes(self) -> list:

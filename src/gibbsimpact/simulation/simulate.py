@@ -19,7 +19,7 @@
 * :mod:`gibbsimpact.recorder` — samples, impacts, contact forces and the energy balance;
 * :mod:`gibbsimpact.progress` — the progress callback or bar.
 
-A run repeats three stages until t_end or a stop:
+A run repeats these stages until t_end or a stop:
 
 * **impact** (:func:`impact_stage`), when the last phase ended at a hit or sink
   event (or at the start): every candidate within the contact band at the event
@@ -27,6 +27,9 @@ A run repeats three stages until t_end or a stop:
 * **contact mode** (``mode_stage`` below, :mod:`gibbsimpact.resting`), after an
   impact stage and at a release, slip, stick or drift event: which pairs rest,
   and whether they stick or slip;
+* **chart** (:func:`gibbsimpact.simulation.charts.chart`), a spatial free base only: when |theta_0|
+  reached 1.2 rad (the chart event of the last phase, or at the start), the base angles are
+  measured from the current orientation from now on (formulation §18); the state is unchanged;
 * **flight** (:func:`gibbsimpact.flight.integrate_phase`): scipy's ODE solver
   steps the equations of motion (constrained by the resting pairs); one terminal
   event per (contact point, wall) pair, ``g_w(p(q(t)))``, direction -1, located
@@ -99,7 +102,7 @@ from .budget import BudgetExceeded
 from .progress import Clock, progress_reporter
 from .results import Result
 from .settings import Settings
-from .stages import check, dispatch, finish, flight, impact, interrupted, mode, start, stopped_inside
+from .stages import chart, check, dispatch, finish, flight, impact, interrupted, mode, start, stopped_inside
 from .validity import warn_result
 
 
@@ -169,17 +172,7 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
     with progress_reporter(settings.progress, settings.t0, settings.t_end) as report:
         run = start(model, q0, qdot0, settings, Clock(report))
         try:
-            while run.status is None:
-                impact(run)
-                if run.status is not None:
-                    break
-                mode(run)
-                if run.t >= settings.t_end:
-                    run.end("t_end", t_end=settings.t_end)
-                    break
-                outcome = flight(run)
-                if outcome is not None and check(run, outcome[0]):
-                    dispatch(run, *outcome)
+            _loop(run)
         except KeyboardInterrupt as exc:
             interrupted(run, str(exc) or "KeyboardInterrupt (Ctrl-C)")
         except CallbackError as exc:
@@ -190,6 +183,22 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
         _final_report(report, res)
     warn_result(res)
     return res
+
+
+def _loop(run) -> None:
+    """The stages (module docstring) until the run stops: impact, contact mode, chart, flight, check, dispatch."""
+    while run.status is None:
+        impact(run)
+        if run.status is not None:
+            break
+        mode(run)
+        if run.t >= run.settings.t_end:
+            run.end("t_end", t_end=run.settings.t_end)
+            break
+        chart(run)
+        outcome = flight(run)
+        if outcome is not None and check(run, outcome[0]):
+            dispatch(run, *outcome)
 
 
 def _final_report(report, res) -> None:

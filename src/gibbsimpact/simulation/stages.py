@@ -18,6 +18,7 @@ from ..contact.walls import describe, is_compliant
 from ..dynamics.forces import CallbackError
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, mass_matrix
 from .accumulation import Accumulation
+from .charts import chart, chart_event, charted, start_chart
 from .compliant import COMPLIANT_EVENTS, CompliantContacts, compliant_event, compliant_gap_functions
 from .contact_filter import FilteredContacts
 from .contacts import Contacts, contact_band, event_spec, gap_lipschitz, impact_stage as solve_impact, phase_events
@@ -71,6 +72,8 @@ class Run:
     newton_warned: bool = False  # the warning of validity.check_impact was issued (once per run)
     flown: object = None  # the last flight phase's outcome until its samples are recorded
     compliant: CompliantContacts | None = None  # the compliant walls' pairs (simulation.compliant), or None
+    charting: bool = False  # the free base is re-charted (simulation.charts); model is then the current chart's
+    pending_chart: bool = False  # the last phase ended at the chart event: re-chart before the next one
     counters: dict = field(default_factory=lambda: {"n_steps": 0, "n_examined": 0, "resting_time": 0.0,
                                                     "mode_events": 0})
 
@@ -104,13 +107,16 @@ def _check_inside(model, q, walls, contact_tol, link_contacts=True):
     raise ValueError(f"initial state q0 puts {what} outside a wall: " + "; ".join(lines) + f". Move the chain {fix}.")
 
 
-def _check_start(model, q0, qdot0, settings, limits):
-    """Refuse an initial state the run cannot start from; warn where it is outside the model's assumptions."""
+def _check_start(model, q0, qdot0, settings, limits, start=None):
+    """Refuse an initial state the run cannot start from; warn where it is outside the model's assumptions.
+    start: (model, q0, qdot0) in the chart the run starts in (simulation.charts.start_chart), where the
+    dynamics are checked."""
     check_initial(limits, q0)
     _check_inside(model, q0, settings.walls, settings.contact_tol, settings.link_contacts)
     try:
-        mass_matrix(model, q0)
-        forward_dynamics(model, q0, qdot0)
+        m, q, qd = (model, q0, qdot0) if start is None else start
+        mass_matrix(m, q)
+        forward_dynamics(m, q, qd)
     except SingularMassMatrixError as exc:
         raise SingularMassMatrixError(f"initial state q0: {exc}") from None
     warn_state(model, q0, qdot0, settings.walls)  # outside the model's assumptions: warned, never changed
@@ -119,9 +125,11 @@ def _check_start(model, q0, qdot0, settings, limits):
 def start(model, q0, qdot0, settings, clock) -> Run:
     """Check the initial state and build the run's parts (method="auto" resolved); the loop starts with an
     impact stage."""
-    s, walls = settings.resolve_auto(model, q0), settings.walls
+    charting = charted(model, _index(settings.prescribed))
+    started = start_chart(model, q0, qdot0, charting)
+    s, walls = settings.resolve_auto(*started[:2]), settings.walls
     limits = joint_limits(model)
-    _check_start(model, q0, qdot0, s, limits)
+    _check_start(model, q0, qdot0, s, limits, started)
     limits = _watched(limits, s.prescribed)
     contacts = (Contacts(model, walls, s.link_contacts) if s.contact_filter is None else
                 FilteredContacts(model, walls, s.link_contacts, s.contact_filter))
@@ -134,14 +142,17 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     compliant = (CompliantContacts(model, contacts, s.wall_restitution, lipschitz)
                  if any(map(is_compliant, walls)) else None)
     equations = Equations(model, s, q0, qdot0, resting, clock, compliant, stops)
-    return Run(
+    run = Run(
         model=model, settings=s, contacts=contacts, limits=limits, stops=stops, resting=resting,
         monitor=Accumulation((len(walls), contacts.n_cols), s.zeno_count, s.zeno_interval, band, contacts.names),
         recorder=Recorder(model, s.t0, q0, qdot0, len(walls), _index(s.prescribed), len(limits),
                           contacts.n_cols), equations=equations,
         clock=clock, lipschitz=lipschitz, t=s.t0, y=np.concatenate((q0, qdot0, np.zeros(equations.n_extra))),
         band=band, near=np.zeros((len(walls), contacts.n_cols), dtype=bool), compliant=compliant,
+        charting=charting,
     )
+    chart(run)  # |theta_0| >= RECHART_ANGLE at t0: the run starts in the chart of q0's orientation
+    return run
 
 
 def _index(prescribed):
@@ -316,16 +327,21 @@ def _phase_events(run):
             lambda t, y: run.equations.stop_forces(t, y[:N], y[N:2 * N]))
         extras.append(extra)
         kinds = kinds + release_kinds
+    if run.charting:
+        extras.append(chart_event(run.model))
+        kinds = kinds + [("chart", -1, -1)]
     return events, kinds, _joined(extras)
 
 
 def _joined(extras):
-    """One (fun(t, y) -> (m,), directions (m,)) of several, their values in order; None for none."""
+    """One (fun(t, y) -> (m,), directions (m,), inside (m,)) of several (fun, directions[, inside]), their values
+    in order (inside: flight.integrate_phase's extra, default True); None for none."""
     if len(extras) < 2:
         return extras[0] if extras else None
-    funs = [f for f, _ in extras]
+    funs = [e[0] for e in extras]
     return (lambda t, y: np.concatenate([f(t, y) for f in funs]),
-            np.concatenate([np.asarray(d, dtype=float) for _, d in extras]))
+            np.concatenate([np.asarray(e[1], dtype=float) for e in extras]),
+            np.concatenate([np.asarray(e[2] if len(e) > 2 else np.ones(len(e[1])), dtype=bool) for e in extras]))
 
 
 def _forces_at(run, T, Y):
@@ -466,7 +482,9 @@ def dispatch(run, out, kinds) -> None:
     """What the event that ended the phase leads to: a mode decision, a joint limit's rule, an impact stage,
     or re-arming a pair that left the contact band."""
     kind, w_i, j = kinds[out.event]
-    if kind in MODE_EVENTS:
+    if kind == "chart":
+        run.pending_chart = True  # the chart stage re-charts before the next phase (simulation.charts)
+    elif kind in MODE_EVENTS:
         _mode_event(run, kind, w_i, j)
     elif kind in COMPLIANT_EVENTS:
         compliant_event(run, kind, w_i, j)
@@ -508,7 +526,7 @@ def finish(run, started: float) -> Result:
         F_all, Ft_all = F_all[:, :, :P], Ft_all[:, :, :P]
     walls = run.settings.walls
     return Result(
-        model=run.model, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,
+        model=run.model.chart_root, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,
         impacts=run.recorder.impacts, status=run.status, message=run.message, settings=run.settings.record(),
         nfev=run.equations.nfev, n_steps=run.counters["n_steps"], n_examined=run.counters["n_examined"],
         wall_time=time.perf_counter() - started, energy_error=run.recorder.energy_error,
@@ -516,6 +534,7 @@ def finish(run, started: float) -> Result:
         _energy_cache=E_all, work=work_all if run.equations.driven else None, contact_forces=F_all,
         friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
         resting_time=run.counters["resting_time"], stop_forces=S_all, **_efforts(run, t_all, q_all, qdot_all),
+        base_chart=run.recorder.base_charts(), charts=run.recorder.chart_changes,
         **({} if run.compliant is None else dict(zip(
             ("compliant_forces", "compliant_points", "compliant_integrals"),
             run.recorder.compliant_arrays(run.compliant.active.shape)),
@@ -525,7 +544,9 @@ def finish(run, started: float) -> Result:
 
 def _efforts(run, t, q, qdot) -> dict:
     """Result's prescribed (names) and effort (K, n_p) [N m or N] at every sample ({} without prescribed
-    coordinates)."""
+    coordinates). One chart serves every sample: a run with prescribed coordinates has no resting or compliant
+    contact force, and the joint efforts of a free-floating chain do not change under a rotation of the whole
+    (uniform gravity included), which is all a change of the free base's chart is (simulation.charts)."""
     P = run.settings.prescribed
     if P is None:
         return {}

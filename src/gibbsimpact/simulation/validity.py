@@ -18,8 +18,10 @@ limits and their reasons are in docs/theory.md, "Validity limits":
   has a wrong unit.
 * ``GIMBAL_MARGIN``: the free base's rotations Rx(theta_-1) Ry(theta_0) Rz(theta_1)
   are singular at theta_0 = +-pi/2 (theta_-1 and theta_1 then turn about the same
-  axis and the mass matrix loses rank). A run that fails within 0.05 rad (2.9 deg)
-  of it stopped because of the coordinates, not the mechanics.
+  axis and the mass matrix loses rank). A run re-charts the base before it gets there
+  (simulation.charts: |theta_0| <= 1.2 rad in every chart), from any initial angles;
+  only a run whose base angles are prescribed keeps its first chart, and if it fails
+  within 0.05 rad (2.9 deg) of +-pi/2 it stopped because of the coordinates, not the mechanics.
 * Newton's law at a point whose effective mass depends on the discretisation
   (contact_points.ContactPoint.newton_ill_posed: a span point, the free tip of a
   finite-element or clamped-free link): ``check_impact`` names the first impact with an
@@ -96,7 +98,6 @@ def check_state(model, q0, qdot0, walls=()) -> list[str]:
     * a link whose peak deflection exceeds DEFLECTION_LIMIT times its length;
     * a strain energy above STRAIN_ENERGY_FACTOR times kinetic + max(|gravity|, m |g| L)
       (skipped when that scale is zero: a chain at rest without gravity is pure vibration);
-    * theta_0 (free base) within GIMBAL_MARGIN of +-pi/2;
     * a point of a deformed link beyond a wall (only joints touch walls in this model).
 
     Nothing is changed. Returns [] for a state within the limits.
@@ -125,13 +126,6 @@ def check_state(model, q0, qdot0, walls=()) -> list[str]:
             f"of the state (kinetic {float(E.kinetic):.4g} J + max(|gravity| {abs(float(E.gravity)):.4g} J, "
             f"m g L {weight_scale:.4g} J)), beyond the limit of {STRAIN_ENERGY_FACTOR:g} times: the initial "
             "deflections dominate everything else")
-    if model.chain.base == "free":  # (the spatial base: theta_0 = q[4])
-        d = _gimbal_distance(q0[4])
-        if d < GIMBAL_MARGIN:
-            msgs.append(
-                f"initial theta_0 = {q0[4]:.6g} rad is {d:.3g} rad from +-pi/2, within the gimbal-lock margin "
-                f"{GIMBAL_MARGIN:g} rad of the free base's rotations Rx(theta_-1) Ry(theta_0) Rz(theta_1), where "
-                "the mass matrix becomes singular; choose initial angles with theta_0 away from +-pi/2")
     if walls:
         pts = link_points(model, q0, _SAMPLES)
         for k, w in enumerate(walls, start=1):
@@ -150,7 +144,8 @@ def check_stop(model, result) -> list[str]:
     """A message when a free-base run failed with theta_0 within GIMBAL_MARGIN of +-pi/2, else [].
 
     The stop is then due to the singular rotation sequence Rx Ry Rz of the free base
-    (gimbal lock), not to the mechanics.
+    (gimbal lock), not to the mechanics. Only a run that cannot re-chart its base (a base angle
+    prescribed: simulation.charts) gets there; the others keep |theta_0| <= 1.2 rad.
     """
     if model.chain.base != "free" or result.status != "failed" or len(result.t) == 0:
         return []
@@ -162,7 +157,8 @@ def check_stop(model, result) -> list[str]:
         f"the run failed at t = {float(result.t[-1]):.9g} s with theta_0 = {theta_0:.9g} rad, {d:.3g} rad from "
         f"+-pi/2 (gimbal-lock margin {GIMBAL_MARGIN:g} rad): the free base's rotations Rx(theta_-1) Ry(theta_0) "
         "Rz(theta_1) are singular there (theta_-1 and theta_1 turn about one axis), so the coordinates, not the "
-        "motion, stopped it; start from angles that keep theta_0 away from +-pi/2")
+        "motion, stopped it; a run re-charts the base before it gets there (simulation.charts) unless a base angle "
+        "is prescribed, as here: prescribe a motion that keeps theta_0 away from +-pi/2")
     return [message]
 
 
