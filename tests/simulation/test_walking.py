@@ -22,6 +22,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import fsolve
 
 import gibbsimpact as gi
+from gibbsimpact.contact import span_resting
 from gibbsimpact.simulation.contact_filter import LeadFilter
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
@@ -228,7 +229,8 @@ def rimless_wheel():
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not hasattr(gi, "Weld"), reason="rimless wheel: needs trees and gi.Weld (issue 28 items 1-2)")
+@pytest.mark.skipif(not (hasattr(gi, "Weld") and hasattr(span_resting, "tip_point_terms")),
+                    reason="rimless wheel: needs trees, gi.Weld and resting at a tree's free tips (issue 28 items 1-2)")
 @pytest.mark.parametrize("omega0", [1.2, 1.5, 1.8])
 def test_rigid_rimless_wheel_reaches_mcgeers_steady_speed(omega0):
     """From several initial speeds [rad/s] (about the stance foot, right after a strike) the wheel's speed

@@ -48,26 +48,6 @@ def _bilinear(wall, p, u, v) -> float:
     return 0.25 * float(wall.curvature(P, (u + v)[None, :])[0] - wall.curvature(P, (u - v)[None, :])[0])
 
 
-def leaf_tip_columns(model) -> dict:
-    """{contact-point column: link} of the tips of a tree's leaves that are no frame origin (Model.extra_tips
-    that are Chain.free_tips, formulation §17): fixed material points x = l_i, so they rest through
-    tip_point_terms (a prismatic host's extra tip does not rest)."""
-    n, leaves = model.n_links, set(model.chain.free_tips)
-    return {n + 1 + k: i for k, i in enumerate(model.extra_tips) if i in leaves}
-
-
-def tip_point_terms(model, wall, q, qd, i: int):
-    """Equations (1)-(2) of a joint pair for the tip x = l_i of link i (a material point that does not move
-    along the link: no rolling term). Returns p, J, n, pd, a0, g, c as span_point_terms."""
-    q, qd = model.check_state(q, qd)
-    ((p, J, a0),) = material_jacobians(model, q, qd, i, (model.chain.links[i].length,))
-    n = wall.normal(p[None, :])[0]
-    pd = J @ qd
-    # c = n . a0 + pd^T H_w pd
-    c = float(n @ a0) + float(wall.curvature(p[None, :], pd[None, :])[0])
-    return p, J, n, pd, a0, float(wall.gap(p[None, :])[0]), c
-
-
 def span_point_terms(model, wall, q, qd, i: int, x: float):
     """Equations (1)-(2) of the module docstring for the material point x [m] of link i on ``wall``.
 

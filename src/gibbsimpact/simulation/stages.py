@@ -190,8 +190,8 @@ def _accumulation(run, accumulation) -> None:
     unresolved = run.monitor.unresolved(run.resting.can_rest) if rest else None
     why = ("accumulation='stop'" if not rest else
            "resting contact is not modelled with prescribed coordinates" if run.settings.prescribed is not None else
-           "resting contact is modelled at joints, tree leaves' tips and along links' spans, not at the tip of a "
-           "prismatic host (a contact point after the chain's tip) or a body's centre" if not run.forced.any() else
+           "resting contact is modelled at joints and along links' spans, not at the tip of a prismatic host "
+           "(a contact point after the chain's tip) or a body's centre" if not run.forced.any() else
            unresolved if unresolved is not None else
            "resting contact did not resolve it" if run.settled_at == run.t else None)
     if why is not None:
