@@ -68,7 +68,7 @@ def joint_limits(model) -> tuple[Limit, ...]:
     joints = model.chain.joints
     links = model.chain.links
     for i, jt in enumerate(joints):
-        if jt.kind == "R":
+        if jt.kind not in ("Pa", "Pb"):
             continue
         k = model.theta_index[i]
         lo, hi = jt.range
