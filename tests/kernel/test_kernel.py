@@ -274,13 +274,13 @@ def test_chains_cover_the_kernel_paths():
         model = build()
         idat = pack(model)[1]
         n, N = int(idat[0]), int(idat[1])
-        li = idat[_H + _CI * N:].reshape(n, _LI)
+        li = idat[_H + _CI * N:_H + _CI * N + n * _LI].reshape(n, _LI)
         kinds |= set(li[:, 4].tolist())
     # Rigid ends and moving (Rodrigues) ends.
     assert {_k.END_RIGID, _k.END_GENERAL} <= kinds
     spatial = pack(_spatial_two_link())[1]
     N = int(spatial[1])
-    assert np.all(spatial[_H + _CI * N:].reshape(2, _LI)[:, 4] == _k.END_GENERAL)
+    assert np.all(spatial[_H + _CI * N:_H + _CI * N + 2 * _LI].reshape(2, _LI)[:, 4] == _k.END_GENERAL)
 
 
 @needs_jit
