@@ -77,6 +77,8 @@ RANGES = {
     "links.joint.angle_rad": Range(-1e4, 1e4, "rad"),
     "links.joint.half_length_m": Range(0, 1e6, "m"),
     "links.joint.range_m": Range(-1e6, 1e6, "m"),
+    "links.joint.parent": Range(0, 10**6, integer=True, why="a link number"),
+    "links.joint.at_m": Range(0, 1e6, "m"),
     "base.position_m": Range(-1e6, 1e6, "m"),
     "base.angle_rad": Range(-1e4, 1e4, "rad"),
     "base.angle_deg": Range(-1e4 * _DEG, 1e4 * _DEG, "deg", why="1e4 rad"),
@@ -241,13 +243,16 @@ _JOINT_TYPES = {
     "R": "revolute: the link turns by theta_i at the host's tip",
     "Pa": "sliding prismatic: a carriage fixed to the link runs along the host, d_i",
     "Pb": "fixed prismatic: the link slides through a guide at the host's tip, d_i",
+    "W": "weld: the link is clamped to its host at the fixed angle, no coordinate",
 }
 _JOINT_KEYS = {
-    "type": "'R' (revolute, the default), 'Pa' (a carriage on the host) or 'Pb' (a guide at the host's tip)",
-    "angle_deg": "fixed angle gamma of a Pa or Pb joint in deg",
-    "angle_rad": "fixed angle gamma of a Pa or Pb joint in rad",
+    "type": "'R' (revolute, the default), 'Pa' (a carriage on the host), 'Pb' (a guide at the host's tip) or 'W' (a weld)",
+    "angle_deg": "fixed angle gamma of a Pa, Pb or W joint in deg",
+    "angle_rad": "fixed angle gamma of a Pa, Pb or W joint in rad",
     "half_length_m": "half-length c of a Pa carriage in m",
     "range_m": "[d_min, d_max] of a Pa or Pb joint in m",
+    "parent": "number of the host link (1-based; 0: the base) of a tree, default: the link before",
+    "at_m": "abscissa x_a on the host where the joint sits, in m (default: the host's tip)",
 }
 _BASE_KEYS = {
     "type": "'fixed', 'free' or 'planar'",
