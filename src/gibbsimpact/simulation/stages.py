@@ -353,7 +353,7 @@ def flight(run):
             slack=s.contact_tol, n_q=N, check_in_step=s.in_step_check, gap_batch=gap_batch, extra=extra,
             gap_single=lambda q, w, c: run.contacts.gap_single(q, w, c, gap_matrix) + (
                 0.0 if run.compliant is None else run.compliant.joint_shift(w, c)),
-            jac=run.equations.phase_jacobian(s.method),
+            jac=run.equations.phase_jacobian(s.method), solver=run.equations.phase_solver(s.method),
         )
     except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
         run.end("integration", t=run.t, error=exc)
