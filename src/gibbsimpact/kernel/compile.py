@@ -68,7 +68,7 @@ _ENTRY_SIG = f"float64({_A1}, {_I1}, {_R1}, {_R1}, {_R1}, int64, {{}}, {{}}, {_A
 #: The Jacobian entry point (jacobian.state_jacobian), per variant as the kernel; compiled on first use.
 _JACOBIAN_SIG = f"float64({_A1}, {_I1}, {_R1}, {_R1}, {_R1}, {{}}, {{}}, {_A1})"
 #: The compiled Radau IIA step (radau.radau_step), per variant as the kernel; compiled on first use.
-_RADAU_SIG = (f"float64({_A1}, {_I1}, {_A2}, {_A2}, {_A2}, {_A1}, {_A1}, {_A1}, {_A2}, {_A2}, {_I1}, "
+_RADAU_SIG = (f"float64({_A1}, {_I1}, {_A2}, {_A2}, {_A2}, {_A1}, {_A2}, {_A1}, {_A1}, {_A2}, {_A2}, {_I1}, "
               f"complex128[:, ::1], {_I1}, {_A2}, {_A2}, {_A1}, {_A1}, {_A1}, {{}}, {{}})")
 #: What the notice of a variant entry point calls it, and its cost.
 _VARIANT_ENTRIES = {"state_jacobian": (_JACOBIAN_SIG, "the Jacobian of the dynamics (first implicit run; 10-20 s of CPU)"),
@@ -329,7 +329,7 @@ def radau_entry(v):
     """The entry point ``radau_step`` (kernel/radau.py) with variant ``v`` compiled (or loaded from numba's
     cache) on first use: only runs with the compiled Radau method need it (20-40 s of CPU, one notice).
 
-    Call it as ``radau_entry(v)(fdat, idat, fin, C, A, atol, y, f, J, LUr, pr, LUc, pc, Z, Qd, ynew, fnew,
+    Call it as ``radau_entry(v)(fdat, idat, fin, C, A, atol, Pf, y, f, J, LUr, pr, LUc, pc, Z, Qd, ynew, fnew,
     st, *v)`` (radau.radau_step's arguments).
     """
     return _variant_entry("radau_step", v)

@@ -6,7 +6,7 @@ collocation system of the step [t, t + h] for the stage increments Z_i = y(t + c
     Z = h (A_rk (x) I) F(Z),   F_i = f(t + c_i h, y + Z_i),   y_new = y + Z_3
 
 by simplified Newton in the transformed variables W = (T^-1 (x) I) Z, where T^-1 A_rk^-1 T =
-[[mu_r, 0, 0], [0, alpha, -beta], [0, beta, alpha]]: with J ~ df/dy held over the iterations, the
+[[mu_r, 0, 0], [0, alpha, beta], [0, -beta, alpha]]: with J ~ df/dy held over the iterations, the
 3n x 3n Newton matrix splits into one real n x n system (mu_r / h I - J) and one complex one
 ((alpha - i beta) / h I - J), each LU-factored once and reused while h and J are unchanged
 (E. Hairer, G. Wanner, Solving ODEs II, 2nd ed., Springer 1996, IV.8; the constants below are
@@ -69,12 +69,13 @@ ACCEPTED, NEED_JACOBIAN, STEP_TOO_SMALL, BAD_SIZE = 0.0, 1.0, 2.0, -1.0
 IN_CONSTANT, IN_SINE, IN_RAMP, IN_PD = 0, 1, 2, 3
 
 
-def radau_step(fdat, idat, fin, C, A, atol, y, f, J, LUr, pr, LUc, pc, Z, Qd, ynew, fnew, st, pris, ends):
+def radau_step(fdat, idat, fin, C, A, atol, Pf, y, f, J, LUr, pr, LUc, pc, Z, Qd, ynew, fnew, st, pris, ends):
     """Compiled entry point: one accepted Radau IIA step from (st[T], y) (module docstring).
 
     fin (m, 6): input rows (kind, k, a, b, c, d) [N, N m; per their kinds]; C (N, N) damping [N s/m ...];
     A (n, n) a linear system's matrix (0 rows: the chain); atol (n,); y, f (n,): the state and f(t, y);
-    J (n, n) df/dy; LUr, LUc (n, n) float and complex, pr, pc (n,) int64: the factors and pivots kept
+    Pf (n, n) the error filter (0 rows: none): the estimate is Pf err, Pf = I - (projector on the modes
+    above the cutoff frequency; simulation.compiled_radau.slow_projector); J (n, n) df/dy; LUr, LUc (n, n) float and complex, pr, pc (n,) int64: the factors and pivots kept
     between calls (st[LU_OK]); Z (3, n) the stage increments and Qd (n, 3) the dense output's
     coefficients (in: the last step's, for the predictor; out: this step's); ynew, fnew (n,) out; st
     (SLOTS,) the driver's state (slot names above). Returns ACCEPTED (st[T] is the new time),
@@ -119,7 +120,8 @@ def radau_step(fdat, idat, fin, C, A, atol, y, f, J, LUr, pr, LUc, pc, Z, Qd, yn
         for j in range(n):
             ynew[j] = y[j] + Z[2, j]
             scale[j] = atol[j] + max(abs(y[j]), abs(ynew[j])) * st[RTOL]
-        e_norm = _error_norm(fdat, idat, fin, C, A, wk, t, y, f, h, Z, LUr, pr, scale, st, err, fnew, pris, ends)
+        e_norm = _error_norm(fdat, idat, fin, C, A, wk, t, y, f, h, Z, LUr, pr, Pf, scale, st, err, fnew, pris,
+                             ends)
         safety = 0.9 * (2 * NEWTON_MAXITER + 1) / (2 * NEWTON_MAXITER + n_iter)
         if e_norm <= 1.0:
             break
@@ -238,15 +240,17 @@ def _newton(fdat, idat, fin, C, A, wk, t, y, h, J, LUr, pr, LUc, pc, Z, F, scale
     return False, k + 1, rate
 
 
-def _error_norm(fdat, idat, fin, C, A, wk, t, y, f, h, Z, LUr, pr, scale, st, err, scratch, pris, ends):
-    """The scaled RMS norm of the embedded error estimate (module docstring); err (n,) holds the estimate,
-    scratch (n,) is overwritten. After a rejection a norm above 1 is re-evaluated once with f(t, y + err)."""
+def _error_norm(fdat, idat, fin, C, A, wk, t, y, f, h, Z, LUr, pr, Pf, scale, st, err, scratch, pris, ends):
+    """The scaled RMS norm of the embedded error estimate (module docstring), filtered by Pf (n, n) when it has
+    rows; err (n,) holds the estimate, scratch (n,) is overwritten. After a rejection a norm above 1 is
+    re-evaluated once with f(t, y + err)."""
     n = y.shape[0]
     ze = np.empty(n)
     for j in range(n):
         ze[j] = (ERROR_WEIGHTS[0] * Z[0, j] + ERROR_WEIGHTS[1] * Z[1, j] + ERROR_WEIGHTS[2] * Z[2, j]) / h
         err[j] = f[j] + ze[j]
     _lu_solve(LUr, pr, err)
+    _filter(Pf, err, scratch)
     e_norm = _rms(err, scale)
     if st[REJECTED] > 0.0 and e_norm > 1.0:
         for j in range(n):
@@ -256,8 +260,23 @@ def _error_norm(fdat, idat, fin, C, A, wk, t, y, f, h, Z, LUr, pr, scale, st, er
         for j in range(n):
             err[j] = scratch[j] + ze[j]
         _lu_solve(LUr, pr, err)
+        _filter(Pf, err, scratch)
         e_norm = _rms(err, scale)
     return e_norm
+
+
+def _filter(Pf, err, scratch):
+    """err <- Pf err (n,) when Pf (n, n) has rows; scratch (n,) is overwritten."""
+    n = err.shape[0]
+    if Pf.shape[0] == 0:
+        return
+    for i in range(n):
+        s = 0.0
+        for j in range(n):
+            s += Pf[i, j] * err[j]
+        scratch[i] = s
+    for i in range(n):
+        err[i] = scratch[i]
 
 
 def _rms(x, scale):

@@ -22,6 +22,7 @@ from __future__ import annotations
 from numbers import Real
 
 import numpy as np
+import scipy.linalg
 from scipy.integrate import DenseOutput, OdeSolver
 
 from ..kernel import radau_entry
@@ -32,16 +33,17 @@ _EPS = np.finfo(float).eps
 
 class FlightProgram:
     """The compiled flight equations of one run: the kernel's packed model, the input rows fin (m, 6), the
-    damping C (N, N), and the run's Equations (for df/dy, the counters and the limits)."""
+    damping C (N, N), the run's Equations (for df/dy, the counters and the limits), and the cutoff frequency
+    [rad/s] of the error estimate (None: every mode followed)."""
 
-    def __init__(self, equations, fin: np.ndarray, C: np.ndarray):
+    def __init__(self, equations, fin: np.ndarray, C: np.ndarray, cutoff: float | None = None):
         model = equations.model
         _, self.fdat, self.idat, _, v0, v1, _ = model.kernel_call
         self.variant = (v0, v1)
         self.entry = radau_entry(self.variant)
         self.fin, self.C = np.array(fin, dtype=float), np.array(C, dtype=float)  # writable copies (the signature)
         self.A = np.zeros((0, 0))
-        self.equations = equations
+        self.equations, self.cutoff = equations, cutoff
 
     def jacobian(self, t: float, y: np.ndarray) -> np.ndarray:
         """df/dy (n, n) at (t, y) (gibbsimpact.simulation.implicit.rhs_jacobian)."""
@@ -67,7 +69,7 @@ class LinearProgram:
         self.entry = radau_entry(self.variant)
         self.A = np.ascontiguousarray(A, dtype=float)
         self.fin, self.C = np.zeros((0, 6)), np.zeros((int(self.idat[1]), int(self.idat[1])))
-        self.nfev = 0
+        self.nfev, self.cutoff = 0, None
 
     def jacobian(self, t, y):
         return self.A
@@ -92,7 +94,7 @@ class CompiledRadau(OdeSolver):
         n, self.program = self.n, program
         self.max_step = float(max_step)
         rtol = max(float(rtol), 100.0 * _EPS)  # as scipy: below that round-off dominates
-        self.atol = np.ascontiguousarray(np.broadcast_to(np.asarray(atol, dtype=float), (n,)))
+        self.atol = np.array(np.broadcast_to(np.asarray(atol, dtype=float), (n,)))  # writable (the signature)
         self.f = self.fun(self.t, self.y)
         h0 = first_step if first_step is not None else _first_step(self.fun, self.t, self.y, self.f, t_bound,
                                                                     self.max_step, rtol, self.atol)
@@ -103,6 +105,7 @@ class CompiledRadau(OdeSolver):
         self.J = np.ascontiguousarray(program.jacobian(t0, self.y), dtype=float)
         st[rk.JAC_CURRENT] = 1.0
         self.njev = 1
+        self.Pf = slow_projector(self.J, program.cutoff)
         self.LUr, self.LUc = np.zeros((n, n)), np.zeros((n, n), dtype=complex)
         self.pr, self.pc = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
         self.Z, self.Qd = np.zeros((3, n)), np.zeros((n, 3))
@@ -114,7 +117,7 @@ class CompiledRadau(OdeSolver):
         y = np.ascontiguousarray(self.y, dtype=float)
         f = np.ascontiguousarray(self.f, dtype=float)
         while True:
-            code = p.entry(p.fdat, p.idat, p.fin, p.C, p.A, self.atol, y, f, self.J, self.LUr, self.pr, self.LUc,
+            code = p.entry(p.fdat, p.idat, p.fin, p.C, p.A, self.atol, self.Pf, y, f, self.J, self.LUr, self.pr, self.LUc,
                            self.pc, self.Z, self.Qd, self.y_new, self.f_new, st, *p.variant)
             p.count(int(st[rk.NFEV]), float(st[rk.T]))
             self.nfev += int(st[rk.NFEV])
@@ -137,6 +140,7 @@ class CompiledRadau(OdeSolver):
         """df/dy at (t, y) into J; the LU factors are then stale."""
         self.J[:] = self.program.jacobian(t, y)
         self.njev += 1
+        self.Pf = slow_projector(self.J, self.program.cutoff)
         self.st[rk.JAC_CURRENT], self.st[rk.LU_OK] = 1.0, 0.0
 
     def _dense_output_impl(self):
@@ -154,8 +158,28 @@ class RadauPolynomial(DenseOutput):
     def _call_impl(self, t):
         x = (np.asarray(t, dtype=float) - self.t_old) / self.h
         if x.ndim == 0:
-            return self.y_old + self.Q @ np.array([x, x * x, x * x * x])
-        return self.y_old[:, None] + self.Q @ np.vstack((x, x * x, x * x * x))
+            return self.y_old + self.Q @ np.array((x, x * x, x * x * x))
+        return self.y_old[:, None] + self.Q @ x[None, :] ** _POWERS
+
+
+_POWERS = np.arange(1.0, 4.0)[:, None]  # (3, 1): x, x^2, x^3 of the dense output
+
+
+def slow_projector(J: np.ndarray, cutoff: float | None) -> np.ndarray:
+    """The error filter Pf = I - sum_k v_k u_k^H / (u_k^H v_k) (n, n) over the eigenvalues lambda_k of J (n, n)
+    [1/s] with |lambda_k| > cutoff [rad/s] (v_k, u_k their right and left eigenvectors: the spectral
+    projector on those modes along the others; real, as they come in conjugate pairs); a (0, 0) array (no
+    filter) when cutoff is None or no mode is above it. The error estimate Pf err then measures the modes
+    at or below the cutoff only, and the steps may grow past the periods of those above it."""
+    if cutoff is None:
+        return np.zeros((0, 0))
+    lam, u, v = scipy.linalg.eig(J, left=True, right=True)
+    fast = np.abs(lam) > cutoff
+    if not fast.any():
+        return np.zeros((0, 0))
+    u, v = u[:, fast], v[:, fast]
+    fast_part = (v / np.sum(u.conj() * v, axis=0)) @ u.conj().T
+    return np.ascontiguousarray(np.eye(J.shape[0]) - fast_part.real)
 
 
 def _first_step(fun, t0, y0, f0, t_bound, max_step, rtol, atol, order=3):
@@ -215,4 +239,4 @@ def flight_program(equations, inputs) -> tuple[FlightProgram | None, str]:
     fin = input_rows(eq.model, inputs)
     if fin is None:
         return None, "an input given as a Python callable"
-    return FlightProgram(eq, fin, eq.C_damp), ""
+    return FlightProgram(eq, fin, eq.C_damp, eq.cutoff), ""

@@ -65,7 +65,7 @@ class Equations:
         self.check_at = self.budget.check_at
         self.resting_phase = False  # whether the phase under way has resting pairs (fixed during a phase)
         self.singular = None  # diagnosis of the last trial state with a singular M
-        self.inputs = settings.inputs
+        self.inputs, self.cutoff = settings.inputs, settings.cutoff_frequency
         self._program = None  # (FlightProgram or None, why not): built on the first phase_solver("Radau")
         #: Phases run by each Radau: {"compiled": k, "scipy": m}, and why scipy's ran ({reason: count}).
         self.radau_phases = {"compiled": 0, "scipy": 0}

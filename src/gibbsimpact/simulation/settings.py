@@ -92,6 +92,7 @@ class Settings:
     max_rhs_calls: int | None = None  # right-hand sides; None: no limit
     method_choice: str = ""  # why method="auto" chose ``method`` (gibbsimpact.simulation.auto); "" if not auto
     prescribed: object = None  # simulation.prescribed.Prescribed, or None: every coordinate free
+    cutoff_frequency: float | None = None  # [rad/s] modes above it left out of Radau's error estimate; None: none
 
     @classmethod
     def from_arguments(cls, t_span, walls, restitution, method, output_dt, progress, inputs, zeno_count,
@@ -112,6 +113,7 @@ class Settings:
         in_step_check = bool(positive.pop("in_step_check", True))
         max_cpu_time = _limit("max_cpu_time", positive.pop("max_cpu_time", None), _positive)
         max_rhs_calls = _limit("max_rhs_calls", positive.pop("max_rhs_calls", None), _count)
+        cutoff_frequency = _limit("cutoff_frequency", positive.pop("cutoff_frequency", None), _positive)
         values = {name: _positive(name, v, allow_inf=(name == "max_step")) for name, v in positive.items()}
         if output_dt is not None:
             output_dt = _positive("output_dt", output_dt)
@@ -131,7 +133,7 @@ class Settings:
                    progress=progress, inputs=inputs, zeno_count=zeno_count, max_impacts=max_impacts, joint_limit=joint_limit,
                    joint_restitution=joint_restitution, accumulation=accumulation,
                    link_contacts=bool(link_contacts), in_step_check=in_step_check, max_cpu_time=max_cpu_time,
-                   max_rhs_calls=max_rhs_calls, prescribed=prescribed, **values)
+                   max_rhs_calls=max_rhs_calls, prescribed=prescribed, cutoff_frequency=cutoff_frequency, **values)
 
     def resolve_auto(self, model, q0) -> Settings:
         """These settings with method="auto" replaced by the method it chooses for model from q0 (N,)
@@ -159,5 +161,6 @@ class Settings:
             max_impacts=self.max_impacts, t_span=[self.t0, self.t_end], joint_limit=self.joint_limit,
             joint_restitution=self.joint_restitution, accumulation=self.accumulation,
             link_contacts=self.link_contacts, max_cpu_time=self.max_cpu_time, max_rhs_calls=self.max_rhs_calls,
+            cutoff_frequency=self.cutoff_frequency,
             **extra,
         )
