@@ -141,7 +141,7 @@ class Settings:
         for any other method."""
         if self.method != AUTO:
             return self
-        method, why = choose_method(model, q0, (self.t0, self.t_end), self.max_step)
+        method, why = choose_method(model, q0, (self.t0, self.t_end), self.max_step, self.rtol)
         return dataclasses.replace(self, method=method, method_choice=why)
 
     @property
