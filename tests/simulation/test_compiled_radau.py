@@ -165,6 +165,11 @@ def test_events_located_at_the_same_times_as_the_scipy_path(monkeypatch, case1):
         _scipy_radau(mp)
         ref = case1.simulate(**kw)
     assert ours.status == ref.status and len(ours.impacts) == len(ref.impacts) >= 2
+    # Every phase of the compiled run ran the compiled stepper (no resting contact, no callable input); the
+    # patched run's none did.
+    phases = ours.settings["radau_phases"]
+    assert phases["scipy"] == 0 and phases["compiled"] >= len(ours.impacts) + 1
+    assert "radau_phases" not in ref.settings
     tol_t = 10 * (1e-8 * np.abs(ref.q).max() + 1e-10) / 4.43
     for a, b in zip(ours.impacts, ref.impacts):
         assert (a.wall, a.joints) == (b.wall, b.joints) and abs(a.time - b.time) <= tol_t

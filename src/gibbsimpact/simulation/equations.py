@@ -165,6 +165,13 @@ class Equations:
 
         return solver
 
+    def radau_record(self) -> dict:
+        """For Result.settings with method="Radau": {"radau_phases": {"compiled": k, "scipy": m}, "radau_scipy_why":
+        {reason: phases}} (which flight phases ran the compiled stepper, and why the others did not); {} else."""
+        if not any(self.radau_phases.values()):
+            return {}
+        return {"radau_phases": dict(self.radau_phases), "radau_scipy_why": dict(self.scipy_reasons)}
+
     def partitioned(self, t, q, qd):
         """The prescribed run's dynamics at t: (qdot (N,) with the prescribed entries from f(t), qddot (N,),
         Q_in, Q_damp (N,), effort Q_p (n_p,) [N m or N], qdot_p (n_p,)); q, qd (N,) are not modified."""

@@ -505,7 +505,7 @@ def finish(run, started: float) -> Result:
     walls = run.settings.walls
     return Result(
         model=run.model, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,
-        impacts=run.recorder.impacts, status=run.status, message=run.message, settings=run.settings.record(),
+        impacts=run.recorder.impacts, status=run.status, message=run.message, settings={**run.settings.record(), **run.equations.radau_record()},
         nfev=run.equations.nfev, n_steps=run.counters["n_steps"], n_examined=run.counters["n_examined"],
         wall_time=time.perf_counter() - started, energy_error=run.recorder.energy_error,
         energy_error_whole_run_J=run.recorder.balance_J,
