@@ -8,8 +8,8 @@ at least
 
 steps however slowly the chain moves. An L-stable implicit method (Radau IIA, order 5) has no such
 bound: its steps follow the accuracy of the motion. Compiled (gibbsimpact.simulation.compiled_radau) a
-Radau step costs about what a DOP853 step costs (R-Pb arm, N = 12: ~250 us against ~300 us, each with
-its share of the event search), but its error estimate is of order 3 against DOP853's 7 and 5: at tight
+Radau step costs about what a DOP853 step costs (R-Pb arm, N = 12, rtol 1e-2: 470 us against 600 us, each
+with its share of the event search and the recording), but its error estimate is of order 3 against DOP853's 7 and 5: at tight
 tolerances it needs many more steps (R-Pb arm at rtol 1e-4: 2032 against 522), at loose ones fewer
 (rtol 1e-2: 143 against 342). The rule:
 
@@ -25,8 +25,8 @@ follow that mode too, with smaller steps than DOP853's (its error estimate is of
 measured on fixed_base_R_Pb_arm (n_stab = 366 over 1 s) Radau costs ~12x DOP853's CPU at rtol 1e-8
 and 4.8x at rtol 1e-4; on case 1 with EI = 1e9 on link 1 (n_stab = 1.8e5) it takes 5 steps to the first
 impact where DOP853 takes 2.6e5 (docs/benchmarks.md, benchmarks/bench_stiff.py). The second branch: at
-rtol 1e-3 the two cost about the same on the R-Pb arm (Radau 675 steps, 0.23 s; DOP853 ~0.2 s), at
-rtol 1e-2 the compiled Radau is 3.6x cheaper there; below n_stab = 100 (case 1 as shipped: 26) DOP853's
+rtol 1e-3 the compiled Radau costs 0.17 s on the R-Pb arm's second (675 steps; DOP853 0.21 s at rtol 1e-2,
+0.26 s at 1e-4), at rtol 1e-2 0.067 s, 3x less than DOP853 at that tolerance; below n_stab = 100 (case 1 as shipped: 26) DOP853's
 steps are set by accuracy whatever the tolerance, and it stays.
 """
 
