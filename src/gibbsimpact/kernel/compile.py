@@ -71,7 +71,8 @@ _JACOBIAN_SIG = f"float64({_A1}, {_I1}, {_R1}, {_R1}, {_R1}, {{}}, {{}}, {_A1})"
 _RADAU_SIG = (f"float64({_A1}, {_I1}, {_A2}, {_A2}, {_A2}, {_A1}, {_A2}, {_A1}, {_A1}, {_A2}, {_A2}, {_I1}, "
               f"complex128[:, ::1], {_I1}, {_A2}, {_A2}, {_A1}, {_A1}, {_A1}, {{}}, {{}})")
 #: What the notice of a variant entry point calls it, and its cost.
-_VARIANT_ENTRIES = {"state_jacobian": (_JACOBIAN_SIG, "the Jacobian of the dynamics (first implicit run; 10-20 s of CPU)"),
+_VARIANT_ENTRIES = {"state_jacobian": (_JACOBIAN_SIG,
+                                         "the Jacobian of the dynamics (first implicit run; 10-20 s of CPU)"),
                     "radau_step": (_RADAU_SIG, "the compiled Radau step (first implicit run; 20-40 s of CPU)")}
 #: Entry points apart from the kernel, compiled on first use: their signatures ...
 _LAZY = {"contact_terms": f"{_A1}({_A1}, {_I1}, {_A1}, int64[:, ::1], {_I1}, {_A2}, int64)",

@@ -45,7 +45,8 @@ NODES = np.array([(4.0 - _S6) / 10.0, (4.0 + _S6) / 10.0, 1.0])
 ERROR_WEIGHTS = np.array([-13.0 - 7.0 * _S6, -13.0 + 7.0 * _S6, -1.0]) / 3.0
 #: The real eigenvalue of A_rk^-1 and the complex one alpha - i beta (Hairer-Wanner IV.8).
 MU_REAL = 3.0 + 3.0 ** (2.0 / 3.0) - 3.0 ** (1.0 / 3.0)
-MU_COMPLEX = complex(3.0 + 0.5 * (3.0 ** (1.0 / 3.0) - 3.0 ** (2.0 / 3.0)), -0.5 * (3.0 ** (5.0 / 6.0) + 3.0 ** (7.0 / 6.0)))
+MU_COMPLEX = complex(3.0 + 0.5 * (3.0 ** (1.0 / 3.0) - 3.0 ** (2.0 / 3.0)),
+                     -0.5 * (3.0 ** (5.0 / 6.0) + 3.0 ** (7.0 / 6.0)))
 #: T and T^-1 of the transformation (module docstring), as in RADAU5.
 T_MAT = np.array([[0.09443876248897524, -0.14125529502095421, 0.03002919410514742],
                   [0.25021312296533332, 0.20412935229379994, -0.38294211275726192],
@@ -75,7 +76,8 @@ def radau_step(fdat, idat, fin, C, A, atol, Pf, y, f, J, LUr, pr, LUc, pc, Z, Qd
     fin (m, 6): input rows (kind, k, a, b, c, d) [N, N m; per their kinds]; C (N, N) damping [N s/m ...];
     A (n, n) a linear system's matrix (0 rows: the chain); atol (n,); y, f (n,): the state and f(t, y);
     Pf (n, n) the error filter (0 rows: none): the estimate is Pf err, Pf = I - (projector on the modes
-    above the cutoff frequency; simulation.compiled_radau.slow_projector); J (n, n) df/dy; LUr, LUc (n, n) float and complex, pr, pc (n,) int64: the factors and pivots kept
+    above the cutoff frequency; simulation.compiled_radau.slow_projector); J (n, n) df/dy; LUr, LUc (n, n)
+    float and complex, pr, pc (n,) int64: the factors and pivots kept
     between calls (st[LU_OK]); Z (3, n) the stage increments and Qd (n, 3) the dense output's
     coefficients (in: the last step's, for the predictor; out: this step's); ynew, fnew (n,) out; st
     (SLOTS,) the driver's state (slot names above). Returns ACCEPTED (st[T] is the new time),

@@ -117,8 +117,8 @@ class CompiledRadau(OdeSolver):
         y = np.ascontiguousarray(self.y, dtype=float)
         f = np.ascontiguousarray(self.f, dtype=float)
         while True:
-            code = p.entry(p.fdat, p.idat, p.fin, p.C, p.A, self.atol, self.Pf, y, f, self.J, self.LUr, self.pr, self.LUc,
-                           self.pc, self.Z, self.Qd, self.y_new, self.f_new, st, *p.variant)
+            code = p.entry(p.fdat, p.idat, p.fin, p.C, p.A, self.atol, self.Pf, y, f, self.J, self.LUr, self.pr,
+                           self.LUc, self.pc, self.Z, self.Qd, self.y_new, self.f_new, st, *p.variant)
             p.count(int(st[rk.NFEV]), float(st[rk.T]))
             self.nfev += int(st[rk.NFEV])
             st[rk.NFEV] = 0.0

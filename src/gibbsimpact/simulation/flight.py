@@ -369,7 +369,8 @@ class _Phase:
                 return np.stack([gap_matrix(qi) for qi in qs])
         self.gap_batch = gap_batch
         options = {} if jac is None else {"jac": jac}
-        self.solver = (solver or SOLVERS[method])(rhs, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step, **options)
+        self.solver = (solver or SOLVERS[method])(rhs, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step,
+                                                  **options)
         self.down, self.up = events.direction < 0, events.direction > 0
         g0 = gap_matrix(y0[:N])
         self.E_prev = events.values(g0)
