@@ -149,6 +149,7 @@ RANGES = {
     "solver.joint_restitution": Range(0, 1, why="1 = elastic, 0 = plastic"),
     "solver.max_cpu_time_s": Range(1e-3, 1e9, "s", why="a millisecond to about 30 years"),
     "solver.max_rhs_calls": Range(1, 1e15, integer=True),
+    "solver.cutoff_frequency_rad_per_s": Range(1e-3, 1e15, "rad/s"),
     "output.dpi": Range(10, 1200, integer=True, why="up to journal line-art resolution"),
     "output.animation_fps": Range(1, 100, integer=True, why="GIF frame delays are whole hundredths of a second"),
     "output.animation_speed": Range(1e-12, 1e12),
@@ -184,6 +185,8 @@ SOLVER_KEYS = {
     "max_cpu_time_s": ("max_cpu_time", "number", "CPU seconds after which the run stops (status budget_exceeded)"),
     "max_rhs_calls": ("max_rhs_calls", "number", "right-hand sides after which the run stops (status "
                                                  "budget_exceeded)"),
+    "cutoff_frequency_rad_per_s": ("cutoff_frequency", "number", "Radau: modes above it are left out of the error "
+                                                             "estimate (stepped over and damped), rad/s"),
 }
 #: [solver] string keys with a fixed set of values (and what each means).
 _SOLVER_CHOICES = {

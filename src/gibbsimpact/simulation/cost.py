@@ -210,7 +210,7 @@ def estimate_cost(model, q0, qdot0, t_span, **options) -> CostEstimate:
     o = {**defaults, **options}
     method, choice = o["method"], ""
     if method == AUTO:
-        method, choice = choose_method(model, q0, t_span, o["max_step"])
+        method, choice = choose_method(model, q0, t_span, o["max_step"], o["rtol"])
     if method not in SOLVERS:
         raise ValueError(f"estimate_cost method={method!r} must be a solve_ivp method; use one of {', '.join(SOLVERS)}")
     q0, qdot0 = model.check_state(q0, qdot0, "q0", "qdot0")

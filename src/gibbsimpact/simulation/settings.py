@@ -94,6 +94,7 @@ class Settings:
     method_choice: str = ""  # why method="auto" chose ``method`` (gibbsimpact.simulation.auto); "" if not auto
     prescribed: object = None  # simulation.prescribed.Prescribed, or None: every coordinate free
     contact_filter: object = None  # None, or contact_filter(q) -> (C,) bool (simulation.contact_filter)
+    cutoff_frequency: float | None = None  # [rad/s] modes above it left out of Radau's error estimate; None: none
 
     @classmethod
     def from_arguments(cls, t_span, walls, restitution, method, output_dt, progress, inputs, zeno_count,
@@ -114,6 +115,7 @@ class Settings:
         in_step_check = bool(positive.pop("in_step_check", True))
         max_cpu_time = _limit("max_cpu_time", positive.pop("max_cpu_time", None), _positive)
         max_rhs_calls = _limit("max_rhs_calls", positive.pop("max_rhs_calls", None), _count)
+        cutoff_frequency = _limit("cutoff_frequency", positive.pop("cutoff_frequency", None), _positive)
         values = {name: _positive(name, v, allow_inf=(name == "max_step")) for name, v in positive.items()}
         if output_dt is not None:
             output_dt = _positive("output_dt", output_dt)
@@ -134,7 +136,7 @@ class Settings:
                    joint_restitution=joint_restitution, accumulation=accumulation,
                    link_contacts=bool(link_contacts), in_step_check=in_step_check, max_cpu_time=max_cpu_time,
                    max_rhs_calls=max_rhs_calls, prescribed=prescribed, contact_filter=checked_filter(contact_filter),
-                   **values)
+                   cutoff_frequency=cutoff_frequency, **values)
 
     def resolve_auto(self, model, q0) -> Settings:
         """These settings with method="auto" replaced by the method it chooses for model from q0 (N,)
@@ -142,7 +144,7 @@ class Settings:
         for any other method."""
         if self.method != AUTO:
             return self
-        method, why = choose_method(model, q0, (self.t0, self.t_end), self.max_step)
+        method, why = choose_method(model, q0, (self.t0, self.t_end), self.max_step, self.rtol)
         return dataclasses.replace(self, method=method, method_choice=why)
 
     @property
@@ -164,5 +166,6 @@ class Settings:
             max_impacts=self.max_impacts, t_span=[self.t0, self.t_end], joint_limit=self.joint_limit,
             joint_restitution=self.joint_restitution, accumulation=self.accumulation,
             link_contacts=self.link_contacts, max_cpu_time=self.max_cpu_time, max_rhs_calls=self.max_rhs_calls,
+            cutoff_frequency=self.cutoff_frequency,
             **extra,
         )

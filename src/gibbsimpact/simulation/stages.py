@@ -373,7 +373,7 @@ def flight(run):
             slack=s.contact_tol, n_q=N, check_in_step=s.in_step_check, gap_batch=gap_batch, extra=extra,
             gap_single=lambda q, w, c: run.contacts.gap_single(q, w, c, gap_matrix) + (
                 0.0 if run.compliant is None else run.compliant.joint_shift(w, c)),
-            jac=run.equations.phase_jacobian(s.method),
+            jac=run.equations.phase_jacobian(s.method), solver=run.equations.phase_solver(s.method),
         )
     except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
         run.end("integration", t=run.t, error=exc)
@@ -527,7 +527,8 @@ def finish(run, started: float) -> Result:
     walls = run.settings.walls
     return Result(
         model=run.model.chart_root, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,
-        impacts=run.recorder.impacts, status=run.status, message=run.message, settings=run.settings.record(),
+        impacts=run.recorder.impacts, status=run.status, message=run.message,
+        settings={**run.settings.record(), **run.equations.radau_record()},
         nfev=run.equations.nfev, n_steps=run.counters["n_steps"], n_examined=run.counters["n_examined"],
         wall_time=time.perf_counter() - started, energy_error=run.recorder.energy_error,
         energy_error_whole_run_J=run.recorder.balance_J,
