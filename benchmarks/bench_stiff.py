@@ -4,13 +4,14 @@ Every row is measured in this one run (CPU = process time, the minimum over --re
 ratios to its reference in the same run:
 
 * the two bundled prismatic arms over 1 s: DOP853 at the case's rtol 1e-8 (today's path) against
-  auto at the case's settings, and Radau / DOP853 at looser tolerances; the error is the largest
+  auto at the case's settings and at looser tolerances (where it takes the compiled Radau), DOP853 and
+  scipy's Radau at those; the error is the largest
   |joint coordinate - reference| (rad, m) over the second, against DOP853 at rtol 1e-11, atol 1e-13;
 * an R-R-Pb arm (rigid link, 3 + 2 elements, a PD servo on the slide, a floor) over 1.5 s;
 * case 1 with EI_N_m2 = 1e9 on link 1: DOP853 timed over its first 0.05 s and extrapolated to 1 s,
   against auto (Radau) over 1 s (and up to the first impact, where it stalls: docs/benchmarks.md);
 * case 1 as shipped over 1 s: DOP853 against auto (which keeps DOP853);
-* Radau with the kernel's Jacobian against Radau with scipy's finite differences (same run).
+* scipy's Radau with its finite differences, with the kernel's Jacobian, and the compiled Radau (same run).
 
 Usage: python benchmarks/bench_stiff.py [--repeat 3] [--quick]  (--quick: skips the 1e-11 references
 and the stiff case's long run)
@@ -19,6 +20,7 @@ and the stiff case's long run)
 from __future__ import annotations
 
 import argparse
+import contextlib
 import copy
 import time
 from pathlib import Path
@@ -70,6 +72,18 @@ def stiff_case1():
     return case_from_dict(src, name="case1_EI_1e9")
 
 
+@contextlib.contextmanager
+def scipy_radau():
+    """method="Radau" runs scipy's Radau with the kernel's Jacobian in every phase (the path before the compiled
+    stepper, and its fallback)."""
+    own = Equations.phase_solver
+    Equations.phase_solver = lambda self, method: None
+    try:
+        yield
+    finally:
+        Equations.phase_solver = own
+
+
 def arm_rows(name, repeat, quick) -> list[str]:
     case = gi.load_case(ROOT / "cases" / f"{name}.toml") if isinstance(name, str) else name
     label = case.name
@@ -80,10 +94,16 @@ def arm_rows(name, repeat, quick) -> list[str]:
     for what, kw in (("DOP853 rtol 1e-8 (reference)", dict(method="DOP853", rtol=1e-8, atol=1e-10)),
                      ("auto, rtol 1e-8", dict(method="auto", rtol=1e-8, atol=1e-10)),
                      ("DOP853 rtol 1e-4 atol 1e-6", dict(method="DOP853", rtol=1e-4, atol=1e-6)),
-                     ("Radau rtol 1e-4 atol 1e-6", dict(method="Radau", rtol=1e-4, atol=1e-6)),
+                     ("Radau rtol 1e-4 atol 1e-6 (compiled)", dict(method="Radau", rtol=1e-4, atol=1e-6)),
+                     ("auto, rtol 1e-3 atol 1e-5", dict(method="auto", rtol=1e-3, atol=1e-5)),
                      ("DOP853 rtol 1e-2 atol 1e-4", dict(method="DOP853", rtol=1e-2, atol=1e-4)),
-                     ("Radau rtol 1e-2 atol 1e-4", dict(method="Radau", rtol=1e-2, atol=1e-4))):
-        res, cpu = (base, c0) if what.endswith("(reference)") else timed(case, repeat, t_end=t_end, **kw)
+                     ("auto, rtol 1e-2 atol 1e-4", dict(method="auto", rtol=1e-2, atol=1e-4)),
+                     ("scipy's Radau rtol 1e-2 atol 1e-4", dict(method="Radau", rtol=1e-2, atol=1e-4))):
+        if what.endswith("(reference)"):
+            res, cpu = base, c0
+        else:
+            with scipy_radau() if what.startswith("scipy") else contextlib.nullcontext():
+                res, cpu = timed(case, repeat, t_end=t_end, **kw)
         err = "" if ref is None else f"{joint_error(res, ref, case.model):.2e}"
         rows.append(f"| {label} {t_end:g} s | {what} → {res.settings['method']} | {res.status} | {res.n_steps} | "
                     f"{res.nfev} | {cpu:.3g} | {c0 / cpu:.2f} | {err} |")
@@ -100,10 +120,11 @@ def stiff_rows(repeat, quick) -> list[str]:
     rows.append(f"| case 1, EI 1e9 | auto → {first.settings['method']}, 0.45 s (before the impact) | {first.status} "
                 f"| {first.n_steps} | {first.nfev} | {c_first:.3g} | {per_s * 0.45 / c_first:.0f} | |")
     if not quick:
-        res, cpu = timed(case, 1, t_end=1.0, method="auto", max_cpu_time=60.0)
-        rows.append(f"| case 1, EI 1e9 | auto → {res.settings['method']}, 1 s (max 60 s CPU) | {res.status} "
-                    f"(t = {res.t[-1]:.4g} s) | {res.n_steps} | {res.nfev} | {cpu:.3g} | "
-                    f"{per_s * float(res.t[-1]) / cpu:.2f} | |")
+        for what, kw in (("", {}), (", cutoff_frequency 1e4 rad/s", dict(cutoff_frequency=1e4))):
+            res, cpu = timed(case, 1, t_end=1.0, method="auto", max_cpu_time=60.0, **kw)
+            rows.append(f"| case 1, EI 1e9 | auto → {res.settings['method']}{what}, 1 s (max 60 s CPU) | {res.status} "
+                        f"(t = {res.t[-1]:.4g} s) | {res.n_steps} | {res.nfev} | {cpu:.3g} | "
+                        f"{per_s * float(res.t[-1]) / cpu:.2f} | numerical {res.energy_audit()['numerical']:.2g} J |")
     return rows
 
 
@@ -118,20 +139,25 @@ def shipped_rows(repeat) -> list[str]:
 
 
 def jacobian_rows(repeat) -> list[str]:
-    """Radau on the R-Pb arm with the kernel's Jacobian, and with scipy's differences (jac not passed)."""
+    """Radau on the R-Pb arm at rtol 1e-2: scipy's with its own differences (jac not passed), scipy's with the
+    kernel's Jacobian, and the compiled stepper."""
     case = gi.load_case(ROOT / "cases" / "fixed_base_R_Pb_arm.toml")
     kw = dict(t_end=1.0, method="Radau", rtol=1e-2, atol=1e-4)
-    res_k, c_k = timed(case, repeat, **kw)
-    own = Equations.phase_jacobian
-    Equations.phase_jacobian = lambda self, method: None  # jac=None: scipy's own finite differences
-    try:
-        res_s, c_s = timed(case, repeat, **kw)
-    finally:
-        Equations.phase_jacobian = own
+    res_c, c_c = timed(case, repeat, **kw)
+    with scipy_radau():
+        res_k, c_k = timed(case, repeat, **kw)
+        own = Equations.phase_jacobian
+        Equations.phase_jacobian = lambda self, method: None  # jac=None: scipy's own finite differences
+        try:
+            res_s, c_s = timed(case, repeat, **kw)
+        finally:
+            Equations.phase_jacobian = own
     return [f"| R_Pb arm 1 s | Radau, scipy's differences (reference) | {res_s.status} | {res_s.n_steps} | "
             f"{res_s.nfev} | {c_s:.3g} | 1 | |",
-            f"| R_Pb arm 1 s | Radau, kernel's Jacobian | {res_k.status} | {res_k.n_steps} | {res_k.nfev} | "
-            f"{c_k:.3g} | {c_s / c_k:.2f} | |"]
+            f"| R_Pb arm 1 s | scipy's Radau, kernel's Jacobian | {res_k.status} | {res_k.n_steps} | {res_k.nfev} | "
+            f"{c_k:.3g} | {c_s / c_k:.2f} | |",
+            f"| R_Pb arm 1 s | compiled Radau | {res_c.status} | {res_c.n_steps} | {res_c.nfev} | "
+            f"{c_c:.3g} | {c_s / c_c:.2f} | |"]
 
 
 def main() -> None:

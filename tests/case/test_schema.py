@@ -101,6 +101,11 @@ def with_key(range_key, value):
         else:
             wall[key] = value
         return d, f"walls[1].{key}"
+    if section == "contact_filter":
+        d["contact_filter"] = {"rule": "lead", "points": ["O1", "O2"], "direction": [1.0, 0.0, 0.0],
+                               "clearance_m": 0.05}
+        d["contact_filter"][key] = [value, 0.0, 0.0] if key == "direction" else value
+        return d, f"contact_filter.{key}"
     if section == "initial":
         coords.pop("X1_m")
         d["initial"][key] = [value, 0.0, 0.0]
@@ -203,8 +208,9 @@ def test_every_range_bound_is_enforced(range_key, side):
         with pytest.raises(CaseError) as info:
             case_from_dict(d)
         assert path not in dict(info.value.problems)
-    elif (range_key, side) == ("links.elements", "high"):
-        # The reader's range check alone: building a 200-element link's integrals takes seconds.
+    elif (range_key, side) == ("links.elements", "high") or range_key in ("links.joint.parent", "links.joint.at_m"):
+        # The reader's range check alone: building a 200-element link's integrals takes seconds; a
+        # tree's parent and abscissa are valid only against the other links (an earlier link, [0, l_p]).
         reader = _Reader()
         assert reader.value(rng.high, path, "number") == rng.high and reader.problems == []
     else:

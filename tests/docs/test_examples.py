@@ -21,6 +21,8 @@ T_END = {
     "telescoping_arm.py": 0.4,                   # first end-stop impact at 0.386 s
     "rod_on_a_frictional_incline.py": 1.5,       # 13 bounces, then resting: sticks (mu 0.6) / slides (mu 0.2)
     "compliant_vs_newton_arm.py": 0.06,          # the compliant contact lasts to 56 ms; n_e = 1, 2 only
+    "compass_gait.py": 0.95,                     # one heel strike at 0.899 s per model; no limit-cycle search
+    "rimless_wheel.py": 1.0,                     # a strike or two per initial speed (with trees)
 }
 DEFAULT_T_END = 0.05
 

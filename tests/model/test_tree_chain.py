@@ -59,6 +59,18 @@ def test_symbolic_derivation_refuses_trees():
         gi.derive_equations(model)
 
 
+def test_a_weld_is_no_prescribable_joint():
+    """A weld's theta_index is -1: the joints a profile may drive are the coordinates of the other
+    joints (simulate's prescribed= names them), not the last delta that index -1 would pick."""
+    cf = gi.Mode("clamped-free", "y")
+    model = gi.Model(gi.Chain([gi.Link(1.0, modes=[cf]), gi.Link(0.5, modes=[cf])], joints=[gi.Revolute(), gi.Weld(0.2)],
+                              base=gi.FixedBase()))
+    with pytest.raises(ValueError, match=r"delta_2_1") as info:
+        gi.simulate(model, np.zeros(model.n_dof), np.zeros(model.n_dof), (0.0, 0.01),
+                    prescribed={"delta_2_1": gi.profiles.constant_speed(0.0, 0.0)})
+    assert "theta_1" in str(info.value)
+
+
 def test_chain_refuses_a_chain_with_no_coordinate():
     # Every joint welded on a fixed base and every link rigid: N = 0. simulate failed inside the kernel
     # (ZeroDivisionError); Chain now says what is missing. A flexible link keeps its deltas: accepted.

@@ -41,6 +41,17 @@ def test_auto_keeps_case_1_explicit_and_takes_radau_for_a_stiff_link():
     assert choose_method(stiff.model, stiff.q0, (0.0, 1.0), max_step=1e-6)[0] == "DOP853"
 
 
+def test_auto_takes_the_compiled_radau_at_loose_tolerances_on_a_stiff_enough_chain():
+    """The R-Pb arm (n_stab = 366 a second >= 100): DOP853 at the case file's rtol 1e-8, Radau from rtol 1e-3
+    (where the compiled Radau's steps are the longer ones: docs/benchmarks.md); case 1 (n_stab = 26) keeps
+    DOP853 at any tolerance."""
+    arm = gi.load_case(CASES / "fixed_base_R_Pb_arm.toml")
+    assert choose_method(arm.model, arm.q0, (0.0, 1.0), rtol=1e-8)[0] == "DOP853"
+    method, why = choose_method(arm.model, arm.q0, (0.0, 1.0), rtol=1e-2)
+    assert method == "Radau" and "rtol = 0.01 >= 0.001" in why and "366 steps" in why
+    assert choose_method(_case1().model, _case1().q0, (0.0, 1.0), rtol=1e-2)[0] == "DOP853"
+
+
 def test_auto_says_what_it_chose_in_the_result_and_the_cost_estimate():
     stiff = _case1(1e9)
     res = stiff.simulate(t_end=0.1, method="auto")  # n_stab = 1.8e4: Radau

@@ -33,6 +33,7 @@ from .reader import _BAD, CaseError, _build_each, _Reader
 from .schema import _FILE_NAMES, _INPUT_TABLE_KEYS, _TOP_KEYS, _WALL_KEYS, OUTPUT_DEFAULTS, _input_keys
 from .run_options import check_samples, override_problems, read_output, read_solver, read_time
 from .initial import check_start, read_initial, unknown_coordinate
+from .contact_filter import read_contact_filter
 from .prescribed import check_no_compliant_walls, read_prescribed, start_on_profiles
 from .text import fmt, type_name
 
@@ -61,6 +62,7 @@ class Case:
         (simulate_kwargs turns them into simulate's ``inputs``)
     prescribed : tuple of (coordinate name, gibbsimpact.profiles.Profile), the [[prescribed]] tables
         (simulate's ``prescribed``; q0, qdot0 of those coordinates are the profiles' at t_start)
+    contact_filter : None or simulation.contact_filter.LeadFilter, the [contact_filter] table
     """
 
     name: str
@@ -77,6 +79,7 @@ class Case:
     source: dict = field(default_factory=dict, repr=False)
     inputs: tuple = ()
     prescribed: tuple = ()
+    contact_filter: object = None
 
     def override_problems(self, names: dict | None = None, **overrides) -> list[tuple[str, str]]:
         """Check keywords that override case-file keys (``t_end``, ``rtol``, ``output_dt``, ... see
@@ -105,6 +108,7 @@ class Case:
             walls=self.walls, restitution=self.restitution, **self.solver,
             inputs=named_inputs(self.inputs, self.model.coordinate_names) if self.inputs else None,
             **({"prescribed": dict(self.prescribed)} if self.prescribed else {}),
+            **({"contact_filter": self.contact_filter} if self.contact_filter is not None else {}),
         )
         if "t_end" in overrides:
             t_end = overrides.pop("t_end")
@@ -199,6 +203,7 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
     inputs = _inputs(r, top, model)
     prescribed = read_prescribed(r, top, model)
     check_no_compliant_walls(r, prescribed, walls if walls is not _BAD else ())
+    contact_filter = read_contact_filter(r, top, model)
     if q0 is not None and t_span is not _BAD:
         start_on_profiles(r, top, model, prescribed, q0, qdot0, t_span[0])
     if q0 is not None:
@@ -211,7 +216,7 @@ def _build_case(r: _Reader, data: dict, name: str, path) -> Case | None:
         name=case_name, model=model, q0=q0, qdot0=qdot0, t_span=t_span, walls=tuple(walls),
         restitution=restitution, solver=solver, output=output, description=description,
         path=Path(path) if path is not None else None, source=data, inputs=tuple(inputs),
-        prescribed=tuple(prescribed.items()),
+        prescribed=tuple(prescribed.items()), contact_filter=contact_filter,
     )
 
 

@@ -13,7 +13,7 @@ import math
 import scipy.linalg as sl
 
 from ..model.bodies import RigidBody
-from ..model.model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic
+from ..model.model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic, Weld
 from ..model.modes import MODE_DIRECTIONS, MODE_KINDS, Mode, natural_frequency
 from .keypaths import join, key_path
 from .reader import _BAD, _MISSING, _build_each, _Reader
@@ -39,12 +39,13 @@ def read_chain(r: _Reader, top: dict, gravity):
         links = _build_each(raw_links, lambda k, lt: _link(r, lt, join("links", k)))
         joints = _build_each(raw_links, lambda k, lt: _joint(r, lt, join("links", k)))
     base = _base(r, top["base"]) if "base" in top else "free"
-    if _BAD in (links, joints, gravity, base) or not _chain_ok(r, links, joints, base):
+    tree = _tree(r, raw_links) if links is not _BAD else _BAD
+    if _BAD in (links, joints, gravity, base, tree) or not _chain_ok(r, links, joints, base):
         return None, base
     try:
-        chain = Chain(tuple(links), joints=tuple(joints), base=base)
-    except ValueError as exc:  # pragma: no cover - _chain_ok mirrors Chain's checks
-        r.add("links", str(exc))
+        chain = Chain(tuple(links), joints=tuple(joints), base=base, parents=tree[0], attach=tree[1])
+    except ValueError as exc:  # a tree's rules (formulation §17): Chain names the 0-based entry
+        r.add("links", f"{exc} (Chain's parents[i], attach[i] are links[i + 1].joint.parent - 1 and .at_m)")
         return None, base
     model = Model(chain, gravity=tuple(gravity))
     return (model if _element_frequencies_ok(r, model) else None), base
@@ -333,6 +334,8 @@ def _joint(r: _Reader, link_tbl, path: str):
     if kind == "R":
         return Revolute() if ok else _BAD
     angle = _angle(r, tbl, path, "joint")
+    if kind == "W":
+        return Weld(angle=angle) if ok and angle is not _BAD else _BAD
     half = r.get(tbl, path, "half_length_m", "number", default=0.0)
     rng = _joint_range(r, tbl, path, kind)
     if not ok or _BAD in (angle, half, rng):
@@ -342,17 +345,40 @@ def _joint(r: _Reader, link_tbl, path: str):
     return FixedPrismatic(angle=angle, range=tuple(rng))
 
 
+def _tree(r: _Reader, raw_links):
+    """(parents, attach) of a tree from the joints' parent and at_m keys (formulation §17): parent
+    is 1-based (0: the base; default the link before), at_m the abscissa on the host (default its
+    tip); (None, None) when no joint has either; _BAD on a problem."""
+    tables = [lt.get("joint") if isinstance(lt, dict) and isinstance(lt.get("joint"), dict) else {} for lt in raw_links]
+    if not any("parent" in t or "at_m" in t for t in tables):
+        return None, None
+    parents, attach, ok = [], [], True
+    for k, t in enumerate(tables):
+        path = key_path("links", k, "joint")
+        p = r.get(t, path, "parent", "number") if "parent" in t else k
+        if p is not _BAD and not 0 <= p <= k:
+            r.add(join(path, "parent"), f"must be 0 (the base) or the number of an earlier link (1 .. {k}): list "
+                                        "the links parent first")
+            p = _BAD
+        a = r.get(t, path, "at_m", "number") if "at_m" in t else None
+        ok = ok and _BAD not in (p, a)
+        parents.append(p - 1 if p is not _BAD else p)
+        attach.append(a)
+    return (tuple(parents), tuple(attach)) if ok else _BAD
+
+
 def _keys_of_joint_type(r: _Reader, tbl: dict, path: str, kind: str) -> bool:
     """False (and a problem per key) when the joint table has keys its type has not."""
     ok = True
     allowed = {"R": (), "Pa": ("angle_deg", "angle_rad", "half_length_m", "range_m"),
-               "Pb": ("angle_deg", "angle_rad", "range_m")}[kind]
+               "Pb": ("angle_deg", "angle_rad", "range_m"), "W": ("angle_deg", "angle_rad")}[kind]
     for key in tbl:
-        if key == "type" or key in allowed or key not in _JOINT_KEYS:
+        if key in ("type", "parent", "at_m") or key in allowed or key not in _JOINT_KEYS:
             continue
         ok = False
-        if kind == "R":
-            r.add(join(path, key), f"a revolute joint (type = 'R') has no {_JOINT_KEYS[key].split(' of ')[0]}: "
+        if kind in ("R", "W"):
+            name = "a revolute joint (type = 'R')" if kind == "R" else "a weld (type = 'W')"
+            r.add(join(path, key), f"{name} has no {_JOINT_KEYS[key].split(' of ')[0]}: "
                                    "remove it, or set type = 'Pa' or 'Pb' for a prismatic joint")
         else:
             r.add(join(path, key), "only a Pa carriage has a half-length (a Pb guide sits at the host's tip): "
@@ -382,7 +408,7 @@ def _chain_ok(r: _Reader, links, joints, base) -> bool:
     """The rules of a chain with prismatic joints or a planar base (docs/theory.md §8, §7.3, §7.4, §9, §13),
     each reported at the key to change."""
     kinds = [j.kind for j in joints]
-    prismatic = [k for k, kd in enumerate(kinds) if kd != "R"]
+    prismatic = [k for k, kd in enumerate(kinds) if kd in ("Pa", "Pb")]
     ok = True
     if base == "planar" and kinds[0] != "R":
         r.add("links[1].joint.type", "on a planar free-flying base ([base] type = 'planar') joint 1 must be 'R': "

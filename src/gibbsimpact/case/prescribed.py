@@ -63,7 +63,7 @@ def _prescribed(r: _Reader, tbl, path: str, model):
         return _BAD
     name = r.get(tbl, path, "coordinate", "str", required=True, what=_PRESCRIBED_TABLE_KEYS["coordinate"])
     kind = r.get(tbl, path, "profile", "str", required=True, what=_PRESCRIBED_TABLE_KEYS["profile"])
-    joints = [model.coordinate_names[k] for k in model.theta_index][1 if model.chain.free_base else 0:]
+    joints = [model.coordinate_names[k] for k in model.theta_index if k >= 0][1 if model.chain.free_base else 0:]
     if name is not _BAD and name not in joints:
         r.add(join(path, "coordinate"), f"{name!r} is not a joint coordinate that can be prescribed; use one of "
                                         f"{', '.join(joints) or 'none (this chain has no joint besides its base)'}")

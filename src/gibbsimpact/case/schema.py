@@ -77,6 +77,8 @@ RANGES = {
     "links.joint.angle_rad": Range(-1e4, 1e4, "rad"),
     "links.joint.half_length_m": Range(0, 1e6, "m"),
     "links.joint.range_m": Range(-1e6, 1e6, "m"),
+    "links.joint.parent": Range(0, 10**6, integer=True, why="a link number"),
+    "links.joint.at_m": Range(0, 1e6, "m"),
     "base.position_m": Range(-1e6, 1e6, "m"),
     "base.angle_rad": Range(-1e4, 1e4, "rad"),
     "base.angle_deg": Range(-1e4 * _DEG, 1e4 * _DEG, "deg", why="1e4 rad"),
@@ -85,6 +87,8 @@ RANGES = {
     "walls.point_m": Range(-1e6, 1e6, "m"),
     "walls.normal": Range(1e-6, 1e6, direction=True, why="it is normalised on load"),
     "walls.restitution": Range(0, 1, why="1 = elastic, 0 = plastic"),
+    "contact_filter.direction": Range(1e-6, 1e6, direction=True, why="it is normalised on load"),
+    "contact_filter.clearance_m": Range(0, 1e6, "m"),
     "walls.friction": Range(0, MAX_FRICTION, why="Coulomb's coefficient; 0 = frictionless"),
     "walls.stiffness": Range(1e-6, 1e20, "N/m^p", why="k of the compliant law F_n = k g^p (1 + chi gdot / v0)"),
     "walls.exponent": Range(1, 10, why="p of the compliant law: 1.5 Hertz, 1 linear"),
@@ -145,6 +149,7 @@ RANGES = {
     "solver.joint_restitution": Range(0, 1, why="1 = elastic, 0 = plastic"),
     "solver.max_cpu_time_s": Range(1e-3, 1e9, "s", why="a millisecond to about 30 years"),
     "solver.max_rhs_calls": Range(1, 1e15, integer=True),
+    "solver.cutoff_frequency_rad_per_s": Range(1e-3, 1e15, "rad/s"),
     "output.dpi": Range(10, 1200, integer=True, why="up to journal line-art resolution"),
     "output.animation_fps": Range(1, 100, integer=True, why="GIF frame delays are whole hundredths of a second"),
     "output.animation_speed": Range(1e-12, 1e12),
@@ -180,6 +185,8 @@ SOLVER_KEYS = {
     "max_cpu_time_s": ("max_cpu_time", "number", "CPU seconds after which the run stops (status budget_exceeded)"),
     "max_rhs_calls": ("max_rhs_calls", "number", "right-hand sides after which the run stops (status "
                                                  "budget_exceeded)"),
+    "cutoff_frequency_rad_per_s": ("cutoff_frequency", "number", "Radau: modes above it are left out of the error "
+                                                             "estimate (stepped over and damped), rad/s"),
 }
 #: [solver] string keys with a fixed set of values (and what each means).
 _SOLVER_CHOICES = {
@@ -213,6 +220,7 @@ _TOP_KEYS = {
     "walls": "[[walls]] tables",
     "inputs": "[[inputs]] tables: applied torques and forces",
     "prescribed": "[[prescribed]] tables: joint coordinates that follow a given motion",
+    "contact_filter": "[contact_filter] table: where a contact may begin",
     "initial": "[initial] table: initial state",
     "time": "[time] table: t_start_s, t_end_s",
     "solver": "[solver] table: integration settings",
@@ -238,13 +246,16 @@ _JOINT_TYPES = {
     "R": "revolute: the link turns by theta_i at the host's tip",
     "Pa": "sliding prismatic: a carriage fixed to the link runs along the host, d_i",
     "Pb": "fixed prismatic: the link slides through a guide at the host's tip, d_i",
+    "W": "weld: the link is clamped to its host at the fixed angle, no coordinate",
 }
 _JOINT_KEYS = {
-    "type": "'R' (revolute, the default), 'Pa' (a carriage on the host) or 'Pb' (a guide at the host's tip)",
-    "angle_deg": "fixed angle gamma of a Pa or Pb joint in deg",
-    "angle_rad": "fixed angle gamma of a Pa or Pb joint in rad",
+    "type": "'R' (revolute, the default), 'Pa' (a carriage on the host), 'Pb' (a guide at the host's tip) or 'W' (a weld)",
+    "angle_deg": "fixed angle gamma of a Pa, Pb or W joint in deg",
+    "angle_rad": "fixed angle gamma of a Pa, Pb or W joint in rad",
     "half_length_m": "half-length c of a Pa carriage in m",
     "range_m": "[d_min, d_max] of a Pa or Pb joint in m",
+    "parent": "number of the host link (1-based; 0: the base) of a tree, default: the link before",
+    "at_m": "abscissa x_a on the host where the joint sits, in m (default: the host's tip)",
 }
 _BASE_KEYS = {
     "type": "'fixed', 'free' or 'planar'",

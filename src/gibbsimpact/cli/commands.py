@@ -149,6 +149,8 @@ def describe_case(case) -> str:
             lines.append(f"  inputs[{k}] on {spec.coordinate}: {describe_input(spec, angle)}")
     else:
         lines.append("inputs: none")
+    if case.contact_filter is not None:
+        lines.append(f"contact filter: {case.contact_filter.describe()}")
     if case.prescribed:
         lines.append("prescribed (the coordinate follows its profile; its actuator supplies the effort):")
         for name, prof in case.prescribed:
@@ -242,17 +244,32 @@ def _describe_base(m) -> str:
     return f"base: fixed at ({pos}) m, angle {np.degrees(base.angle):g} deg about X3; {what}"
 
 
+def _describe_tree_joint(m, i: int, jt) -> str:
+    """What joint i (1-based) of a tree or a weld is: 'R (revolute): link 3 turns by theta_3 about z
+    on link 1 at x = 0.4 m', 'W (weld): link 2 fixed at -40 deg at the tip of link 1'."""
+    import numpy as np
+
+    p, xa = m.chain.parents[i - 1], m.chain.attach[i - 1]
+    where = "on the base" if p < 0 else (f"at the tip of link {p + 1}" if xa is None else f"on link {p + 1} at x = {xa:g} m")
+    if jt.kind == "W":
+        return f"W (weld, no coordinate): link {i} fixed at {np.degrees(jt.angle):g} deg {where}"
+    return f"R (revolute): link {i} turns by {m.coordinate_names[m.theta_index[i - 1]]} about z {where}"
+
+
 def _describe_joints(case) -> list:
     """Lines on the joints: type, fixed angle, half-length and range of each prismatic joint."""
     import numpy as np
 
     m = case.model
     joints = m.chain.joints
-    if all(j.kind == "R" for j in joints):
+    if all(j.kind == "R" for j in joints) and m.chain.serial:
         return ["joints: all revolute (theta_i turns link i about z at the tip of link i-1, or at the base)"]
     lines = ["joints:"]
     for i, (jt, k) in enumerate(zip(joints, m.theta_index), start=1):
         host = "the base" if i == 1 else f"link {i - 1}"
+        if not m.chain.serial or jt.kind == "W":  # a tree (formulation §17): each joint's host and abscissa
+            lines.append(f"  joint {i}: {_describe_tree_joint(m, i, jt)}")
+            continue
         name = m.coordinate_names[k]
         if jt.kind == "R":
             lines.append(f"  joint {i}: R (revolute): link {i} turns by {name} about z at the "

@@ -110,7 +110,7 @@ from .. import kernel as _k
 from ..dynamics.gibbs_appell import _raise_singular
 from .impact import _solve_lcp
 from ..dynamics.kinematics import as_vector, run_kernel, states
-from .span_resting import span_abscissae, span_point_terms
+from .span_resting import span_abscissae, span_point_terms, tip_point_terms, tree_tip_columns
 from .walls import packed_walls, tangent_basis
 
 _JOB = _k.JOB_SOLVE | _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS | _k.JOB_FRAMES
@@ -224,7 +224,8 @@ def mixed_constraint_data(model, walls, q, qd, Q, pairs, n_joints: int, flex, ve
     velocities, equation (3) of resting.py (lam, qdd). Shapes and units as ConstraintData."""
     pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
     k, N = len(pairs), model.n_dof
-    span = pairs[:, 1] >= n_joints
+    tip = np.isin(pairs[:, 1], tree_tip_columns(model))
+    span = (pairs[:, 1] >= n_joints) | tip
     d0 = constraint_data(model, walls, q, qd, Q, pairs[~span], velocities)
     qd_use = qd if velocities else np.zeros(N)
     W, J = np.zeros((N, k)), np.zeros((k, 3, N))
@@ -233,9 +234,13 @@ def mixed_constraint_data(model, walls, q, qd, Q, pairs, n_joints: int, flex, ve
     W[:, joint], J[joint], nrm[joint], g[joint] = d0.W, d0.J, d0.n, d0.g
     if velocities:
         pd[joint], a0[joint], c[joint] = d0.pd, d0.a0, d0.c
-    sp = np.flatnonzero(span)
-    for a, (i, x) in zip(sp, span_abscissae(model, walls, q, pairs[span], n_joints, flex)):
+    sp = np.flatnonzero(span & ~tip)
+    for a, (i, x) in zip(sp, span_abscissae(model, walls, q, pairs[sp], n_joints, flex)):
         _, J[a], nrm[a], pd[a], a0[a], g[a], c[a] = span_point_terms(model, walls[pairs[a, 0]], q, qd_use, i, x)
+        W[:, a] = J[a].T @ nrm[a]
+    for a in np.flatnonzero(tip):  # a tree's free tip: a fixed material point at x = l
+        i = model.extra_tips[pairs[a, 1] - model.n_links - 1]
+        _, J[a], nrm[a], pd[a], a0[a], g[a], c[a] = tip_point_terms(model, walls[pairs[a, 0]], q, qd_use, i)
         W[:, a] = J[a].T @ nrm[a]
     if not velocities:
         pd = a0 = None
@@ -306,10 +311,12 @@ class RestingContacts:
         # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves when
         # joint 1 is revolute (J = 0 there), but it does as a carriage on the base rail (Pa) or as the
         # rear end of a link sliding through the base guide (Pb): then it rests like any joint.
-        # Frame origins and span points (link columns, span_resting.py) rest; the extra tips do not, nor
+        # Frame origins and span points (link columns, span_resting.py) rest; the extra tips of prismatic hosts do not, nor
         # the centres of attached bodies (the columns after the link columns, contacts.Contacts).
         col = np.arange(P)
         restable = (col <= model.n_links) | ((col >= model.n_joints) & (col < model.n_joints + len(self.flex)))
+        self._tips = tree_tip_columns(model)
+        restable[self._tips] = True  # a tree's free tips rest (span_resting.tip_point_terms)
         if not isinstance(model.chain.base, str) and model.joint_kinds[0] == "R":
             restable[0] = False
         self.can_rest = np.broadcast_to(restable[None, :], self.active.shape)  # (W, P): the same for every wall
@@ -340,10 +347,15 @@ class RestingContacts:
         self._cache = (None, None)
 
     # -- equations (1)-(3), (6) ------------------------------------------------------
+    def _in_python(self, pairs) -> bool:
+        """True when some pair (k, 2) is a span pair or a tree's free tip: their acceleration terms come
+        from span_resting (mixed_constraint_data), not from the compiled contact terms."""
+        return bool(np.any(pairs[:, 1] >= self.n_joints) or (self._tips.size and np.any(np.isin(pairs[:, 1], self._tips))))
+
     def _data(self, q, qd, Q, pairs, velocities=True) -> ConstraintData:
         """constraint_data of the pairs (k, 2), span pairs included (span_resting.mixed_constraint_data)."""
         pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
-        if np.any(pairs[:, 1] >= self.n_joints):
+        if self._in_python(pairs):
             return mixed_constraint_data(self.model, self.walls, q, qd, Q, pairs, self.n_joints, self.flex,
                                          velocities)
         return constraint_data(self.model, self.walls, q, qd, Q, pairs, velocities)
@@ -393,7 +405,7 @@ class RestingContacts:
             self._mode = (mode, (pairs, self.stick[self.active], self.slip_dir[self.active], plan, frictionless,
                                  zeros, self.slow[self.active]))
         pairs, stick, sdir, plan, frictionless, zeros, slow = self._mode[1]
-        if np.any(pairs[:, 1] >= self.n_joints):  # span pairs: equations (3)/(6) in Python
+        if self._in_python(pairs):  # span pairs, a tree's free tips: equations (3)/(6) in Python
             d = self._data(q, qd, Q, pairs)
             qdd, lam, F_t, lam_t, power = self._solve(d, pairs, stick, sdir, slow)
             res = (qdd, lam, F_t, power, lam_t, d)

@@ -72,6 +72,27 @@ def span_point_terms(model, wall, q, qd, i: int, x: float):
     return p, J, n, pd, a0, g, c
 
 
+def tip_point_terms(model, wall, q, qd, i: int):
+    """Equations (1)-(2) for the tip x = l_i of link i on ``wall``: a link end that carries no child
+    in a tree (formulation §17), whose acceleration term the kernel's frames do not hold. As
+    span_point_terms, but at a fixed material point (no sliding-minimum term): c = n.a0 + pd^T H pd.
+    Returns p (3,) [m], J (3, N), n (3,), pd (3,) [m/s], a0 (3,) [m/s^2], g [m], c [m/s^2]."""
+    q, qd = model.check_state(q, qd)
+    ((p, J, a0),) = material_jacobians(model, q, qd, i, (model.chain.links[i].length,))
+    n = wall.normal(p[None, :])[0]
+    pd = J @ qd
+    c = float(n @ a0) + float(wall.curvature(p[None, :], pd[None, :])[0])
+    return p, J, n, pd, a0, float(wall.gap(p[None, :])[0]), c
+
+
+def tree_tip_columns(model) -> np.ndarray:
+    """Columns (point indices) of a tree's free tips among the contact points (Model.extra_tips;
+    none for a serial chain, whose extra tips are prismatic hosts' and do not rest)."""
+    if model.chain.serial:
+        return np.zeros(0, dtype=int)
+    return np.arange(model.n_links + 1, model.n_joints)
+
+
 def span_abscissae(model, walls, q, pairs, n_joints: int, flex) -> list:
     """(link, x* [m]) of every span pair (wall, column >= n_joints) of ``pairs`` (k, 2): closest_points."""
     cp = closest_points(model, q, walls)

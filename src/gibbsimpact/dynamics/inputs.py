@@ -22,6 +22,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
+from ..kernel.radau import IN_CONSTANT, IN_PD, IN_RAMP, IN_SINE
+
 __all__ = [
     "INPUT_KINDS", "InputSpec", "constant_input", "sine_input", "ramp_input", "pd_input",
     "input_function", "named_inputs", "is_angle_coordinate", "describe_input",
@@ -60,7 +62,7 @@ def constant_input(value: float) -> Callable:
     def f(t, q, qdot):
         return value
 
-    return f
+    return _with_rows(f, (IN_CONSTANT, -1, value, 0.0, 0.0, 0.0))
 
 
 def sine_input(amplitude: float, frequency: float, phase: float = 0.0, offset: float = 0.0) -> Callable:
@@ -70,7 +72,7 @@ def sine_input(amplitude: float, frequency: float, phase: float = 0.0, offset: f
     def f(t, q, qdot):
         return c + a * math.sin(w * t + p)
 
-    return f
+    return _with_rows(f, (IN_SINE, -1, a, w, p, c))
 
 
 def ramp_input(slope: float, start: float = 0.0, end: float = math.inf) -> Callable:
@@ -80,7 +82,7 @@ def ramp_input(slope: float, start: float = 0.0, end: float = math.inf) -> Calla
     def f(t, q, qdot):
         return s * (min(max(t, t0), t1) - t0)
 
-    return f
+    return _with_rows(f, (IN_RAMP, -1, s, t0, t1, 0.0))
 
 
 def pd_input(k: int, target: float, stiffness: float, damping: float = 0.0) -> Callable:
@@ -90,6 +92,14 @@ def pd_input(k: int, target: float, stiffness: float, damping: float = 0.0) -> C
     def f(t, q, qdot):
         return kp * (r - q[k]) - kd * qdot[k]
 
+    return _with_rows(f, (IN_PD, k, kp, r, kd, 0.0))
+
+
+def _with_rows(f: Callable, *rows) -> Callable:
+    """f with the attribute ``kernel_rows``: its terms as rows (kind, k of a pd's q_k or -1, a, b, c, d) of the
+    compiled inputs (gibbsimpact.kernel.radau._inputs), so that the compiled Radau step evaluates the
+    same closed form without calling f."""
+    f.kernel_rows = rows
     return f
 
 
@@ -133,7 +143,7 @@ def _sum_of(fs: tuple) -> Callable:
     def f(t, q, qdot):
         return sum(g(t, q, qdot) for g in fs)
 
-    return f
+    return _with_rows(f, *(r for g in fs for r in g.kernel_rows))
 
 
 def is_angle_coordinate(model, k: int) -> bool:

@@ -6,7 +6,7 @@ Numbers from 1 in the files; a model with a callable mass_per_length or EI canno
 from __future__ import annotations
 
 from ..contact.walls import WALL_KINDS
-from ..model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, RigidBody, SlidingPrismatic
+from ..model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, RigidBody, SlidingPrismatic, Weld
 from ..model.modes import Mode
 
 __all__ = ["model_from_dict", "model_to_dict", "wall_from_dict", "wall_to_dict"]
@@ -42,12 +42,20 @@ def model_to_dict(model: Model) -> dict:
     joints = []
     for jt in model.chain.joints:
         j = {"kind": jt.kind}
-        if jt.kind != "R":
+        if jt.kind in ("Pa", "Pb"):
             j.update(angle=float(jt.angle), range=[float(v) for v in jt.range])
         if jt.kind == "Pa":
             j["half_length"] = float(jt.half_length)
+        if jt.kind == "W":
+            j["angle"] = float(jt.angle)
+        R = getattr(jt, "axis_rotation", None) or getattr(jt, "rotation", None)
+        if R is not None:
+            j["rotation"] = [list(r) for r in R]
         joints.append(j)
     d["joints"] = joints
+    if not model.chain.serial:  # a tree (formulation §17)
+        d["parents"] = list(model.chain.parents)
+        d["attach"] = list(model.chain.attach)
     quad = getattr(model, "quadrature", None)
     if quad is not None:
         d["quadrature"] = [int(v) for v in quad]
@@ -78,12 +86,15 @@ def model_from_dict(d: dict) -> Model:
     for j in d.get("joints", ["R"] * len(links)):
         j = {"kind": j} if isinstance(j, str) else j  # files written before prismatic joints: kinds only
         if j["kind"] == "R":
-            joints.append(Revolute())
+            joints.append(Revolute(axis_rotation=j.get("rotation")))
+        elif j["kind"] == "W":
+            joints.append(Weld(angle=j["angle"], rotation=j.get("rotation")))
         elif j["kind"] == "Pa":
             joints.append(SlidingPrismatic(angle=j["angle"], half_length=j["half_length"], range=tuple(j["range"])))
         else:
             joints.append(FixedPrismatic(angle=j["angle"], range=tuple(j["range"])))
-    return Model(Chain(tuple(links), joints=tuple(joints), base=base), gravity=tuple(d["gravity"]), **kw)
+    chain = Chain(tuple(links), joints=tuple(joints), base=base, parents=d.get("parents"), attach=d.get("attach"))
+    return Model(chain, gravity=tuple(d["gravity"]), **kw)
 
 
 def wall_to_dict(w) -> dict:

@@ -32,7 +32,7 @@ names with ``from gibbsimpact.kernel.layout import ...``.
 from __future__ import annotations
 
 from .compile import (NOTICE_AFTER_S, PRISMATIC, REVOLUTE, RIGID_ENDS, compiled, ensure_compiled, jacobian_entry,
-                      jit_disabled, lazy, output, run, variant)
+                      jit_disabled, lazy, output, radau_entry, run, variant)
 from .contact import contact_terms, event_gaps, friction_solve
 from .entry import kernel
 from .frames import chain_frames
@@ -51,6 +51,6 @@ __all__ = [
     "PRISMATIC", "REVOLUTE", "RIGID_ENDS", "SECTIONS", "WALL_CIRCLE", "WALL_PLANE", "WALL_SPHERE", "chain_frames",
     "compiled", "contact_layout", "contact_terms", "ensure_compiled", "event_gaps", "friction_solve",
     "jacobian_entry", "jacobian_size", "jit_disabled", "kernel", "layout", "lazy", "output", "rodrigues_coefficients", "rodrigues_directional", "run",
-    "state_jacobian", "sym_solve", "variant",
+    "radau_entry", "state_jacobian", "sym_solve", "variant",
     "_svd_solve",  # tests/contact checks it against numpy's lstsq
 ]

@@ -45,13 +45,14 @@ from .entry import kernel
 from .frames import chain_frames
 from .jacobian import state_jacobian
 from .layout import layout
+from .radau import radau_step
 from .linalg import sym_solve
 
 #: The kernel's folder: every .py file in it goes into the cache key (source_key).
 KERNEL_DIR = Path(__file__).resolve().parent
 #: The kernel's stage modules, whose functions numba compiles.
 _STAGES = ("layout", "mat4", "frames", "moments", "assemble", "linalg", "observables", "entry", "contact",
-           "jacobian")
+           "jacobian", "radau")
 #: Helpers called from more than one function, compiled as their own dispatchers.
 _SHARED = ("chain_frames",)
 _A1, _A2, _I1 = "float64[::1]", "float64[:, ::1]", "int64[::1]"
@@ -66,6 +67,13 @@ _VARIANT_COST = {RIGID_ENDS: "about 15-20 s", REVOLUTE: "about 20-25 s", PRISMAT
 _ENTRY_SIG = f"float64({_A1}, {_I1}, {_R1}, {_R1}, {_R1}, int64, {{}}, {{}}, {_A1})"
 #: The Jacobian entry point (jacobian.state_jacobian), per variant as the kernel; compiled on first use.
 _JACOBIAN_SIG = f"float64({_A1}, {_I1}, {_R1}, {_R1}, {_R1}, {{}}, {{}}, {_A1})"
+#: The compiled Radau IIA step (radau.radau_step), per variant as the kernel; compiled on first use.
+_RADAU_SIG = (f"float64({_A1}, {_I1}, {_A2}, {_A2}, {_A2}, {_A1}, {_A2}, {_A1}, {_A1}, {_A2}, {_A2}, {_I1}, "
+              f"complex128[:, ::1], {_I1}, {_A2}, {_A2}, {_A1}, {_A1}, {_A1}, {{}}, {{}})")
+#: What the notice of a variant entry point calls it, and its cost.
+_VARIANT_ENTRIES = {"state_jacobian": (_JACOBIAN_SIG,
+                                         "the Jacobian of the dynamics (first implicit run; 10-20 s of CPU)"),
+                    "radau_step": (_RADAU_SIG, "the compiled Radau step (first implicit run; 20-40 s of CPU)")}
 #: Entry points apart from the kernel, compiled on first use: their signatures ...
 _LAZY = {"contact_terms": f"{_A1}({_A1}, {_I1}, {_A1}, int64[:, ::1], {_I1}, {_A2}, int64)",
          "sym_solve": f"{_A1}({_A2}, {_A1})",
@@ -91,7 +99,7 @@ _state = {"ready": set(), "cached": None, "seconds": {}, "kernel": None, "jitted
 #: The plain-Python functions that get dispatchers of their own (the entry points and _SHARED).
 _PY_FUNCTIONS = {"kernel": kernel, "chain_frames": chain_frames, "contact_terms": contact_terms,
                  "sym_solve": sym_solve, "event_gaps": event_gaps, "friction_solve": friction_solve,
-                 "state_jacobian": state_jacobian}
+                 "state_jacobian": state_jacobian, "radau_step": radau_step}
 _PY_KERNEL = kernel  # the plain-Python entry point (the kernel modules' ``kernel`` becomes the compiled one)
 _lock = threading.Lock()
 NOTICE_AFTER_S = 1.0
@@ -203,7 +211,7 @@ def _jit_helpers():
         else:
             numba.extending.register_jitable(f)
     dispatchers["kernel"] = jit(kernel)
-    for name in (*_LAZY, "state_jacobian"):  # their own dispatchers: compiled on first use (lazy)
+    for name in (*_LAZY, *_VARIANT_ENTRIES):  # their own dispatchers: compiled on first use (lazy)
         dispatchers[name] = jit(_PY_FUNCTIONS[name])
     for name, d in dispatchers.items():
         _rebind(_PY_FUNCTIONS[name], d)
@@ -315,32 +323,48 @@ def jacobian_entry(v):
     Call it as ``jacobian_entry(v)(fdat, idat, q, qd, Q, *v, out)`` with out of
     ``jacobian.jacobian_size(N)`` float64 entries.
     """
-    ready = _state["lazy"].get(("state_jacobian", v))
+    return _variant_entry("state_jacobian", v)
+
+
+def radau_entry(v):
+    """The entry point ``radau_step`` (kernel/radau.py) with variant ``v`` compiled (or loaded from numba's
+    cache) on first use: only runs with the compiled Radau method need it (20-40 s of CPU, one notice).
+
+    Call it as ``radau_entry(v)(fdat, idat, fin, C, A, atol, Pf, y, f, J, LUr, pr, LUc, pc, Z, Qd, ynew, fnew,
+    st, *v)`` (radau.radau_step's arguments).
+    """
+    return _variant_entry("radau_step", v)
+
+
+def _variant_entry(name, v):
+    """The dispatcher of the entry point ``name`` of _VARIANT_ENTRIES with variant v's signature compiled
+    (or loaded from numba's cache), with a notice on stderr before a compile."""
+    ready = _state["lazy"].get((name, v))
     if ready is not None:
         return ready
     ensure_compiled(v)  # the shared helpers and dispatchers exist from here on
+    sig, what = _VARIANT_ENTRIES[name]
     with _lock:
-        d = _state["dispatchers"].get("state_jacobian", state_jacobian)
+        d = _state["dispatchers"].get(name, _PY_FUNCTIONS[name])
         if hasattr(d, "disable_compile"):
             t0 = time.perf_counter()
-            if not _jacobian_cached(d, v):
-                print("gibbsimpact: compiling the Jacobian of the dynamics (first implicit run; 10-20 s of CPU) ...",
-                      file=sys.stderr, flush=True)
+            if not _entry_cached(d, sig, v):
+                print(f"gibbsimpact: compiling {what} ...", file=sys.stderr, flush=True)
             d.disable_compile(False)
             try:
-                d.compile(_JACOBIAN_SIG.format(*_signature_args(v)))
+                d.compile(sig.format(*_signature_args(v)))
             finally:
                 d.disable_compile()
-            _state["seconds"][("state_jacobian", v)] = time.perf_counter() - t0
-        _state["lazy"][("state_jacobian", v)] = d
+            _state["seconds"][(name, v)] = time.perf_counter() - t0
+        _state["lazy"][(name, v)] = d
     return d
 
 
-def _jacobian_cached(d, v) -> bool:
-    """True if numba's on-disk cache holds state_jacobian's signature of variant v (no notice then)."""
+def _entry_cached(d, sig, v) -> bool:
+    """True if numba's on-disk cache holds the signature sig of variant v of dispatcher d (no notice then)."""
     try:
         index = d._cache._cache_file._load_index()
-        want = _JACOBIAN_SIG.format(*_signature_args(v)).replace(" ", "")
+        want = sig.format(*_signature_args(v)).replace(" ", "")
         return any(str(key[0]).replace(" ", "") == want for key in index)
     except Exception:  # no cache, numba internals changed
         return False

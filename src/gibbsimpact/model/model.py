@@ -77,7 +77,8 @@ class Model:
     coordinate_names : tuple of str, length N
         ``X1 X2 X3 theta_-1 theta_0 theta_1 ... theta_n delta_1_1 ...`` (free base),
         ``X1 X2 j_1 ... j_n delta_1_1 ...`` (planar base), ``j_1 ... j_n delta_1_1 ...``
-        (fixed base), with j_i = ``theta_i`` (revolute) or ``d_i`` (prismatic).
+        (fixed base), with j_i = ``theta_i`` (revolute) or ``d_i`` (prismatic); a weld has none
+        (formulation §17: joint variables in link order, welds skipped, then each link's deltas).
     """
 
     def __init__(self, chain: Chain, gravity: Sequence[float] = (0.0, -9.81, 0.0), quadrature=DEFAULT_QUADRATURE):
@@ -153,7 +154,7 @@ class Model:
                          doc="True for a floating base: X1..X3, theta_-1, theta_0 ('free') or X1, X2 ('planar') in q.")
     planar = property(lambda self: self._chain.planar, doc="True for a planar chain (docs/theory.md §8).")
     joint_kinds = property(lambda self: tuple(j.kind for j in self._chain.joints),
-                           doc="'R', 'Pa' or 'Pb' per joint (n,).")
+                           doc="'R', 'Pa', 'Pb' or 'W' (a weld) per joint (n,).")
     base_transform = property(lambda self: self._base_transform, doc="T_0 (4, 4) of a fixed base, None for a free one.")
     base_chart = property(lambda self: self._chart, doc=(
         "R_ref (3, 3), the reference orientation the free base's angles are measured from: "

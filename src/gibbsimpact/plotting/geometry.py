@@ -73,7 +73,7 @@ def _prismatic_marks(model, q) -> list:
     base x axis, with a tick at each end.
     """
     kinds = [j.kind for j in model.chain.joints]
-    if all(k == "R" for k in kinds):
+    if all(k in ("R", "W") for k in kinds):
         return []
     q = np.asarray(q, dtype=float)
     T = transforms(model, q)

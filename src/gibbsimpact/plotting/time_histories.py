@@ -72,7 +72,7 @@ def _joint_variables(result):
     plot_angles draws: theta_-1, theta_0 of a spatial free base when the motion is not planar,
     then theta_i / d_i of every joint (a planar free base adds no angle: its theta_1 is joint 1's)."""
     model = result.model
-    rows = [(k, i, kd) for i, (k, kd) in enumerate(zip(model.theta_index, model.joint_kinds), start=1)]
+    rows = [(k, i, kd) for i, (k, kd) in enumerate(zip(model.theta_index, model.joint_kinds), start=1) if kd != "W"]
     if model.chain.base == "free" and not is_planar(result):
         rows = [(3, None, "R"), (4, None, "R")] + rows
     return [(c, k, i, kd) for c, (k, i, kd) in enumerate(rows)]
@@ -114,7 +114,7 @@ def plot_angles(result, case_name=None, ax=None):
     """
     model = result.model
     rows = _joint_variables(result)
-    groups = {"R": [r for r in rows if r[3] == "R"], "P": [r for r in rows if r[3] != "R"]}
+    groups = {"R": [r for r in rows if r[3] == "R"], "P": [r for r in rows if r[3] in ("Pa", "Pb")]}
     panels = [(g, rate) for g in ("R", "P") for rate in (False, True) if groups[g]]
     own = ax is None
     if own:

@@ -7,10 +7,14 @@ at least
     n_stab = T |lambda_max| / r(arg lambda_max)
 
 steps however slowly the chain moves. An L-stable implicit method (Radau IIA, order 5) has no such
-bound: its steps follow the accuracy of the motion, at ~1.3 times an explicit step's CPU (Newton
-iterations, LU factors; measured on the R-Pb arm: 650 us against 480 us a step). The rule:
+bound: its steps follow the accuracy of the motion. Compiled (gibbsimpact.simulation.compiled_radau) a
+Radau step costs about what a DOP853 step costs (R-Pb arm, N = 12, rtol 1e-2: 470 us against 600 us, each
+with its share of the event search and the recording), but its error estimate is of order 3 against DOP853's 7 and 5: at tight
+tolerances it needs many more steps (R-Pb arm at rtol 1e-4: 2032 against 522), at loose ones fewer
+(rtol 1e-2: 143 against 342). The rule:
 
-    Radau     if n_stab >= STIFF_STEPS (= 1e4) and max_step does not bind first (max_step > T / n_stab)
+    Radau     if max_step does not bind first (max_step > T / n_stab) and either
+              n_stab >= STIFF_STEPS (= 1e4), or rtol >= LOOSE_RTOL (= 1e-3) and n_stab >= LOOSE_STEPS (= 100)
     DOP853    otherwise
 
 STIFF_STEPS is where stability alone costs the explicit method ~1e4 steps (~5 s of CPU on a
@@ -20,7 +24,10 @@ after an impact on a stiff link, or tight tolerances on the bundled prismatic ar
 follow that mode too, with smaller steps than DOP853's (its error estimate is of order 3):
 measured on fixed_base_R_Pb_arm (n_stab = 366 over 1 s) Radau costs ~12x DOP853's CPU at rtol 1e-8
 and 4.8x at rtol 1e-4; on case 1 with EI = 1e9 on link 1 (n_stab = 1.8e5) it takes 5 steps to the first
-impact where DOP853 takes 2.6e5 (docs/benchmarks.md, benchmarks/bench_stiff.py).
+impact where DOP853 takes 2.6e5 (docs/benchmarks.md, benchmarks/bench_stiff.py). The second branch: at
+rtol 1e-3 the compiled Radau costs 0.17 s on the R-Pb arm's second (675 steps; DOP853 0.21 s at rtol 1e-2,
+0.26 s at 1e-4), at rtol 1e-2 0.067 s, 3x less than DOP853 at that tolerance; below n_stab = 100 (case 1 as shipped: 26) DOP853's
+steps are set by accuracy whatever the tolerance, and it stays.
 """
 
 from __future__ import annotations
@@ -36,12 +43,14 @@ METHODS = (*SOLVERS, AUTO)
 EXPLICIT_METHOD, IMPLICIT_METHOD = "DOP853", "Radau"
 #: Stability-bound explicit steps over the span from which auto takes the implicit method.
 STIFF_STEPS = 1e4
+#: Loosest rtol at which DOP853 is kept on a chain with n_stab >= LOOSE_STEPS (module docstring).
+LOOSE_RTOL, LOOSE_STEPS = 1e-3, 100.0
 
 
-def choose_method(model, q0: np.ndarray, t_span, max_step: float = np.inf) -> tuple[str, str]:
+def choose_method(model, q0: np.ndarray, t_span, max_step: float = np.inf, rtol: float = 0.0) -> tuple[str, str]:
     """(method, reason) of method="auto" for a run of ``model`` from q0 (N,) [m, rad] over t_span (t0, t_end) [s]
-    with the solver's largest step max_step [s] (module docstring): "Radau" or "DOP853", and one sentence
-    saying why, with n_stab and the highest frequency [rad/s]."""
+    with the solver's largest step max_step [s] and relative tolerance rtol (module docstring): "Radau" or
+    "DOP853", and one sentence saying why, with n_stab and the highest frequency [rad/s]."""
     span = float(t_span[1]) - float(t_span[0])
     lam = linearised_eigenvalues(model, np.asarray(q0, dtype=float))
     if lam.size == 0 or not np.abs(lam).max() > 0.0:
@@ -57,4 +66,7 @@ def choose_method(model, q0: np.ndarray, t_span, max_step: float = np.inf) -> tu
     if n_stab >= STIFF_STEPS:
         return IMPLICIT_METHOD, (f"auto: {IMPLICIT_METHOD}, {head} (>= {STIFF_STEPS:.0e}); {IMPLICIT_METHOD} is not "
                                  "bound by it but damps the modes it steps over (energy audit: numerical)")
+    if rtol >= LOOSE_RTOL and n_stab >= LOOSE_STEPS:
+        return IMPLICIT_METHOD, (f"auto: {IMPLICIT_METHOD}, {head} (>= {LOOSE_STEPS:g}) and rtol = {rtol:g} >= "
+                                 f"{LOOSE_RTOL:g}: at this accuracy Radau's steps are longer than DOP853's")
     return EXPLICIT_METHOD, f"auto: {EXPLICIT_METHOD}, {head} (< {STIFF_STEPS:.0e})"

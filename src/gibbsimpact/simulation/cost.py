@@ -215,7 +215,7 @@ def estimate_cost(model, q0, qdot0, t_span, **options) -> CostEstimate:
     model, q0, qdot0 = start_chart(model, q0, qdot0, charted(model, fixed or None))
     method, choice = o["method"], ""
     if method == AUTO:
-        method, choice = choose_method(model, q0, t_span, o["max_step"])
+        method, choice = choose_method(model, q0, t_span, o["max_step"], o["rtol"])
     if method not in SOLVERS:
         raise ValueError(f"estimate_cost method={method!r} must be a solve_ivp method; use one of {', '.join(SOLVERS)}")
     t0, t_end = float(t_span[0]), float(t_span[1])

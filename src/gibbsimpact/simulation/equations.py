@@ -26,7 +26,11 @@ from ..dynamics.forces import CallbackError, damping_depends_on_q, damping_matri
 from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics
 from ..dynamics.prescribed import partitioned_dynamics
 from .budget import Budget
+from .compiled_radau import CompiledRadau, flight_program
 from .implicit import IMPLICIT, rhs_jacobian
+
+#: The method whose flight phases run the compiled stepper where they can (simulation.compiled_radau).
+COMPILED_METHOD = "Radau"
 
 
 class Equations:
@@ -61,6 +65,11 @@ class Equations:
         self.check_at = self.budget.check_at
         self.resting_phase = False  # whether the phase under way has resting pairs (fixed during a phase)
         self.singular = None  # diagnosis of the last trial state with a singular M
+        self.inputs, self.cutoff = settings.inputs, settings.cutoff_frequency
+        self._program = None  # (FlightProgram or None, why not): built on the first phase_solver("Radau")
+        #: Phases run by each Radau: {"compiled": k, "scipy": m}, and why scipy's ran ({reason: count}).
+        self.radau_phases = {"compiled": 0, "scipy": 0}
+        self.scipy_reasons = {}
 
     def forces(self, t, q, qd):
         """(Q_in, Q_damp) (N,) each [N, N m], or None for an undriven, undamped run."""
@@ -132,6 +141,36 @@ class Equations:
         sides rhs_jacobian does not model: resting pairs, prescribed motion, compliant contacts."""
         plain = not self.resting_phase and self.prescribed is None and self.compliant is None
         return self.jacobian if method in IMPLICIT and plain else None
+
+    def phase_solver(self, method):
+        """The solver of the phase under way: a factory of the compiled Radau (CompiledRadau with the run's
+        FlightProgram) for method="Radau" in a phase it can run, else None (scipy's solver of ``method``,
+        with phase_jacobian). Counts the phases of each kind and scipy's reasons (radau_phases)."""
+        if method != COMPILED_METHOD:
+            return None
+        if self._program is None:
+            self._program = flight_program(self, self.inputs)
+        program, why = self._program
+        if program is not None and self.resting_phase:
+            why = "a contact phase (resting pairs or held end stops)"
+        if why:
+            self.radau_phases["scipy"] += 1
+            self.scipy_reasons[why] = self.scipy_reasons.get(why, 0) + 1
+            return None
+        self.radau_phases["compiled"] += 1
+
+        def solver(fun, t0, y0, t_bound, **options):
+            options.pop("jac", None)
+            return CompiledRadau(fun, t0, y0, t_bound, program=program, **options)
+
+        return solver
+
+    def radau_record(self) -> dict:
+        """For Result.settings with method="Radau": {"radau_phases": {"compiled": k, "scipy": m}, "radau_scipy_why":
+        {reason: phases}} (which flight phases ran the compiled stepper, and why the others did not); {} else."""
+        if not any(self.radau_phases.values()):
+            return {}
+        return {"radau_phases": dict(self.radau_phases), "radau_scipy_why": dict(self.scipy_reasons)}
 
     def partitioned(self, t, q, qd):
         """The prescribed run's dynamics at t: (qdot (N,) with the prescribed entries from f(t), qddot (N,),

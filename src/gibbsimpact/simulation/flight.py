@@ -300,6 +300,7 @@ def integrate_phase(
     extra: tuple | None = None,
     gap_single: Callable | None = None,
     jac: Callable | None = None,
+    solver: Callable | None = None,
 ) -> PhaseOutcome:
     """Integrate from (t0, y0) to the first event or t_end.
 
@@ -327,6 +328,8 @@ def integrate_phase(
         gap_matrix); the root search of one event calls it many times
     jac : None, or J(t, y) -> (2N, 2N) the Jacobian of rhs, for an implicit method (Radau, BDF,
         LSODA; gibbsimpact.simulation.implicit); None: the solver's own finite differences
+    solver : None (scipy's solver of ``method``), or a factory with an OdeSolver's arguments to use instead
+        (the compiled Radau, gibbsimpact.simulation.compiled_radau)
 
     Returns
     -------
@@ -335,7 +338,7 @@ def integrate_phase(
     phase = _Phase(rhs, t0, y0, t_end, events, gap_matrix, method=method, rtol=rtol, atol=atol,
                    max_step=max_step, output_dt=output_dt, t_origin=t_origin, lipschitz=lipschitz, slack=slack,
                    n_q=n_q, check_in_step=check_in_step, gap_batch=gap_batch, extra=extra, gap_single=gap_single,
-                   jac=jac)
+                   jac=jac, solver=solver)
     try:
         while phase.solver.status == "running":
             out = phase.step()
@@ -358,7 +361,7 @@ class _Phase:
     the event values at the last step end, the stored samples)."""
 
     def __init__(self, rhs, t0, y0, t_end, events, gap_matrix, *, method, rtol, atol, max_step, output_dt,
-                 t_origin, lipschitz, slack, n_q, check_in_step, gap_batch, extra, gap_single, jac=None):
+                 t_origin, lipschitz, slack, n_q, check_in_step, gap_batch, extra, gap_single, jac=None, solver=None):
         self.rhs, self.t0, self.y0, self.events, self.gap_matrix = rhs, t0, y0, events, gap_matrix
         self.output_dt, self.t_origin, self.lipschitz, self.slack = output_dt, t_origin, lipschitz, slack
         self.check_in_step, self.gap_single = check_in_step, gap_single
@@ -368,7 +371,8 @@ class _Phase:
                 return np.stack([gap_matrix(qi) for qi in qs])
         self.gap_batch = gap_batch
         options = {} if jac is None else {"jac": jac}
-        self.solver = SOLVERS[method](rhs, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step, **options)
+        self.solver = (solver or SOLVERS[method])(rhs, t0, y0, t_end, rtol=rtol, atol=atol, max_step=max_step,
+                                                  **options)
         self.down, self.up = events.direction < 0, events.direction > 0
         g0 = gap_matrix(y0[:N])
         self.E_prev = events.values(g0)

@@ -54,7 +54,7 @@ def _call(name, f, t):
 def _joint_names(model) -> list:
     """Names of the coordinates a profile may drive: the joints, without a moving base's orientation."""
     names = model.coordinate_names
-    joints = [names[k] for k in model.theta_index]
+    joints = [names[k] for k in model.theta_index if k >= 0]  # a weld (-1) has no coordinate
     return joints if not model.chain.free_base else joints[1:]
 
 

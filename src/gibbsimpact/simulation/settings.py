@@ -10,6 +10,7 @@ import numpy as np
 
 from ..contact.walls import WALL_TYPES, is_compliant
 from .auto import AUTO, METHODS, choose_method
+from .contact_filter import checked_filter
 from .joint_limits import JOINT_LIMIT_MODES
 from .prescribed import prescription
 
@@ -92,11 +93,13 @@ class Settings:
     max_rhs_calls: int | None = None  # right-hand sides; None: no limit
     method_choice: str = ""  # why method="auto" chose ``method`` (gibbsimpact.simulation.auto); "" if not auto
     prescribed: object = None  # simulation.prescribed.Prescribed, or None: every coordinate free
+    contact_filter: object = None  # None, or contact_filter(q) -> (C,) bool (simulation.contact_filter)
+    cutoff_frequency: float | None = None  # [rad/s] modes above it left out of Radau's error estimate; None: none
 
     @classmethod
     def from_arguments(cls, t_span, walls, restitution, method, output_dt, progress, inputs, zeno_count,
                        max_impacts, joint_limit, joint_restitution, accumulation, link_contacts, prescribed=None,
-                       state=None, **positive) -> Settings:
+                       state=None, contact_filter=None, **positive) -> Settings:
         """Validate simulate's options (each error names the argument and what it must be).
 
         prescribed : simulate's ``prescribed``, checked against state = (model, q0, qdot0)
@@ -112,6 +115,7 @@ class Settings:
         in_step_check = bool(positive.pop("in_step_check", True))
         max_cpu_time = _limit("max_cpu_time", positive.pop("max_cpu_time", None), _positive)
         max_rhs_calls = _limit("max_rhs_calls", positive.pop("max_rhs_calls", None), _count)
+        cutoff_frequency = _limit("cutoff_frequency", positive.pop("cutoff_frequency", None), _positive)
         values = {name: _positive(name, v, allow_inf=(name == "max_step")) for name, v in positive.items()}
         if output_dt is not None:
             output_dt = _positive("output_dt", output_dt)
@@ -131,7 +135,8 @@ class Settings:
                    progress=progress, inputs=inputs, zeno_count=zeno_count, max_impacts=max_impacts, joint_limit=joint_limit,
                    joint_restitution=joint_restitution, accumulation=accumulation,
                    link_contacts=bool(link_contacts), in_step_check=in_step_check, max_cpu_time=max_cpu_time,
-                   max_rhs_calls=max_rhs_calls, prescribed=prescribed, **values)
+                   max_rhs_calls=max_rhs_calls, prescribed=prescribed, contact_filter=checked_filter(contact_filter),
+                   cutoff_frequency=cutoff_frequency, **values)
 
     def resolve_auto(self, model, q0) -> Settings:
         """These settings with method="auto" replaced by the method it chooses for model from q0 (N,)
@@ -139,7 +144,7 @@ class Settings:
         for any other method."""
         if self.method != AUTO:
             return self
-        method, why = choose_method(model, q0, (self.t0, self.t_end), self.max_step)
+        method, why = choose_method(model, q0, (self.t0, self.t_end), self.max_step, self.rtol)
         return dataclasses.replace(self, method=method, method_choice=why)
 
     @property
@@ -150,6 +155,8 @@ class Settings:
     def record(self) -> dict:
         """The options as Result.settings stores them (plain values; inputs and progress are not kept)."""
         extra = {} if self.prescribed is None else {"prescribed": list(self.prescribed.names)}
+        if self.contact_filter is not None:  # the rule itself is code: its name is kept
+            extra["contact_filter"] = getattr(self.contact_filter, "__name__", type(self.contact_filter).__name__)
         return dict(
             method=self.method, method_choice=self.method_choice, rtol=self.rtol, atol=self.atol,
             restitution=self.restitution,
@@ -159,5 +166,6 @@ class Settings:
             max_impacts=self.max_impacts, t_span=[self.t0, self.t_end], joint_limit=self.joint_limit,
             joint_restitution=self.joint_restitution, accumulation=self.accumulation,
             link_contacts=self.link_contacts, max_cpu_time=self.max_cpu_time, max_rhs_calls=self.max_rhs_calls,
+            cutoff_frequency=self.cutoff_frequency,
             **extra,
         )

@@ -112,7 +112,8 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
              zeno_interval: float = 1e-6, zeno_count: int = 10, max_impacts: int = 10000, progress=None,
              inputs=None, joint_limit: str = "stop", joint_restitution: float = 0.5, accumulation: str = "rest",
              link_contacts: bool = True, max_cpu_time: float | None = None, max_rhs_calls: int | None = None,
-             prescribed: dict | None = None, _in_step_check: bool = True) -> Result:
+             prescribed: dict | None = None, contact_filter=None, cutoff_frequency: float | None = None,
+             _in_step_check: bool = True) -> Result:
     """Simulate flight phases, impacts and resting contact from (q0, qdot0) over t_span (module docstring).
 
     Parameters
@@ -145,8 +146,15 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
     link_contacts : True: the closest point of every flexible link to every wall is a contact
         candidate too; False: joints only, as in the published case studies
     prescribed : None or {joint coordinate: f(t) -> (q, qdot, qddot)}, motions imposed by actuators (docs/api.md)
+    contact_filter : None, or contact_filter(q) -> (C,) bool over the contact candidates (O1 .. O<P>, then "link i" columns, "body k"):
+        a candidate that is False at q and not resting is no candidate there (no event, impact, resting contact
+        or penetration check): a rule of the run where contacts may begin (simulation.contact_filter)
     max_cpu_time [s], max_rhs_calls : None (no limit), or the CPU time (its thread's) and right-hand
         sides after which the run stops with "budget_exceeded" (simulation.budget; cost estimates them)
+    cutoff_frequency : None, or [rad/s]: with method "Radau" (or "auto" choosing it), the modes of the
+        linearised chain above it are left out of the error estimate of the compiled Radau steps, which then
+        step over them and damp them: their energy goes to the energy audit's numerical part
+        (gibbsimpact.simulation.compiled_radau; docs/theory.md, "Implicit integration")
     _in_step_check : private; False leaves solve_ivp's sign test at step ends only (benchmarks, tests)
 
     Returns
@@ -165,7 +173,8 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
         joint_restitution, accumulation, link_contacts, rtol=rtol, atol=atol, max_step=max_step,
         contact_tol=contact_tol, grazing_velocity=grazing_velocity, penetration_tol=penetration_tol,
         zeno_interval=zeno_interval, in_step_check=_in_step_check, max_cpu_time=max_cpu_time,
-        max_rhs_calls=max_rhs_calls, prescribed=prescribed, state=(model, q0, qdot0))
+        max_rhs_calls=max_rhs_calls, prescribed=prescribed, cutoff_frequency=cutoff_frequency,
+        state=(model, q0, qdot0), contact_filter=contact_filter)
     with progress_reporter(settings.progress, settings.t0, settings.t_end) as report:
         run = start(model, q0, qdot0, settings, Clock(report))
         try:

@@ -20,6 +20,7 @@ from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics, m
 from .accumulation import Accumulation
 from .charts import chart, chart_event, charted, start_chart
 from .compliant import COMPLIANT_EVENTS, CompliantContacts, compliant_event, compliant_gap_functions
+from .contact_filter import FilteredContacts
 from .contacts import Contacts, contact_band, event_spec, gap_lipschitz, impact_stage as solve_impact, phase_events
 from .equations import Equations
 from .flight import integrate_phase
@@ -130,11 +131,14 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     limits = joint_limits(model)
     _check_start(model, q0, qdot0, s, limits, started)
     limits = _watched(limits, s.prescribed)
-    contacts = Contacts(model, walls, s.link_contacts)
+    contacts = (Contacts(model, walls, s.link_contacts) if s.contact_filter is None else
+                FilteredContacts(model, walls, s.link_contacts, s.contact_filter))
     stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
     lipschitz = gap_lipschitz(model)
     band = contact_band(s.contact_tol, lipschitz, s.rtol, s.atol, q0)
     resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols, contacts.flex)
+    if s.contact_filter is not None:
+        contacts.resting = lambda: resting.active  # resting pairs are never filtered out
     compliant = (CompliantContacts(model, contacts, s.wall_restitution, lipschitz)
                  if any(map(is_compliant, walls)) else None)
     equations = Equations(model, s, q0, qdot0, resting, clock, compliant, stops)
@@ -369,7 +373,7 @@ def flight(run):
             slack=s.contact_tol, n_q=N, check_in_step=s.in_step_check, gap_batch=gap_batch, extra=extra,
             gap_single=lambda q, w, c: run.contacts.gap_single(q, w, c, gap_matrix) + (
                 0.0 if run.compliant is None else run.compliant.joint_shift(w, c)),
-            jac=run.equations.phase_jacobian(s.method),
+            jac=run.equations.phase_jacobian(s.method), solver=run.equations.phase_solver(s.method),
         )
     except (SingularMassMatrixError, FloatingPointError, ValueError, np.linalg.LinAlgError) as exc:
         run.end("integration", t=run.t, error=exc)
@@ -523,7 +527,8 @@ def finish(run, started: float) -> Result:
     walls = run.settings.walls
     return Result(
         model=run.model.chart_root, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,
-        impacts=run.recorder.impacts, status=run.status, message=run.message, settings=run.settings.record(),
+        impacts=run.recorder.impacts, status=run.status, message=run.message,
+        settings={**run.settings.record(), **run.equations.radau_record()},
         nfev=run.equations.nfev, n_steps=run.counters["n_steps"], n_examined=run.counters["n_examined"],
         wall_time=time.perf_counter() - started, energy_error=run.recorder.energy_error,
         energy_error_whole_run_J=run.recorder.balance_J,
