@@ -53,9 +53,10 @@ class Contacts:
     """Gaps, normals and Jacobians of every (wall, contact point) pair (docs/theory.md §10; issue 9 item 2).
 
     Columns c = 0 .. C-1 of the (W, C) gap matrix: the P joint points (model.contact_point_names),
-    then one column per flexible link i (``flex``; every link when a wall is an obstacle:
-    link_columns): the material point of link i closest to wall w (gibbsimpact.linkpoints),
-    deflection included. A link column holds that point's gap
+    then one column per cell of every flexible link i (``cells`` (i, c, m), ``flex`` their links;
+    every link when a wall is an obstacle: link_columns, link_column_cells): the lowest material point
+    of cell c of link i on wall w (contact.span_cells; with one cell the point of link i closest to
+    wall w, gibbsimpact.linkpoints), deflection included. A link column holds that point's gap
     when it is *interior* (farther than 1e-6 l_i from the link's ends), else NOT_INTERIOR: at
     an end, the end joint's own column is the candidate, so nothing is counted twice. Its
     event fires where a link bulges into a wall between its joints. Rigid links have no column
