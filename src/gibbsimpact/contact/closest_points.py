@@ -258,20 +258,17 @@ def _foreshorten(model, wp: _WallParams, st, qs, x, best_g, best_p):
     the point and gap returned are those of the closest material point of the foreshortened link
     (the ones the impact's Jacobian, material_jacobian, uses).
     """
-    for i, lk in enumerate(model.chain.links):
-        if not lk.stiffened:
-            continue
+    for i in [i for i, lk in enumerate(model.chain.links) if lk.stiffened]:
         for k, q in enumerate(qs):
-            x[k, :, i], best_p[k, :, i], best_g[k, :, i] = _foreshortened_minimum(model, wp, q, i, x[k, :, i],
-                                                                                st.R[k, i], st.o[k, i])
+            x[k, :, i], best_p[k, :, i], best_g[k, :, i] = _foreshortened_minimum(model, wp, q, i, x[k, :, i], st.R[k, i],
+                                                                                st.o[k, i])
 
 
 def _foreshortened_minimum(model, wp: _WallParams, q, i: int, xs, R, o, newton=True):
-    """x (P,) [m], p (P, 3) [m] and g (P,) [m] of the minima of stiffened link i's foreshortened gap to the
-    walls wp (row by row) from the starts xs (P,) [m] (_foreshorten's iteration; where newton (P,) bool is
-    False: the points at xs themselves). R (3, 3), o (3,): the link's frame at q."""
-    length = model.chain.links[i].length
-    xs = np.array(xs, dtype=float)
+    """x (P,) [m], p (P, 3) [m], g (P,) [m]: minima of stiffened link i's foreshortened gap to the walls wp (row
+    by row) from xs (P,) [m] (_foreshorten's iteration; the points at xs where newton (P,) bool is False);
+    R (3, 3), o (3,): the link's frame at q."""
+    length, xs = model.chain.links[i].length, np.array(xs, dtype=float)
     for _ in range(MAX_ITERATIONS if np.any(newton) else 0):
         p, p1, p2 = _foreshortened_curve(model, q, i, xs, R, o)
         g, _, g1, g2 = _gap_terms(wp, p, p1, p2)
