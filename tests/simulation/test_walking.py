@@ -258,3 +258,25 @@ def test_rigid_rimless_wheel_reaches_mcgeers_steady_speed(omega0):
     omega_end = [-r.qdot_before[model.coordinate_names.index("theta_1")] for r in strikes]
     assert omega_end[12] == pytest.approx(expected, rel=1e-6)
     assert abs(omega_end[0] / expected - 1) > 1e-3  # it started away from the steady speed
+
+
+@pytest.mark.slow
+def test_rimless_wheel_case_file_contracts_to_mcgeers_speed_by_r_squared():
+    """cases/rimless_wheel.toml (the wheel above from 1.5 rad/s over 4 s): a rigid wheel's speed before
+    strike k+1 follows exactly from the one before strike k (rimless_wheel_speed's docstring: the impact
+    scales omega by r, the stance phase adds 4 m g l sin(alpha) sin(slope) / (I_c + m l^2) to omega^2), so
+    (omega_{k+1}^2 - omega_end^2) = r^2 (omega_k^2 - omega_end^2) strike by strike; the ratio holds to the
+    integration error (rtol 1e-10) amplified by the difference's smallness (>= 1e-3 of omega_end^2 here)."""
+    case = gi.load_case(CASES / "rimless_wheel.toml")
+    model, alpha = case.model, np.pi / N_SPOKES
+    assert model.n_dof == 3 and sum(j.kind == "W" for j in model.chain.joints) == N_SPOKES - 1
+    m = M_HUB + N_SPOKES * MU_SPOKE * SPOKE
+    I_c = I_HUB + N_SPOKES * MU_SPOKE * SPOKE ** 3 / 3
+    w_star = rimless_wheel_speed(m, I_c, SPOKE, alpha, WHEEL_SLOPE)
+    r = (I_c + m * SPOKE ** 2 * np.cos(2 * alpha)) / (I_c + m * SPOKE ** 2)
+    res = case.simulate()
+    strikes = [s for s in res.impacts if np.any(s.impulses > 0)]
+    w = np.array([-s.qdot_before[model.coordinate_names.index("theta_1")] for s in strikes])
+    assert res.status == "finished" and len(w) >= 4, (res.status, len(w))
+    d = w ** 2 - w_star ** 2
+    np.testing.assert_allclose(d[1:] / d[:-1], r * r, rtol=1e-6)
