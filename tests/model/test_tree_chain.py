@@ -53,10 +53,15 @@ def test_tree_coordinates_skip_welds_and_default_is_the_serial_chain():
     assert serial.parents == (-1, 0) and serial.attach == (None, None) and serial.serial
 
 
-def test_symbolic_derivation_refuses_trees():
-    model = gi.Model(gi.Chain([LK, LK], parents=[-1, 0], attach=[None, 0.5], base=gi.FixedBase()))
-    with pytest.raises(NotImplementedError, match=r"trees \(Chain parents/attach\), welds"):
-        gi.derive_equations(model)
+def test_symbolic_derivation_builds_a_tree_like_the_kernel():
+    """derive_equations follows the tree (a child at x_a = 0.5 m on a bending parent): its M equals the kernel's
+    to round-off (tests/symbolic/test_derive.py checks more trees, forcing and the Lagrange route)."""
+    lk = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-free", "y")], geometric_stiffening=False)
+    model = gi.Model(gi.Chain([lk, lk], parents=[-1, 0], attach=[None, 0.5], base=gi.FixedBase()))
+    q = np.array([0.3, -0.7, 0.02, -0.01])
+    M = model.mass_matrix(q)
+    np.testing.assert_allclose(gi.derive_equations(model).numeric().mass_matrix(q), M, rtol=0,
+                               atol=1e-12 * np.abs(M).max())
 
 
 def test_a_weld_is_no_prescribable_joint():

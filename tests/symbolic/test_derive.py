@@ -82,6 +82,36 @@ def _planar_chain(n):
     return gi.Model(gi.Chain([link] * n), gravity=(0.0, -9.81, 0.0))
 
 
+def _rx(a):
+    c, s = np.cos(a), np.sin(a)
+    return ((1.0, 0.0, 0.0), (0.0, c, -s), (0.0, s, c))
+
+
+def _fixed_tree():
+    """A tree on a fixed base (formulation §17): a bending root (y and z modes), a child at its tip on a revolute
+    axis turned by Rx(0.4), a welded flexible child at x_a = 0.6 m on the root, and a rigid grandchild."""
+    root = gi.Link(1.0, 1.0, (20.0, 30.0), modes=[gi.Mode("clamped-free", "y"), gi.Mode("clamped-free", "z")],
+                   rotary_inertia=(1e-3, 1e-3, 1e-3), geometric_stiffening=False)
+    arm = gi.Link(0.6, 0.8, 12.0, modes=[gi.Mode("clamped-free", "y")], rotary_inertia=(1e-3, 2e-3, 1e-3),
+                  geometric_stiffening=False)
+    twig = gi.Link(0.4, 0.5, 10.0, elements=1, element_directions=("y", "z"), geometric_stiffening=False)
+    tip = gi.Link(0.3, 0.7, 1.0, rotary_inertia=(1e-3, 1e-3, 1e-3))
+    joints = [gi.Revolute(), gi.Revolute(axis_rotation=_rx(0.4)), gi.Weld(angle=0.5, rotation=_rx(-0.3)), gi.Revolute()]
+    chain = gi.Chain([root, arm, twig, tip], joints=joints, parents=[-1, 0, 0, 1], attach=[None, None, 0.6, None],
+                     base=gi.FixedBase((0.0, 0.5, 0.2), -0.4))
+    return gi.Model(chain, gravity=(0.0, -9.81, 0.0))
+
+
+def _free_tree():
+    """A free-flying tree: a rigid root with a welded rigid branch at its start and a bending branch at x_a = 0.3 m."""
+    root = gi.Link(0.8, 1.2, 1.0, rotary_inertia=(1e-3, 1e-3, 1e-3))
+    stub = gi.Link(0.5, 1.0, 1.0, rotary_inertia=(2e-3, 1e-3, 1e-3))
+    limb = gi.Link(0.7, 0.9, 15.0, modes=[gi.Mode("clamped-free", "y")], geometric_stiffening=False)
+    chain = gi.Chain([root, stub, limb], joints=[gi.Revolute(), gi.Weld(angle=2.0), gi.Revolute(axis_rotation=_rx(0.7))],
+                     parents=[-1, 0, 0], attach=[None, 0.0, 0.3])
+    return gi.Model(chain, gravity=(0.2, -9.81, 0.1))
+
+
 CHAINS = {
     "two_link_circle": two_link_circle_model,
     "single_link_sphere": single_link_sphere_model,
@@ -91,6 +121,8 @@ CHAINS = {
     "planar_four": _planar_four,
     "fixed_base_spatial_one": _fixed_base_spatial_one,
     "fixed_base_bodies": _fixed_base_bodies,
+    "fixed_tree": _fixed_tree,
+    "free_tree": _free_tree,
 }
 
 
@@ -365,3 +397,15 @@ def test_attached_bodies_both_routes_and_no_parametric_tables():
         assert _rel(la[0](q), ga[0](q)) <= RTOL and _rel(la[1](q, qd), ga[1](q, qd)) <= RTOL
     with pytest.raises(ValueError, match="carries RigidBody entries"):
         gi.derive_equations(model, symbols=True)
+
+
+def test_tree_gibbs_appell_and_lagrange_agree_and_parametric_attach_is_refused():
+    """The two symbolic routes on a tree (a weld, a turned axis, a child along a bending parent) agree to
+    1e-12; symbols=True refuses a child attached along its parent (its section is numeric), naming attach."""
+    ga, lg = equations("fixed_tree", "gibbs-appell").numeric(), equations("fixed_tree", "lagrange").numeric()
+    for q, qd in _states(model_of("fixed_tree"), 5)[:3]:
+        (Mg, fg), (Ml, fl) = ga.mass_matrix_and_forcing(q, qd), lg.mass_matrix_and_forcing(q, qd)
+        assert _rel(Ml, Mg) <= RTOL and _rel(fl, fg) <= RTOL
+    with pytest.raises(NotImplementedError, match="attach"):
+        gi.derive_equations(model_of("fixed_tree"), symbols=True)
+

@@ -81,19 +81,17 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
 
     if not isinstance(model, Model):
         raise ValueError(f"derive_equations model={model!r} must be a gibbsimpact.Model")
-    rotated = [i + 1 for i, jt in enumerate(model.chain.joints) if getattr(jt, "axis_rotation", None) is not None]
-    if not model.chain.serial or "W" in model.joint_kinds or rotated:
-        # The symbolic recursion follows one path of revolute joints about each link's z axis.
-        raise NotImplementedError(
-            "derive_equations: trees (Chain parents/attach), welds (gi.Weld) and rotated revolute axes "
-            "(Revolute(axis_rotation=...)) are not derived symbolically yet (formulation §17); the numeric kernel "
-            "simulates them (tests/kernel/test_tree_kernel.py checks it against closed forms and a Lagrange route)")
-    if model.chain.base == "planar" or any(k != "R" for k in model.joint_kinds):
-        # The symbolic recursion builds revolute joints behind a spatial free or a fixed base only.
+    if model.chain.base == "planar" or any(k not in ("R", "W") for k in model.joint_kinds):
+        # The symbolic recursion builds revolute and welded joints behind a spatial free or a fixed base only.
         raise NotImplementedError(
             "derive_equations: prismatic joints and the planar floating base are not derived symbolically yet "
             f"(this model has joints {'-'.join(model.joint_kinds)}, base {model.chain.base!r}); the numeric "
             "kernel simulates them, and tests/reference/planar_oracle.py is an independent derivation")
+    if symbols and any(a is not None for a in model.chain.attach):
+        # An attachment abscissa x_a is a number: it would not follow a symbolic length l_i.
+        raise NotImplementedError(
+            "derive_equations symbols=...: a tree with joints along a parent (Chain attach=...) has numeric "
+            "attachment sections; derive it with symbols=False (numbers), or attach the children at the tips")
     stiff = [i + 1 for i, lk in enumerate(model.chain.links) if lk.stiffened]
     if stiff:
         # u_f = -1/2 delta^T H(x) delta makes the body moments quartic in delta (formulation §15).

@@ -20,19 +20,28 @@ omega_G = W_G sdot, W_G = vee(R_G^T dR_G/ds))::
 
 from __future__ import annotations
 
+import copy
+
+import numpy as np
+
+from ..model.shapes import section_tables
 from .algebra import rodrigues_function, rot4
 
 
-def _end_transform(alg, ld, d):
+def _end_transform(alg, ld, d, section=None):
     """E(delta) (4, 4) and its rotation kind: None (translation), ('axis', a, angle) or ('general',).
 
-    E = Trans(l e_1 + end_t^T delta) Rot(end_phi^T delta).
+    E = Trans(l e_1 + end_t^T delta) Rot(end_phi^T delta); with section = (x_a, t, phi) (a tree,
+    formulation §17) the section at x_a instead: A(x_a) = Trans(x_a e_1 + t^T delta) Rot(phi^T delta).
     """
-    G = alg.cmat(ld.E0)
-    et = alg.cmat(ld.end_t)
+    if section is None:
+        G, et, ep = alg.cmat(ld.E0), alg.cmat(ld.end_t), alg.cmat(ld.end_phi)
+    else:
+        G = alg.eye(4)
+        G[0][3] = alg.const(section[0])
+        et, ep = alg.cmat(section[1]), alg.cmat(section[2])
     for a in range(3):
         G[a][3] = alg.add([G[a][3]] + [alg.mul(et[k][a], d[k]) for k in range(len(d))])
-    ep = alg.cmat(ld.end_phi)
     phi = [alg.add([alg.mul(ep[k][a], d[k]) for k in range(len(d))]) for a in range(3)]
     nz = [a for a in range(3) if phi[a] is not alg.Z]
     if not nz:
@@ -116,10 +125,9 @@ class _Recursion:
         return [alg.add([alg.mul(Wj[c], self.qd[j]) for j, Wj in self.W.items()]) for c in range(3)]
 
 
-def _link_frames(model, alg, q, qd, velocities, rotary):
-    """Yield (i, recursion state at T_i) for i = 0 .. n-1 (state valid only during the yield)."""
+def _base_state(model, alg, q, qd, velocities, rotary):
+    """The recursion state at the base: after Trans(X) Rx Ry of a free base, or at the fixed base's T0."""
     rec = _Recursion(alg, q, qd, velocities, rotary)
-    theta = model.theta_index
     if model.free_base:
         G = alg.eye(4)
         for a in range(3):
@@ -129,6 +137,52 @@ def _link_frames(model, alg, q, qd, velocities, rotary):
         rec.step(rot4(alg, 1, q[4]), [4], ("axis", 1, q[4]))
     else:
         rec.T = alg.cmat(model.base_transform)  # constant: no derivatives, zero angular velocity
+    return rec
+
+
+def _joint_step(alg, rec, joint, k, q):
+    """rec <- rec J_i: J = Rot(R) Rz(theta_k) of a revolute (R its axis_rotation), Rot(R) Rz(angle) of a weld."""
+    R = getattr(joint, "axis_rotation", None) if joint.kind == "R" else joint.rotation
+    if R is not None:  # a constant rotation: no local coordinate, but it turns the angular velocity columns
+        G = [[alg.const(v) for v in row] + [alg.Z] for row in np.asarray(R, dtype=float)] + [[alg.Z] * 3 + [alg.O]]
+        rec.step(G, [], ("general",))
+    if joint.kind == "W":
+        if joint.angle != 0.0:
+            rec.step(rot4(alg, 2, alg.const(joint.angle)), [], ("general",))
+    else:
+        rec.step(rot4(alg, 2, q[k]), [k], ("axis", 2, q[k]))
+
+
+def _tree_frames(model, alg, q, qd, velocities, rotary):
+    """Yield (i, recursion state at T_i) of a tree (formulation §17): T_i = T_p A_p(x_a) J_i, each link
+    starting from a copy of its parent's state (the recursion's steps build new matrices, so a shallow copy
+    is a snapshot)."""
+    chain, states = model.chain, []
+    for i in range(model.n_links):
+        p, xa = chain.parents[i], chain.attach[i]
+        rec = copy.copy(_base_state(model, alg, q, qd, velocities, rotary) if p < 0 else states[p])
+        if p >= 0:
+            ld = model.link_data[p]
+            idx = [int(k) for k in model.delta_index[p]]
+            if xa is None and ld.end_is_rigid:
+                rec.step(alg.cmat(ld.E0), [], None)
+            else:
+                sec = None if xa is None else (xa, *section_tables(chain.links[p], xa))
+                E, kind = _end_transform(alg, ld, [q[k] for k in idx], sec)
+                rec.step(E, idx, kind)
+        _joint_step(alg, rec, chain.joints[i], int(model.theta_index[i]), q)
+        states.append(rec)
+        yield i, rec
+
+
+def _link_frames(model, alg, q, qd, velocities, rotary):
+    """Yield (i, recursion state at T_i) for i = 0 .. n-1 (state valid only during the yield)."""
+    if not model.chain.serial or any(getattr(j, "axis_rotation", None) is not None or j.kind == "W"
+                                     for j in model.chain.joints):
+        yield from _tree_frames(model, alg, q, qd, velocities, rotary)
+        return
+    rec = _base_state(model, alg, q, qd, velocities, rotary)
+    theta = model.theta_index
     rec.step(rot4(alg, 2, q[theta[0]]), [theta[0]], ("axis", 2, q[theta[0]]))
     n = model.n_links
     for i in range(n):
