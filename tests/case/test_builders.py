@@ -310,8 +310,8 @@ def wrong_keys(data: dict) -> dict:
         for v in ("P", "pb", "X", 1, ""):
             out["joint.type"].append((f"{p}.joint.type", _setter(k, "joint", "type", value=v)))
         joint = link.get("joint", {"type": "R"})
-        if joint["type"] == "R":  # a revolute joint has no range
-            out["joint.range_m"].append((f"{p}.joint.range_m", _setter(k, "joint", value={"type": "R", "range_m": [0.1, 0.2]})))
+        if joint["type"] in ("R", "W"):  # a revolute joint or a weld has no range
+            out["joint.range_m"].append((f"{p}.joint.range_m", _setter(k, "joint", value={**joint, "range_m": [0.1, 0.2]})))
             continue
         lo, hi = joint["range_m"]
         for v in ([hi, lo], [lo], "far", [lo, 100.0], [0.0 if joint["type"] == "Pb" else -1.0, hi]):

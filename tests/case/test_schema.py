@@ -73,6 +73,9 @@ def with_key(range_key, value):
         # A rigid rod whose carriage (joint 1, Pa) runs on the base rail: any range, any c, any angle.
         coords.pop("X1_m")
         d["base"] = {"type": "fixed"}
+        if key == "rotation_xyz_deg":  # a revolute (3D: the fixed base's rod) with its axis turned about x
+            link["joint"] = {"type": "R", key: [value, 0.0, 0.0]}
+            return d, f"links[1].joint.{key}"
         lo, hi = (0.0, 1.0)
         if key == "range_m":
             lo, hi = (value, value + 1.0) if value < 0 else (value - 1.0, value)

@@ -75,3 +75,19 @@ def test_tree_model_survives_the_result_files(tmp_path):
     assert back.chain == chain
     q = np.array([0.3, -0.4, 0.01, 0.02, -0.01])
     np.testing.assert_array_equal(back.mass_matrix(q), model.mass_matrix(q))
+
+
+def test_case_turns_a_revolute_axis_and_a_weld_by_rotation_xyz_deg(tmp_path):
+    """rotation_xyz_deg = [a, b, c] is R = Rx(a) Ry(b) Rz(c), checked against rotations built here by hand
+    (a 3D fixed-base tree: a hip axis turned by 90 deg about x swings the leg out of the base's plane)."""
+    text = (TREE.replace('type = "planar"', 'type = "fixed"')
+            .replace('type = "R"\nparent = 1', 'type = "R"\nrotation_xyz_deg = [90.0, 0.0, 0.0]\nparent = 1')
+            .replace('angle_deg = -40.0\nparent = 1', 'angle_deg = -40.0\nrotation_xyz_deg = [0.0, 30.0, 45.0]\nparent = 1'))
+    chain = gi.load_case(write(tmp_path, text)).model.chain
+    c30, s30, h = np.cos(np.pi / 6), np.sin(np.pi / 6), np.sqrt(0.5)
+    rx90 = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]
+    ry30_rz45 = np.array([[c30, 0, s30], [0, 1, 0], [-s30, 0, c30]]) @ np.array([[h, -h, 0], [h, h, 0], [0, 0, 1]])
+    np.testing.assert_allclose(chain.joints[1].axis_rotation, rx90, atol=1e-15)
+    np.testing.assert_allclose(chain.joints[2].rotation, ry30_rz45, atol=1e-15)
+    bad = text.replace("rotation_xyz_deg = [90.0, 0.0, 0.0]", "rotation_xyz_deg = [90.0, 0.0]")
+    assert any(k == "links[2].joint.rotation_xyz_deg" for k, _ in problems_of(tmp_path, bad).problems)

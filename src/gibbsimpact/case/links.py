@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import scipy.linalg as sl
 
 from ..model.bodies import RigidBody
@@ -331,11 +332,12 @@ def _joint(r: _Reader, link_tbl, path: str):
                                   + ", ".join(f"{k!r} ({what})" for k, what in _JOINT_TYPES.items()))
         return _BAD
     ok = _keys_of_joint_type(r, tbl, path, kind)
+    rot = _joint_rotation(r, tbl, path) if kind in ("R", "W") else None
     if kind == "R":
-        return Revolute() if ok else _BAD
+        return Revolute(axis_rotation=rot) if ok and rot is not _BAD else _BAD
     angle = _angle(r, tbl, path, "joint")
     if kind == "W":
-        return Weld(angle=angle) if ok and angle is not _BAD else _BAD
+        return Weld(angle=angle, rotation=rot) if ok and angle is not _BAD and rot is not _BAD else _BAD
     half = r.get(tbl, path, "half_length_m", "number", default=0.0)
     rng = _joint_range(r, tbl, path, kind)
     if not ok or _BAD in (angle, half, rng):
@@ -343,6 +345,19 @@ def _joint(r: _Reader, link_tbl, path: str):
     if kind == "Pa":
         return SlidingPrismatic(angle=angle, half_length=half, range=tuple(rng))
     return FixedPrismatic(angle=angle, range=tuple(rng))
+
+
+def _joint_rotation(r: _Reader, tbl: dict, path: str):
+    """R = Rx(a) Ry(b) Rz(c) (3, 3) from rotation_xyz_deg = [a, b, c] [deg] (None without the key; _BAD on a
+    problem): the constant rotation of a revolute's axis (gi.Revolute(axis_rotation=R)) or of a weld."""
+    abc = r.get(tbl, path, "rotation_xyz_deg", "vector3", default=None)
+    if abc is None or abc is _BAD:
+        return abc
+    a, b, c = np.radians(np.asarray(abc, dtype=float))
+    rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+    rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
+    return rx @ ry @ rz
 
 
 def _tree(r: _Reader, raw_links):
@@ -370,8 +385,8 @@ def _tree(r: _Reader, raw_links):
 def _keys_of_joint_type(r: _Reader, tbl: dict, path: str, kind: str) -> bool:
     """False (and a problem per key) when the joint table has keys its type has not."""
     ok = True
-    allowed = {"R": (), "Pa": ("angle_deg", "angle_rad", "half_length_m", "range_m"),
-               "Pb": ("angle_deg", "angle_rad", "range_m"), "W": ("angle_deg", "angle_rad")}[kind]
+    allowed = {"R": ("rotation_xyz_deg",), "Pa": ("angle_deg", "angle_rad", "half_length_m", "range_m"),
+               "Pb": ("angle_deg", "angle_rad", "range_m"), "W": ("angle_deg", "angle_rad", "rotation_xyz_deg")}[kind]
     for key in tbl:
         if key in ("type", "parent", "at_m") or key in allowed or key not in _JOINT_KEYS:
             continue
@@ -380,6 +395,9 @@ def _keys_of_joint_type(r: _Reader, tbl: dict, path: str, kind: str) -> bool:
             name = "a revolute joint (type = 'R')" if kind == "R" else "a weld (type = 'W')"
             r.add(join(path, key), f"{name} has no {_JOINT_KEYS[key].split(' of ')[0]}: "
                                    "remove it, or set type = 'Pa' or 'Pb' for a prismatic joint")
+        elif key == "rotation_xyz_deg":
+            r.add(join(path, key), "a prismatic joint has no constant rotation (only R and W joints, in trees): "
+                                   "remove it, or give the angle by angle_deg")
         else:
             r.add(join(path, key), "only a Pa carriage has a half-length (a Pb guide sits at the host's tip): "
                                    "remove it or set type = 'Pa'")

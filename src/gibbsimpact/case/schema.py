@@ -79,6 +79,7 @@ RANGES = {
     "links.joint.range_m": Range(-1e6, 1e6, "m"),
     "links.joint.parent": Range(0, 10**6, integer=True, why="a link number"),
     "links.joint.at_m": Range(0, 1e6, "m"),
+    "links.joint.rotation_xyz_deg": Range(-360.0, 360.0, "deg"),
     "base.position_m": Range(-1e6, 1e6, "m"),
     "base.angle_rad": Range(-1e4, 1e4, "rad"),
     "base.angle_deg": Range(-1e4 * _DEG, 1e4 * _DEG, "deg", why="1e4 rad"),
@@ -256,6 +257,7 @@ _JOINT_KEYS = {
     "range_m": "[d_min, d_max] of a Pa or Pb joint in m",
     "parent": "number of the host link (1-based; 0: the base) of a tree, default: the link before",
     "at_m": "abscissa x_a on the host where the joint sits, in m (default: the host's tip)",
+    "rotation_xyz_deg": "[a, b, c] in deg: the constant rotation Rx(a) Ry(b) Rz(c) of an R joint's axis or a W weld",
 }
 _BASE_KEYS = {
     "type": "'fixed', 'free' or 'planar'",
