@@ -56,6 +56,7 @@ def test_the_cache_and_its_probe_share_the_key():
     except RuntimeError as exc:
         pytest.skip(f"numba has no cache location here: {exc}")
     assert cache._cache_file._source_stamp == _kc.source_key()
+    assert cache._cache_file.save.__qualname__.startswith(locked_saves.__name__)  # saves under the lock
 
 
 # One frictionless pair (mu = 0) on M = diag(2, 3) kg, W = (1, 1): friction_solve's constraint
@@ -132,12 +133,3 @@ def test_concurrent_saves_of_two_variants_keep_every_entry(tmp_path):
     assert set(entries) == {(w, i) for w in range(2) for i in range(100)}
     assert len(set(entries.values())) == 200  # one data file each
     assert all(index.load(key) == (*key, "machine code") for key in entries)
-
-
-def test_the_kernel_cache_saves_under_the_lock():
-    pytest.importorskip("numba")
-    try:
-        cache = _kc._kernel_cache(_kc._PY_KERNEL)
-    except RuntimeError as exc:
-        pytest.skip(f"numba has no cache location here: {exc}")
-    assert cache._cache_file.save.__qualname__.startswith(locked_saves.__name__)

@@ -7,8 +7,8 @@ renamed (atomic), but with no lock across the steps. Two processes that finish c
 signatures of one function at once (two pytest-xdist workers, two sweep workers on a cold cache,
 each compiling another kernel variant) both read the same index and pick the same number: one
 entry is lost, or the index names a data file that the other process then overwrote with its
-own signature's code, which numba loads for the wrong signature from then on (the call fails
-with "No matching definition" until the kernel's source key changes). ``locked_saves`` makes
+own signature's code, which a later load would take for the wrong signature until the kernel's
+source key changes (tests/kernel/test_compile.py shows both, unlocked). ``locked_saves`` makes
 the read-modify-write exclusive (flock on ``<index>.lock`` beside the index) and writes the
 data file before the index that names it, so that a reader never finds an entry whose data is
 missing or another's. Without fcntl (Windows) it saves as numba does.
