@@ -10,7 +10,7 @@
 * examples/README.md lists exactly the scripts in examples/; the case files and
   examples the README names exist, and it names all of them; the README's
   relative links point at files that exist; every "theory.md §N" cited anywhere
-  exists as a numbered section of docs/theory.md.
+  exists as a numbered section of docs/theory.md; .ci/run runs the README's test command.
 """
 
 import argparse
@@ -196,6 +196,15 @@ def test_readme_links_point_at_files():
     assert local, "no relative links found"
     missing = [t for t in local if t and not (ROOT / t).exists()]
     assert not missing, f"README.md links to missing files: {missing}"
+
+
+
+def test_ci_runs_the_readme_test_command():
+    # CI (.ci/run) runs "the README's test command": the first pytest command line of the README (its
+    # options: xdist workers, distribution) is the one .ci/run runs, so that one change edits both.
+    readme = re.findall(r"^python -m pytest\b.*$", README.read_text(encoding="utf-8"), re.M)
+    ci = re.findall(r"^python -m pytest\b.*$", (ROOT / ".ci" / "run").read_text(encoding="utf-8"), re.M)
+    assert readme and ci == readme[:1], f"README's test command {readme[:1]} is not .ci/run's {ci}"
 
 
 def slug(heading: str) -> str:

@@ -270,6 +270,7 @@ def test_fixed_base_fe_arm_with_a_sliding_link_strikes_a_plane():
     assert np.abs(E.total - E.total[0]).max() / _energy_scale(E) <= 1e-8
 
 
+@pytest.mark.slow  # 27 s of CPU (2026-11-27, docs/design-notes.md#running-the-tests)
 def test_damped_sliding_link_balance_closes():
     # Stiffness-proportional damping of a Pb link uses K(d) of the protruding part; the audit
     # E(t) - E(0) - W_in - W_damp still closes, and the damping only dissipates.

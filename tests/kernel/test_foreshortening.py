@@ -104,6 +104,7 @@ def _free_state(model):
     return q, qd
 
 
+@pytest.mark.slow  # 13 s of CPU (2026-11-27, docs/design-notes.md#running-the-tests)
 def test_free_flight_conserves_energy_and_momenta():
     # Exact holonomic system (formulation §15): E, L and H0 constant to the integrator's error.
     model = _free_chain()
@@ -121,6 +122,7 @@ def test_free_flight_conserves_energy_and_momenta():
         assert np.linalg.norm(model.angular_momentum(y[:N], y[N:]) - H0) <= 1e-9 * np.linalg.norm(H0)
 
 
+@pytest.mark.slow  # 93 s of CPU from a cold cache (2026-11-27, docs/design-notes.md#running-the-tests)
 def test_impacts_at_e1_conserve_energy_and_angular_momentum_about_the_centre():
     # Frictionless impacts on a sphere push through its centre: H about it and E stay (e = 1).
     model = _free_chain()
@@ -172,6 +174,7 @@ def test_tip_of_a_bent_link_sits_at_l_plus_u_f_everywhere():
     assert cp.gap[0, 0] == pytest.approx(float(ex @ (R @ [l + 0.05, 0.0, 0.0] - tip)), abs=1e-12)
 
 
+@pytest.mark.slow  # 159 s of CPU (2026-11-27, docs/design-notes.md#running-the-tests)
 def test_attached_bodies_foreshorten_with_their_link_and_conserve_energy():
     # A tip payload (axial lever: its points sit at x_a + s) and a hub on stiffened links: the
     # foreshortening sums run over the same mass points (model.shapes.mass_points), so E stays.

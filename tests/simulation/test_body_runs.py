@@ -7,6 +7,7 @@ import pytest
 import gibbsimpact as gi
 
 
+@pytest.mark.slow  # 15 s of CPU (2026-11-27, docs/design-notes.md#running-the-tests)
 def test_free_chain_with_payload_conserves_energy_and_momentum_through_impacts():
     # Planar floating base, no gravity: between impacts E, the linear momentum and the angular
     # momentum about the origin are invariants; an e = 1 impact on the circle keeps E only.

@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from .contact import contact_terms, event_gaps, friction_solve
+from .disk_cache import locked_saves
 from .entry import kernel
 from .frames import chain_frames
 from .jacobian import state_jacobian
@@ -151,16 +152,20 @@ def _kernel_cache(py_func):
     from an index whose stamp differs. It compiles the kernel's helpers into their callers from
     other files, so that stamp would miss an edit to a helper and load stale machine code: every
     compiled kernel function is stamped with source_key() (computed once per process) instead.
+    Its saves are exclusive across processes (disk_cache.locked_saves), so that processes
+    compiling two variants at once (pytest-xdist workers, sweep workers) keep both.
     Raises RuntimeError("cannot cache ...") where numba finds no cache location, or where its
-    cache index no longer has the stamp this relies on (then nothing is cached).
+    cache index no longer has the stamp and the methods this relies on (then nothing is cached).
     """
     from numba.core.caching import FunctionCache
 
     cache = FunctionCache(py_func)
     index = getattr(cache, "_cache_file", None)
-    if not hasattr(index, "_source_stamp"):  # pragma: no cover - numba's caching changed
+    if not all(hasattr(index, a) for a in ("_source_stamp", "_index_path", "_load_index", "_save_index",
+                                            "_save_data", "_data_name")):  # pragma: no cover - numba changed
         raise RuntimeError(f"cannot cache {py_func.__name__}: numba's cache index has no source stamp to key")
     index._source_stamp = _source_key_now()
+    locked_saves(index)
     return cache
 
 
