@@ -287,19 +287,24 @@ class Chain:
         return self.base == "planar" or any(j.kind in ("Pa", "Pb") for j in self.joints)
 
 
+def _per_link(name: str, value, n: int, what: str, fix: str) -> tuple:
+    """Chain's argument ``name`` as a tuple of one entry per link (n); a ValueError names it and the fix."""
+    try:
+        value = tuple(value)
+    except TypeError:
+        raise ValueError(f"Chain {name}={value!r} must be a list of n = {n} {what}") from None
+    if len(value) != n:
+        raise ValueError(f"Chain {name} has {len(value)} entries for {n} links; give one per link ({fix})")
+    return value
+
+
 def _check_tree(links, joints, base, parents, attach) -> tuple:
     """(parents, attach) as tuples after the rules of formulation §17; a ValueError names the
     argument and the fix."""
     n = len(links)
     if parents is None:
         parents = tuple(range(-1, n - 1))
-    try:
-        parents = tuple(parents)
-    except TypeError:
-        raise ValueError(f"Chain parents={parents!r} must be a list of n = {n} link indices (-1: the base)") from None
-    if len(parents) != n:
-        raise ValueError(f"Chain parents has {len(parents)} entries for {n} links; give one parent per link "
-                         "(-1 for the base)")
+    parents = _per_link("parents", parents, n, "link indices (-1: the base)", "-1 for the base")
     for i, p in enumerate(parents):
         if isinstance(p, bool) or not isinstance(p, (int, np.integer)) or not -1 <= p < i:
             raise ValueError(f"Chain parents[{i}]={p!r} must be -1 (the base) or the 0-based index of an earlier "
@@ -312,13 +317,7 @@ def _check_tree(links, joints, base, parents, attach) -> tuple:
                          "parent (or use gi.FixedBase(...), which may carry several roots)")
     if attach is None:
         attach = (None,) * n
-    try:
-        attach = tuple(attach)
-    except TypeError:
-        raise ValueError(f"Chain attach={attach!r} must be a list of n = {n} abscissae [m] or None") from None
-    if len(attach) != n:
-        raise ValueError(f"Chain attach has {len(attach)} entries for {n} links; give one per link (None: the "
-                         "parent's tip)")
+    attach = _per_link("attach", attach, n, "abscissae [m] or None", "None: the parent's tip")
     out = []
     for i, (p, a) in enumerate(zip(parents, attach)):
         if a is None:
