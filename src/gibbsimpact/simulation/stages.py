@@ -218,8 +218,8 @@ def impact(run) -> None:
         if rec is not None:
             _record_impact(run, rec, q)
             if not run.newton_warned:
-                # user -> simulate -> impact: stacklevel 3 names the user's line.
-                run.newton_warned = bool(warn_impact(run.model, rec, s.walls, s.link_contacts, stacklevel=3))
+                # user -> simulate -> _loop -> impact: stacklevel 4 names the user's line.
+                run.newton_warned = bool(warn_impact(run.model, rec, s.walls, s.link_contacts, stacklevel=4))
             accumulation = run.monitor.add(rec, in_band_before)
             if accumulation is not None:
                 _accumulation(run, accumulation)
