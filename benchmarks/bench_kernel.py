@@ -597,7 +597,8 @@ def planar_chain(kinds):
 
     links, joints, ref = [], [], []
     for (l, mu, ei), kind in zip(PRISMATIC_LINKS, kinds):
-        links.append(gi.Link(length=l, mass_per_length=mu, EI=ei, elements=PRISMATIC_ELEMENTS))
+        # geometric_stiffening=False: the oracle is the linear beam (and a Pb link refuses foreshortening)
+        links.append(gi.Link(length=l, mass_per_length=mu, EI=ei, elements=PRISMATIC_ELEMENTS, geometric_stiffening=False))
         if kind == "R":
             joints.append(gi.Revolute())
             ref.append(link("R", l, mu, ei, PRISMATIC_ELEMENTS))
