@@ -36,7 +36,12 @@ that fails prints its error and the next one runs):
    run first, then the minimum of 3) in a subprocess, against the same run with
    the pre-numba kernel of commit 54f2dfd (a temporary git worktree, PYTHONPATH
    to its src/; if that commit is unavailable, the current code with
-   NUMBA_DISABLE_JIT=1). Targets: speed-up >= 12, warm wall time <= 0.15 s.
+   NUMBA_DISABLE_JIT=1). That commit's case reader rejects keys added since
+   (``geometric_stiffening``): it reads today's case 1 with them removed, after
+   a check that each has the value that commit has built in (a linear beam,
+   ``false``), and the two runs' impact times must agree to 1e-6 s.
+   Targets: speed-up >= 12, warm wall time <= 0.15 s. Runs on its own with
+   ``--only simulate``.
 5. Cold start: ``python -m gibbsimpact run cases/circle_two_link.toml
    --no-plots --out TMP`` in a subprocess with a fresh NUMBA_CACHE_DIR (CPU
    time of the child from getrusage, and wall time), then the same command
@@ -67,6 +72,7 @@ that fails prints its error and the next one runs):
 Usage:
     python benchmarks/bench_kernel.py [--quick] [--skip-cold] [--skip-simulate] [--repeats R]
     python benchmarks/bench_kernel.py --only prismatic [--quick] [--repeats R]
+    python benchmarks/bench_kernel.py --only simulate [--quick]
 
 ``--quick`` is a smoke run: n = 2, 4, 8, 3 repeats of short loops, 1 timed
 simulate run, sympy for n <= 4 only.
@@ -380,7 +386,7 @@ for _ in range(repeats):
     walls.append(time.perf_counter() - t0)
     cpus.append(time.process_time() - c0)
 print(json.dumps(dict(file=gi.__file__, wall=walls, cpu=cpus, impacts=len(res.impacts), nfev=res.nfev,
-                      status=res.status, t_end=float(res.t[-1]))))
+                      status=res.status, t_end=float(res.t[-1]), impact_times=[float(r.time) for r in res.impacts])))
 """
 
 
@@ -420,12 +426,47 @@ print(json.dumps(dict(per_rhs=min(plain[1:]) / r.nfev, plain_nfev=int(r.nfev), j
 """
 
 
-def _run_simulate_child(env, repeats, label):
-    p = subprocess.run([sys.executable, "-c", _SIMULATE_CHILD, str(CASE1), str(repeats)], env=env, cwd=ROOT,
+def _run_simulate_child(env, repeats, label, case=CASE1):
+    p = subprocess.run([sys.executable, "-c", _SIMULATE_CHILD, str(case), str(repeats)], env=env, cwd=ROOT,
                        capture_output=True, text=True, timeout=1800, check=False)
     if p.returncode != 0:
         raise RuntimeError(f"{label} run failed (exit {p.returncode}):\n{p.stderr[-2000:]}")
     return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+#: Case-file keys that commit BASELINE_COMMIT does not know (its reader rejects them), each with the value
+#: that means what that commit does without it: its beams are linear (no foreshortening).
+BASELINE_UNKNOWN_KEYS = {"geometric_stiffening": False}
+
+
+def _toml_items(node):
+    """Every (key, value) of a parsed TOML document, at any depth (tables, arrays of tables)."""
+    if isinstance(node, dict):
+        for k, v in node.items():
+            yield k, v
+            yield from _toml_items(v)
+    elif isinstance(node, list):
+        for v in node:
+            yield from _toml_items(v)
+
+
+def baseline_case_text(text: str) -> str:
+    """Case 1's TOML ``text`` as commit BASELINE_COMMIT reads it: the lines setting a key of
+    BASELINE_UNKNOWN_KEYS removed, after checking that each sets the value that commit has built in (else the
+    two runs would simulate different models, and ValueError says which key)."""
+    import re
+    import tomllib
+
+    for key, value in _toml_items(tomllib.loads(text)):
+        if key in BASELINE_UNKNOWN_KEYS and value != BASELINE_UNKNOWN_KEYS[key]:
+            raise ValueError(f"{CASE1.name}: {key} = {value!r}, but commit {BASELINE_COMMIT} only simulates "
+                             f"{key} = {BASELINE_UNKNOWN_KEYS[key]!r}: the baseline would be another model")
+    line = re.compile(rf"^\s*({'|'.join(BASELINE_UNKNOWN_KEYS)})\s*=.*(\n|$)", re.M)
+    out = line.sub("", text)
+    if any(k in BASELINE_UNKNOWN_KEYS for k, _ in _toml_items(tomllib.loads(out))):
+        raise ValueError(f"{CASE1.name}: a key of {sorted(BASELINE_UNKNOWN_KEYS)} is not on a line of its own; "
+                         "the baseline cannot strip it")
+    return out
 
 
 def _git(*args, check=True):
@@ -448,14 +489,18 @@ def simulate_vs_baseline(cfg):
             added = r.returncode == 0
             if not added:
                 print(f"git worktree add failed: {r.stderr.strip()}")
+        case = CASE1
         if added:
             base_env = dict(os.environ, PYTHONPATH=str(wt / "src"))
-            how = f"commit {BASELINE_COMMIT} (worktree {wt})"
+            case = tmp / CASE1.name  # today's case 1 without the keys that commit does not know
+            case.write_text(baseline_case_text(CASE1.read_text()))
+            how = (f"commit {BASELINE_COMMIT} (worktree {wt}), case 1 without the key(s) "
+                   f"{', '.join(f'{k} = {str(v).lower()}' for k, v in BASELINE_UNKNOWN_KEYS.items())}")
         else:
             print(f"commit {BASELINE_COMMIT} unavailable: the baseline is the current code with NUMBA_DISABLE_JIT=1")
             base_env = dict(env, NUMBA_DISABLE_JIT="1")
             how = "current code, NUMBA_DISABLE_JIT=1"
-        base = _run_simulate_child(base_env, cfg.sim_repeats, "baseline")
+        base = _run_simulate_child(base_env, cfg.sim_repeats, "baseline", case)
         if added and not Path(base["file"]).resolve().is_relative_to(wt.resolve()):
             print(f"warning: the baseline imported {base['file']}, not the worktree")
     finally:
@@ -487,6 +532,9 @@ def simulate_vs_baseline(cfg):
           f"warm wall {warm:.3f} s (target <= 0.15 s) {verdict(warm <= 0.15)}")
     if cur["impacts"] != 4 or base["impacts"] != 4:
         print(f"note: case 1 should have 4 impacts (current {cur['impacts']}, baseline {base['impacts']})")
+    elif "impact_times" in base:  # the same model: the impact times agree to the event tolerance
+        dt = max(abs(a - b) for a, b in zip(cur["impact_times"], base["impact_times"]))
+        print(f"same run: max |impact time, current - baseline| = {dt:.1e} s {verdict(dt <= 1e-6)}")
     return {"current": cur, "baseline": base, "speedup": speedup, "floor": floor}
 
 
@@ -709,8 +757,8 @@ def main(argv=None):
     ap.add_argument("--skip-cold", action="store_true", help="skip section 5 (cold start)")
     ap.add_argument("--skip-simulate", action="store_true", help="skip section 4 (simulate against the baseline)")
     ap.add_argument("--repeats", type=int, default=None, help="timing loops per measurement; the minimum is reported")
-    ap.add_argument("--only", choices=("prismatic",), default=None,
-                    help="run one section on its own: prismatic = section 7 (no plot)")
+    ap.add_argument("--only", choices=("prismatic", "simulate"), default=None,
+                    help="run one section on its own (no plot): prismatic = section 7, simulate = section 4")
     args = ap.parse_args(argv)
     cfg = argparse.Namespace(
         sizes=(2, 4, 8) if args.quick else (2, 4, 8, 16, 32),
@@ -723,6 +771,8 @@ def main(argv=None):
     if args.only == "prismatic":
         print(f"{cfg.repeats} repeats of ~{cfg.budget} s loops per timing")
         return {"prismatic": run_section(prismatic_chains, cfg)}
+    if args.only == "simulate":
+        return {"simulate": run_section(simulate_vs_baseline, cfg)}
     print(f"sizes n = {cfg.sizes}; {cfg.repeats} repeats of ~{cfg.budget} s loops per timing (minimum reported)")
     results = {}
     results["rigid"] = run_section(rigid_vs_pinocchio, cfg)
