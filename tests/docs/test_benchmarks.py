@@ -1,0 +1,44 @@
+"""The benchmark scripts' own logic (benchmarks/): what bench_kernel's baseline section gives the old commit."""
+
+from __future__ import annotations
+
+import importlib.util
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def bench_kernel():
+    spec = importlib.util.spec_from_file_location("bench_kernel", ROOT / "benchmarks" / "bench_kernel.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _without(node, keys):
+    if isinstance(node, dict):
+        return {k: _without(v, keys) for k, v in node.items() if k not in keys}
+    if isinstance(node, list):
+        return [_without(v, keys) for v in node]
+    return node
+
+
+def test_the_baseline_reads_case_1_without_the_keys_its_commit_predates(bench_kernel):
+    # 54f2dfd's reader rejects geometric_stiffening; case 1 sets it to false on both links, which is what
+    # that commit simulates, so the baseline's case is today's with those lines gone and nothing else changed.
+    text = bench_kernel.CASE1.read_text()
+    assert text.count("geometric_stiffening = false") == 2
+    old = tomllib.loads(bench_kernel.baseline_case_text(text))
+    assert old == _without(tomllib.loads(text), set(bench_kernel.BASELINE_UNKNOWN_KEYS))
+    assert all("geometric_stiffening" not in link for link in old["links"])
+
+
+def test_the_baseline_refuses_a_case_its_commit_would_simulate_differently(bench_kernel):
+    text = bench_kernel.CASE1.read_text().replace("geometric_stiffening = false", "geometric_stiffening = true", 1)
+    with pytest.raises(ValueError, match="geometric_stiffening = True, but commit 54f2dfd only simulates "
+                                         "geometric_stiffening = False"):
+        bench_kernel.baseline_case_text(text)
