@@ -8,7 +8,6 @@ O1 and O3 together at 0.474918 s, total energy -4.905 J throughout).
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,15 +15,7 @@ import pytest
 import gibbsimpact as gi
 from gibbsimpact.cli import commands as cli
 from gibbsimpact.simulation.auto import choose_method
-
-CASES = Path(__file__).resolve().parents[2] / "cases"
-COMPILE_NOTICE = re.compile(r"^gibbsimpact: (compiling .*\.\.\.|.*ready in [0-9.]+ s.*)\n", re.M)
-
-
-def run_main(argv, capsys):
-    code = cli.main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    return code, out, COMPILE_NOTICE.sub("", err)
+from test_commands import CASES, run_main  # the command line in-process, compile notices dropped from stderr
 
 
 @pytest.fixture(scope="module")
