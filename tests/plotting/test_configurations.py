@@ -162,3 +162,13 @@ def test_points_that_coincide_share_one_label_path_and_curve(wheel):
     assert paths[0] == "path of $O_{1}$\u2013$O_{6}$ (joint 1 on the base)" and len(paths) == 7
     legend = [t.get_text() for t in plot_joint_positions(wheel).axes[0].get_legend().get_texts()]
     assert legend[0] == "$O_{1}$\u2013$O_{6}$ (joint 1 on the base)" and len(legend) == 7
+
+
+def test_a_run_without_impacts_says_so_and_explains_no_marks():
+    res = burst_result(bursts=())  # the arm on its floor, never touching it
+    assert not res.impacts
+    fig = plot_configurations(res, n_points=5)
+    assert "configurations at the start and the end, no impacts" in fig._suptitle.get_text()
+    assert [a.get_title().split(" (")[1] for a in fig.axes if a.get_visible()] == ["initial)", "final)"]
+    assert "red star" not in fig._supxlabel.get_text()
+    assert "red star: impacting point" in plot_configurations(burst_result(), n_points=5)._supxlabel.get_text()

@@ -89,7 +89,8 @@ def _configurations_title(result, panels, case_name, width_in: float) -> str:
             shown += f" (the first {len(drawn) - 1} and the last drawn)"
     elif len(drawn) < n_imp:
         shown = f"; impacts 1-{drawn[-2][1]} and {drawn[-1][0]} of {n_imp} drawn"
-    return _title(result, f"configurations at the impacts ({walls}{shown})", case_name, width_in=width_in)
+    what = "configurations at the impacts" if n_imp else "configurations at the start and the end, no impacts"
+    return _title(result, f"{what} ({walls}{shown})", case_name, width_in=width_in)
 
 
 def _panel_title(ax, text: str) -> str:
@@ -136,6 +137,18 @@ def _draw_panels_3d(result, axes, panels, n_points, all_pts, own: bool):
             a.set_title(_panel_title(a, p.text), fontsize=9)
 
 
+def _configurations_note(model, panels, planar: bool) -> str:
+    """The footnote of the configuration figure: what its marks mean, only those it draws."""
+    parts = [
+        "red star: impacting point; red arrow: wall normal into the free region" if any(p.hit for p in panels) else "",
+        "red diamond: a prismatic joint at an end stop" if any(p.stops for p in panels) else "",
+        "thin line on the host: the part of a link behind its guide" if "Pb" in model.joint_kinds else "",
+        "" if planar else "pale wide band: the chain's shadow on the floor; X2 vertical, camera along the least "
+                          "joint motion",
+    ]
+    return "; ".join(p for p in parts if p)
+
+
 def _configurations_figure(planar: bool, n: int, title: str):
     """A new figure of n configuration panels and its Axes (2D, or 3D touching panels)."""
     ncols = n if n <= 3 else (2 if n == 4 else (3 if n <= 9 else 4))
@@ -175,11 +188,7 @@ def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
     all_pts = np.concatenate([_scene_points(p.model, p.q, n_points) for p in panels])
     title = _configurations_title(result, panels, case_name,
                                   (3.7 if planar else (5.0 if ncols > 1 else 6.0)) * ncols)
-    note = ("red star: impacting point; red arrow: wall normal into the free region"
-            + ("; red diamond: a prismatic joint at an end stop" if any(p.stops for p in panels) else "")
-            + ("; thin line on the host: the part of a link behind its guide" if "Pb" in model.joint_kinds else "")
-            + ("" if planar else "; pale wide band: the chain's shadow on the floor; X2 vertical, "
-               "camera along the least joint motion"))
+    note = _configurations_note(model, panels, planar)
     if own:
         fig, axes = _configurations_figure(planar, n, title)
     if planar:
