@@ -61,6 +61,10 @@ def test_auto_says_what_it_chose_in_the_result_and_the_cost_estimate():
     assert res.settings["method"] == "Radau" and res.settings["method_choice"].startswith("auto: Radau")
     est = stiff.estimate_cost(t_end=0.1, method="auto")
     assert est.method == "Radau" and est.describe().startswith("auto: Radau")
+    # ... and that it steps over the modes above the gap, where (the cost line of show and run prints describe()):
+    cut = res.settings["cutoff_frequency"]
+    assert 1e4 < cut < 2e4 and f"the modes above {cut:.3g} rad/s" in res.settings["method_choice"]
+    assert f"the modes above {cut:.3g} rad/s" in est.describe()
     plain = _case1().simulate(t_end=0.01)
     assert plain.settings["method"] == "DOP853" and plain.settings["method_choice"] == ""
     with pytest.raises(ValueError, match="use one of .*auto"):
