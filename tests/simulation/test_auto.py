@@ -8,7 +8,7 @@ import pytest
 
 import gibbsimpact as gi
 from gibbsimpact.case import case_from_dict
-from gibbsimpact.simulation.auto import FAST_GAP, STIFF_STEPS, auto_choice, choose_method
+from gibbsimpact.simulation.auto import FAST_GAP, STIFF_STEPS, auto_choice, choose_method, fast_mode_cutoff
 from gibbsimpact.simulation.compiled_radau import radau5_tolerances
 from gibbsimpact.simulation.stability import linearised_eigenvalues
 from gibbsimpact.simulation.cost import estimate_cost
@@ -166,7 +166,7 @@ def test_prescribed_motion_keeps_the_solvers_own_differences(monkeypatch):
 def test_auto_steps_over_fast_modes_only_across_a_gap_in_the_spectrum():
     """auto's cutoff is sqrt(omega_lo omega_hi) at a gap omega_hi / omega_lo >= FAST_GAP of the chain's frequencies:
     case 1 with EI = 1e9 on link 1 (link 2's mode near 151 rad/s, link 1's at 1.07e6 > 22.37 sqrt(EI / (mu l^4)),
-    the clamped-clamped closed form): a cutoff between them; the bundled cases (widest gaps 9-11) and a chain
+    the clamped-clamped closed form): a cutoff between them; the bundled cases (widest gaps 1-17) and a chain
     auto keeps explicit get none; a cutoff the user gives is kept."""
     stiff = _case1(1e9)
     c = auto_choice(stiff.model, stiff.q0, (0.0, 1.0))
@@ -180,6 +180,9 @@ def test_auto_steps_over_fast_modes_only_across_a_gap_in_the_spectrum():
         arm = gi.load_case(CASES / f"{name}.toml")
         c = auto_choice(arm.model, arm.q0, (0.0, 1.0), rtol=1e-2)
         assert c.method == "Radau" and c.cutoff_frequency is None and "stepped over" not in c.reason
+    for path in sorted(CASES.glob("*.toml")):
+        bundled = gi.load_case(path)
+        assert fast_mode_cutoff(linearised_eigenvalues(bundled.model, bundled.q0)) == (None, ""), path.name
     case = _case1()
     assert auto_choice(case.model, case.q0, (0.0, 1.0)) == ("DOP853", choose_method(case.model, case.q0, (0.0, 1.0))[1],
                                                             None)

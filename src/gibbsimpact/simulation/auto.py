@@ -31,7 +31,7 @@ steps are set by accuracy whatever the tolerance, and it stays.
 
 The fast modes of a singularly perturbed chain. When auto takes Radau and the chain's frequencies at q0 have a
 gap of FAST_GAP (= 100) or more between consecutive ones, omega_lo < omega_hi (case 1 with EI = 1e9 on link 1:
-151 and 1.07e6 rad/s, a gap of 7086; the bundled cases' widest gaps are 9-11), the modes above it are a very
+151 and 1.07e6 rad/s, a gap of 7086; the bundled cases' widest gaps are 1-17), the modes above it are a very
 stiff spring on the slow chain, which an impact excites at amplitudes far above the tolerances: auto then sets
 the cutoff_frequency sqrt(omega_lo omega_hi) (unless the user gave one), and the compiled Radau steps over
 those modes (gibbsimpact.simulation.compiled_radau: left out of the error estimate, velocities weighted by h,
