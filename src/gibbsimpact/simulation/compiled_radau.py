@@ -15,6 +15,12 @@ constant (no damped link behind a FixedPrismatic guide) and whose inputs are the
 a case file (constant, sine, ramp, pd on its own coordinate: gibbsimpact.dynamics.inputs) or
 constants. Every other phase of a run with method="Radau" runs scipy's Radau with the kernel's
 Jacobian; so does every phase when the user's inputs are Python callables.
+
+Stepping over fast modes (docs/theory.md §14.1): with a cutoff frequency (simulate's cutoff_frequency, or
+method="auto" at a gap in the chain's spectrum) the modes of d qddot/d q above it leave the error estimate
+(:func:`slow_projector`), velocity errors count min(1, h VELOCITY_RATE) of position errors (RADAU5's
+scaling of index-2 variables, in the error norm and in Newton's) and the estimate is held to RADAU5's
+tolerances (:func:`radau5_tolerances`): the L-stable steps then pass over those modes and damp them.
 """
 
 from __future__ import annotations
@@ -47,7 +53,8 @@ class FlightProgram:
         self.fin, self.C = np.array(fin, dtype=float), np.array(C, dtype=float)  # writable copies (the signature)
         self.A = np.zeros((0, 0))
         self.equations, self.cutoff = equations, cutoff
-        self.n_pos = 0 if cutoff is None else equations.N  # the fast-mode treatment (fast_modes_stepped_over)
+        # with a cutoff, the fast modes are stepped over (module docstring): velocity weighting on q (N,)
+        self.n_pos = 0 if cutoff is None else equations.N
 
     def jacobian(self, t: float, y: np.ndarray) -> np.ndarray:
         """df/dy (n, n) at (t, y) (gibbsimpact.simulation.implicit.rhs_jacobian)."""
@@ -65,16 +72,15 @@ class FlightProgram:
 
 class LinearProgram:
     """y' = A y (A (n, n) [1/s]) through the same compiled stepper (the tests' closed forms); the packed
-    model ``model`` only sizes the unused chain work arrays; cutoff [rad/s] and n_pos (y = (x, x', ...), x
-    (n_pos,)) switch on the fast-mode treatment as FlightProgram's."""
+    model ``model`` only sizes the unused chain work arrays."""
 
-    def __init__(self, A: np.ndarray, model, cutoff: float | None = None, n_pos: int = 0):
+    def __init__(self, A: np.ndarray, model):
         _, self.fdat, self.idat, _, v0, v1, _ = model.kernel_call
         self.variant = (v0, v1)
         self.entry = radau_entry(self.variant)
         self.A = np.ascontiguousarray(A, dtype=float)
         self.fin, self.C = np.zeros((0, 6)), np.zeros((int(self.idat[1]), int(self.idat[1])))
-        self.nfev, self.cutoff, self.n_pos = 0, cutoff, n_pos
+        self.nfev, self.cutoff, self.n_pos = 0, None, 0
 
     def jacobian(self, t, y):
         return self.A
