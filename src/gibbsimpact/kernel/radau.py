@@ -14,8 +14,11 @@ theirs, as in their RADAU5 and in scipy's Radau). The error estimate is the embe
 
     err = (mu_r / h I - J)^-1 (f(t, y) + (e . Z) / h),   e = (-13 - 7 sqrt 6, -13 + 7 sqrt 6, -1) / 3
 
-(re-evaluated once with f(t, y + err) after a rejection, which filters its stiff components), and
-the step size control is Gustafsson's predictive one with the safety factor of the Newton count.
+(re-evaluated once with f(t, y + err) after a rejection, which filters its stiff components), measured in
+the RMS norm scaled by atol + rtol |y|, with the velocity components y[N_POS:2 N_POS] scaled by 1 / min(1, h
+VEL_RATE) when st[N_POS] > 0 (RADAU5's scaling of index-2 variables, also in Newton's norm; used with the
+filter Pf to step over fast modes, simulation.compiled_radau); and the step size control is Gustafsson's
+predictive one with the safety factor of the Newton count.
 The dense output is the collocation polynomial y(t + x h) = y + sum_k Q_k x^k, k = 1..3, Q = Z^T P.
 
 The right-hand side inside the step is the flight phase's (gibbsimpact.simulation.equations):
