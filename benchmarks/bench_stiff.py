@@ -13,8 +13,8 @@ ratios to its reference in the same run:
 * case 1 as shipped over 1 s: DOP853 against auto (which keeps DOP853);
 * scipy's Radau with its finite differences, with the kernel's Jacobian, and the compiled Radau (same run).
 
-Usage: python benchmarks/bench_stiff.py [--repeat 3] [--quick]  (--quick: skips the 1e-11 references
-and the stiff case's long run)
+Usage: python benchmarks/bench_stiff.py [--repeat 3] [--quick] [--only SECTION]  (--quick: skips the 1e-11
+references and the stiff case's long run; --only: arms, servo, stiff, shipped or jacobian)
 """
 
 from __future__ import annotations
@@ -98,6 +98,8 @@ def arm_rows(name, repeat, quick) -> list[str]:
                      ("auto, rtol 1e-3 atol 1e-5", dict(method="auto", rtol=1e-3, atol=1e-5)),
                      ("DOP853 rtol 1e-2 atol 1e-4", dict(method="DOP853", rtol=1e-2, atol=1e-4)),
                      ("auto, rtol 1e-2 atol 1e-4", dict(method="auto", rtol=1e-2, atol=1e-4)),
+                     ("auto, rtol 1e-2 atol 1e-4, cutoff_frequency 1e3 rad/s",
+                      dict(method="auto", rtol=1e-2, atol=1e-4, cutoff_frequency=1e3)),
                      ("scipy's Radau rtol 1e-2 atol 1e-4", dict(method="Radau", rtol=1e-2, atol=1e-4))):
         if what.endswith("(reference)"):
             res, cpu = base, c0
@@ -119,8 +121,13 @@ def stiff_rows(repeat, quick) -> list[str]:
     first, c_first = timed(case, repeat, t_end=0.45, method="auto")
     rows.append(f"| case 1, EI 1e9 | auto → {first.settings['method']}, 0.45 s (before the impact) | {first.status} "
                 f"| {first.n_steps} | {first.nfev} | {c_first:.3g} | {per_s * 0.45 / c_first:.0f} | |")
+    settle, c_settle = timed(case, repeat, t_end=0.67, method="auto")
+    rows.append(f"| case 1, EI 1e9 | auto → {settle.settings['method']}, 0.67 s (4 impacts, before O1 settles on the "
+                f"wall) | {settle.status} | {settle.n_steps} | {settle.nfev} | {c_settle:.3g} | "
+                f"{per_s * 0.67 / c_settle:.0f} | numerical {settle.energy_audit()['numerical']:.2g} J |")
     if not quick:
-        for what, kw in (("", {}), (", cutoff_frequency 1e4 rad/s", dict(cutoff_frequency=1e4))):
+        for what, kw in ((f", cutoff {first.settings['cutoff_frequency']:.3g} rad/s (auto's)", {}),
+                         (", cutoff_frequency 1e4 rad/s", dict(cutoff_frequency=1e4))):
             res, cpu = timed(case, 1, t_end=1.0, method="auto", max_cpu_time=60.0, **kw)
             rows.append(f"| case 1, EI 1e9 | auto → {res.settings['method']}{what}, 1 s (max 60 s CPU) | {res.status} "
                         f"(t = {res.t[-1]:.4g} s) | {res.n_steps} | {res.nfev} | {cpu:.3g} | "
@@ -164,14 +171,18 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--quick", action="store_true")
+    p.add_argument("--only", choices=("arms", "servo", "stiff", "shipped", "jacobian"), help="one section only")
     a = p.parse_args()
+    sections = {"arms": lambda: arm_rows("fixed_base_R_Pb_arm", a.repeat, a.quick) + arm_rows("fixed_base_R_Pa_arm",
+                                                                                                a.repeat, a.quick),
+                "servo": lambda: arm_rows(rr_pb_arm(), 1, a.quick), "stiff": lambda: stiff_rows(a.repeat, a.quick),
+                "shipped": lambda: shipped_rows(a.repeat), "jacobian": lambda: jacobian_rows(a.repeat)}
     print("| run | method | status | steps | RHS | CPU [s] | speed-up vs reference | joint error vs 1e-11 |")
     print("|---|---|---|---|---|---|---|---|")
-    for rows in (arm_rows("fixed_base_R_Pb_arm", a.repeat, a.quick), arm_rows("fixed_base_R_Pa_arm", a.repeat, a.quick),
-                 arm_rows(rr_pb_arm(), 1, a.quick), stiff_rows(a.repeat, a.quick), shipped_rows(a.repeat),
-                 jacobian_rows(a.repeat)):
-        for r in rows:
-            print(r, flush=True)
+    for name, rows in sections.items():
+        if a.only in (None, name):
+            for r in rows():
+                print(r, flush=True)
 
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ from gibbsimpact.cli import commands as cli
 from gibbsimpact.io import result_files as gio
 from gibbsimpact import load_result
 from gibbsimpact.plotting.figures import FIGURES
-from conftest import PB_DROP_CASE, ZENO
+from conftest import PB_DROP_CASE, TIGHT_DOP853_ARGS, ZENO
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
@@ -592,7 +592,7 @@ def test_show_prismatic_joint_1_and_planar_base(tmp_path, capsys):
 
 def test_run_R_Pb_arm_briefly(tmp_path, capsys):
     code, out, err = run_main(["run", CASES / "fixed_base_R_Pb_arm.toml", "--out", tmp_path, "--t-end", "0.02",
-                               "--no-plots", "--quiet"], capsys)
+                               "--no-plots", "--quiet", *TIGHT_DOP853_ARGS], capsys)
     assert code == 0 and out == "" and err == ""
     for name in ("timeseries.csv", "impacts.csv", "summary.json", "result.npz"):
         assert (tmp_path / name).stat().st_size > 0, name

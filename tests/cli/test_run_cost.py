@@ -8,6 +8,7 @@ from pathlib import Path
 
 from gibbsimpact.cli import commands as cli
 from gibbsimpact.cli.run import WARN_CPU_SECONDS
+from conftest import TIGHT_DOP853_ARGS, tight_dop853_text
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
@@ -20,15 +21,17 @@ def run_main(argv, capsys):
 
 def stiff_case(tmp_path) -> Path:
     """cases/fixed_base_R_Pb_arm.toml with link 1 4e7 times stiffer: omega_max 1.3e7 rad/s, hours of DOP853."""
-    text = (CASES / "fixed_base_R_Pb_arm.toml").read_text()
+    text = tight_dop853_text((CASES / "fixed_base_R_Pb_arm.toml").read_text())
     assert text.count("EI_N_m2 = 25.0") == 1
     path = tmp_path / "stiff_arm.toml"
     path.write_text(text.replace("EI_N_m2 = 25.0", "EI_N_m2 = 1e9"))
     return path
 
 
-def test_show_states_the_cost(capsys):
-    code, out, err = run_main(["show", CASES / "fixed_base_R_Pb_arm.toml"], capsys)
+def test_show_states_the_cost(tmp_path, capsys):
+    arm = tmp_path / "arm.toml"
+    arm.write_text(tight_dop853_text((CASES / "fixed_base_R_Pb_arm.toml").read_text()))
+    code, out, err = run_main(["show", arm], capsys)
     assert code == 0 and err == ""
     cost = [ln for ln in out.splitlines() if ln.startswith("cost: ")]
     assert len(cost) == 1
@@ -39,7 +42,7 @@ def test_show_states_the_cost(capsys):
 def test_run_states_the_cost_and_stops_at_its_rhs_limit(tmp_path, capsys):
     out = tmp_path / "out"
     code, text, err = run_main(["run", CASES / "fixed_base_R_Pb_arm.toml", "--out", out, "--no-plots",
-                                "--max-rhs-calls", 2000], capsys)
+                                "--max-rhs-calls", 2000, *TIGHT_DOP853_ARGS], capsys)
     assert code == 3  # stopped early
     lines = text.splitlines()
     assert lines[1].startswith("  highest frequency 2181 rad/s (period 0.00288 s); DOP853 over 2 s: about ")
@@ -70,8 +73,8 @@ def test_run_warns_before_hours_and_the_cpu_limit_ends_it(tmp_path, capsys):
 
 def test_limits_as_case_file_keys(tmp_path, capsys):
     """[solver] max_rhs_calls in the file does what --max-rhs-calls does; the option overrides it."""
-    text = (CASES / "fixed_base_R_Pb_arm.toml").read_text().replace('joint_limit = "stop"',
-                                                                     'joint_limit = "stop"\nmax_rhs_calls = 1000')
+    text = tight_dop853_text((CASES / "fixed_base_R_Pb_arm.toml").read_text()).replace(
+        'joint_limit = "stop"', 'joint_limit = "stop"\nmax_rhs_calls = 1000')
     case = tmp_path / "limited.toml"
     case.write_text(text)
     code, _, err = run_main(["run", case, "--out", tmp_path / "a", "--no-plots", "--quiet"], capsys)

@@ -8,7 +8,9 @@ import pytest
 
 import gibbsimpact as gi
 from gibbsimpact.case import case_from_dict
-from gibbsimpact.simulation.auto import STIFF_STEPS, choose_method
+from gibbsimpact.simulation.auto import FAST_GAP, STIFF_STEPS, auto_choice, choose_method, fast_mode_cutoff
+from gibbsimpact.simulation.compiled_radau import radau5_tolerances
+from gibbsimpact.simulation.stability import linearised_eigenvalues
 from gibbsimpact.simulation.cost import estimate_cost
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
@@ -59,6 +61,10 @@ def test_auto_says_what_it_chose_in_the_result_and_the_cost_estimate():
     assert res.settings["method"] == "Radau" and res.settings["method_choice"].startswith("auto: Radau")
     est = stiff.estimate_cost(t_end=0.1, method="auto")
     assert est.method == "Radau" and est.describe().startswith("auto: Radau")
+    # ... and that it steps over the modes above the gap, where (the cost line of show and run prints describe()):
+    cut = res.settings["cutoff_frequency"]
+    assert 1e4 < cut < 2e4 and f"the modes above {cut:.3g} rad/s" in res.settings["method_choice"]
+    assert f"the modes above {cut:.3g} rad/s" in est.describe()
     plain = _case1().simulate(t_end=0.01)
     assert plain.settings["method"] == "DOP853" and plain.settings["method_choice"] == ""
     with pytest.raises(ValueError, match="use one of .*auto"):
@@ -155,3 +161,51 @@ def test_prescribed_motion_keeps_the_solvers_own_differences(monkeypatch):
     radau = gi.simulate(model, q0, qd0, (0.0, 0.3), method="Radau", **kw)
     assert radau.status == dop.status == "finished"
     assert np.abs(radau.q - dop.q).max() <= 10 * (1e-8 * np.abs(dop.q).max() + 1e-10)
+
+
+def test_auto_steps_over_fast_modes_only_across_a_gap_in_the_spectrum():
+    """auto's cutoff is sqrt(omega_lo omega_hi) at a gap omega_hi / omega_lo >= FAST_GAP of the chain's frequencies:
+    case 1 with EI = 1e9 on link 1 (link 2's mode near 151 rad/s, link 1's at 1.07e6 > 22.37 sqrt(EI / (mu l^4)),
+    the clamped-clamped closed form): a cutoff between them; the bundled cases (widest gaps 1-17) and a chain
+    auto keeps explicit get none; a cutoff the user gives is kept."""
+    stiff = _case1(1e9)
+    c = auto_choice(stiff.model, stiff.q0, (0.0, 1.0))
+    w = np.sort(np.unique(np.abs(linearised_eigenvalues(stiff.model, stiff.q0))))
+    hi, lo = w[-1], w[-2]
+    assert hi > 22.37 * np.sqrt(1e9) and hi / lo >= FAST_GAP
+    assert c.method == "Radau" and c.cutoff_frequency == pytest.approx(np.sqrt(lo * hi), rel=1e-12)
+    assert lo < c.cutoff_frequency < hi and "stepped over" in c.reason
+    assert auto_choice(stiff.model, stiff.q0, (0.0, 1.0), cutoff_frequency=5e3).cutoff_frequency == 5e3
+    for name in ("fixed_base_R_Pb_arm", "fixed_base_R_Pa_arm"):
+        arm = gi.load_case(CASES / f"{name}.toml")
+        c = auto_choice(arm.model, arm.q0, (0.0, 1.0), rtol=1e-2)
+        assert c.method == "Radau" and c.cutoff_frequency is None and "stepped over" not in c.reason
+    for path in sorted(CASES.glob("*.toml")):
+        bundled = gi.load_case(path)
+        assert fast_mode_cutoff(linearised_eigenvalues(bundled.model, bundled.q0)) == (None, ""), path.name
+    case = _case1()
+    assert auto_choice(case.model, case.q0, (0.0, 1.0)) == ("DOP853", choose_method(case.model, case.q0, (0.0, 1.0))[1],
+                                                            None)
+
+
+def test_radau5_tolerances_in_closed_form():
+    """RADAU5's map: rtol' = 0.1 rtol^(2/3), atol' / rtol' = atol / rtol (1e-10 -> 2.154e-8; 1e-2 -> 4.64e-3)."""
+    r, a = radau5_tolerances(1e-10, 1e-12)
+    assert r == pytest.approx(0.1 * 10 ** (-20 / 3), rel=1e-14) and a == pytest.approx(r / 100, rel=1e-14)
+    r, a = radau5_tolerances(1e-2, np.array([1e-4, 1e-3]))
+    np.testing.assert_allclose(a / r, [1e-2, 1e-1], rtol=1e-14)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["fixed_base_R_Pb_arm", "fixed_base_R_Pa_arm"])
+def test_prismatic_case_files_run_auto_within_1e_4_of_a_tight_reference(name):
+    """The case files' own run (method auto, rtol 1e-2, atol 1e-4: the compiled Radau) keeps every joint
+    coordinate within 1e-4 (rad, m) of DOP853 at rtol 1e-11, atol 1e-13 over the first 0.5 s (over 1 s:
+    docs/benchmarks.md, 6.4e-5 and 4.0e-5)."""
+    case = gi.load_case(CASES / f"{name}.toml")
+    res = case.simulate(t_end=0.5)
+    ref = case.simulate(t_end=0.5, method="DOP853", rtol=1e-11, atol=1e-13)
+    assert res.status == ref.status == "finished" and res.settings["method"] == "Radau"
+    joints = [i for i, c in enumerate(case.model.coordinate_names) if not c.startswith("delta")]
+    for j in joints:
+        assert np.abs(np.interp(ref.t, res.t, res.q[:, j]) - ref.q[:, j]).max() <= 1e-4

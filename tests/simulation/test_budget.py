@@ -15,6 +15,7 @@ from gibbsimpact.simulation.budget import CPU_EVERY, Budget, BudgetExceeded
 from gibbsimpact.simulation.status import STATUSES, STOPS
 
 from conftest import two_link_circle_model, two_link_circle_state
+from conftest import TIGHT_DOP853
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 WALLS = [gi.Circle(1.5)]
@@ -112,5 +113,5 @@ def test_a_stiff_chain_with_a_servo_is_not_a_failed_callback():
     case = gi.load_case(CASES / "fixed_base_R_Pb_arm.toml")
     data = copy.deepcopy(case.source)
     data["links"][0]["EI_N_m2"] = 1e9
-    res = case_from_dict(data, name="stiff").simulate(t_end=2e-4)
+    res = case_from_dict(data, name="stiff").simulate(t_end=2e-4, **TIGHT_DOP853)
     assert res.status == "finished", res.message

@@ -17,6 +17,8 @@ from gibbsimpact.simulation.cost import estimate_cost
 from gibbsimpact.simulation.stability import (error_estimate, linearised_eigenvalues, stability_function,
                                               stability_radius)
 
+from conftest import TIGHT_DOP853
+
 CASES = Path(__file__).resolve().parents[2] / "cases"
 
 
@@ -105,8 +107,8 @@ def test_estimate_of_the_prismatic_arms_within_a_factor_two(name):
     mode's accuracy, which goes as its amplitude to the power 1/8 for DOP853, so an amplitude off by 256
     would double it; rejected steps add 10-30 % (measured 1.3-1.6 and 1.05-1.3)."""
     case = gi.load_case(CASES / f"{name}.toml")
-    est = case.estimate_cost(t_end=0.5)
-    res = case.simulate(t_end=0.5)
+    est = case.estimate_cost(t_end=0.5, **TIGHT_DOP853)
+    res = case.simulate(t_end=0.5, **TIGHT_DOP853)
     assert res.status == "finished"
     assert 0.5 <= est.n_steps / res.n_steps <= 2.0, (est, res.n_steps)
     assert 0.5 <= est.n_rhs / res.nfev <= 2.0, (est, res.nfev)
@@ -121,8 +123,8 @@ def test_estimate_of_a_stiff_arm_bounds_the_steps():
     data = copy.deepcopy(case.source)
     data["links"][0]["EI_N_m2"] = 1e9
     stiff = case_from_dict(data, name="stiff")
-    est = stiff.estimate_cost(t_end=5e-4)
-    res = stiff.simulate(t_end=5e-4)
+    est = stiff.estimate_cost(t_end=5e-4, **TIGHT_DOP853)
+    res = stiff.simulate(t_end=5e-4, **TIGHT_DOP853)
     assert est.omega_max > 1e7
     n_stable = 5e-4 / est.h_stability
     assert n_stable <= res.n_steps <= 3 * n_stable

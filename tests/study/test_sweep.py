@@ -22,6 +22,7 @@ import pytest
 import gibbsimpact as gi
 from gibbsimpact.cli.sweep import add_parser, main, parse_vary
 from gibbsimpact.study.sweep import RESULT_COLUMNS, expand_runs, run_id, sweep
+from conftest import tight_dop853_text
 
 CASE = Path(__file__).resolve().parents[2] / "cases" / "circle_two_link.toml"
 GRID = {"restitution": [0.5, 0.75, 1.0], "initial.coordinates.theta_1_deg": [-36, -33, -30, -27]}
@@ -356,7 +357,8 @@ def test_a_stiff_point_with_a_limit_does_not_stall_the_sweep(tmp_path, capsys):
     With max_rhs_calls its run stops with status budget_exceeded and its samples, and every other point
     finishes. The limits are not part of the run ids: the sweep again with a larger limit runs only the
     point the first limit stopped."""
-    pb = CASE.parent / "fixed_base_R_Pb_arm.toml"
+    pb = tmp_path / "fixed_base_R_Pb_arm.toml"  # with its DOP853 rtol 1e-8 settings (conftest.TIGHT_DOP853)
+    pb.write_text(tight_dop853_text((CASE.parent / "fixed_base_R_Pb_arm.toml").read_text()))
     grid = {"links[1].EI_N_m2": [25.0, 1e9, 30.0]}
     res = sweep(pb, grid, out=tmp_path / "s", t_end=0.02, max_rhs_calls=20_000)
     assert [r["status"] for r in res.rows] == ["finished", "budget_exceeded", "finished"]

@@ -14,8 +14,11 @@ theirs, as in their RADAU5 and in scipy's Radau). The error estimate is the embe
 
     err = (mu_r / h I - J)^-1 (f(t, y) + (e . Z) / h),   e = (-13 - 7 sqrt 6, -13 + 7 sqrt 6, -1) / 3
 
-(re-evaluated once with f(t, y + err) after a rejection, which filters its stiff components), and
-the step size control is Gustafsson's predictive one with the safety factor of the Newton count.
+(re-evaluated once with f(t, y + err) after a rejection, which filters its stiff components), measured in
+the RMS norm scaled by atol + rtol |y|, with the velocity components y[N_POS:2 N_POS] scaled by 1 / min(1, h
+VEL_RATE) when st[N_POS] > 0 (RADAU5's scaling of index-2 variables, also in Newton's norm; used with the
+filter Pf to step over fast modes, simulation.compiled_radau); and the step size control is Gustafsson's
+predictive one with the safety factor of the Newton count.
 The dense output is the collocation polynomial y(t + x h) = y + sum_k Q_k x^k, k = 1..3, Q = Z^T P.
 
 The right-hand side inside the step is the flight phase's (gibbsimpact.simulation.equations):
@@ -63,7 +66,10 @@ MIN_FACTOR, MAX_FACTOR = 0.2, 10.0
 T, T_BOUND, H, H_OLD, ERR_OLD, MAX_STEP, RTOL, NEWTON_TOL = 0, 1, 2, 3, 4, 5, 6, 7
 JAC_CURRENT, LU_OK, HAS_SOL, T_OLD, H_LAST, NFEV, N_LU, RECOMPUTE = 8, 9, 10, 11, 12, 13, 14, 15
 BUSY, LOCAL_H, LOCAL_H_OLD, LOCAL_ERR_OLD, REJECTED = 16, 17, 18, 19, 20
-SLOTS = 21
+#: The velocity weighting of the error estimate (_velocity_weight): y[N_POS:2 N_POS] are the velocities of
+#: y[:N_POS] (N_POS = 0: no weighting); their errors count min(1, h VEL_RATE) of the positions'.
+N_POS, VEL_RATE = 21, 22
+SLOTS = 23
 #: Return codes of radau_step.
 ACCEPTED, NEED_JACOBIAN, STEP_TOO_SMALL, BAD_SIZE = 0.0, 1.0, 2.0, -1.0
 #: Input kinds of the rows of ``fin`` (kind, k, a, b, c, d): Q_k += ...
@@ -110,6 +116,7 @@ def radau_step(fdat, idat, fin, C, A, atol, Pf, y, f, J, LUr, pr, LUc, pc, Z, Qd
         _predict_stages(st, t, h, Qd, Z)
         for j in range(n):
             scale[j] = atol[j] + abs(y[j]) * st[RTOL]
+        _velocity_weight(st, h_abs, scale)
         converged, n_iter, rate = _newton(fdat, idat, fin, C, A, wk, t, y, h, J, LUr, pr, LUc, pc, Z, F, scale, st,
                                           pris, ends)
         if not converged and st[JAC_CURRENT] == 0.0:
@@ -122,6 +129,7 @@ def radau_step(fdat, idat, fin, C, A, atol, Pf, y, f, J, LUr, pr, LUc, pc, Z, Qd
         for j in range(n):
             ynew[j] = y[j] + Z[2, j]
             scale[j] = atol[j] + max(abs(y[j]), abs(ynew[j])) * st[RTOL]
+        _velocity_weight(st, h_abs, scale)
         e_norm = _error_norm(fdat, idat, fin, C, A, wk, t, y, f, h, Z, LUr, pr, Pf, scale, st, err, fnew, pris,
                              ends)
         safety = 0.9 * (2 * NEWTON_MAXITER + 1) / (2 * NEWTON_MAXITER + n_iter)
@@ -265,6 +273,18 @@ def _error_norm(fdat, idat, fin, C, A, wk, t, y, f, h, Z, LUr, pr, Pf, scale, st
         _filter(Pf, err, scratch)
         e_norm = _rms(err, scale)
     return e_norm
+
+
+def _velocity_weight(st, h_abs, scale):
+    """scale[N_POS:2 N_POS] /= w, w = min(1, h VEL_RATE) (RADAU5's scaling of index-2 variables, VEL_RATE =
+    1/s: a velocity error of y' = (qdot, qddot) counts as the position error h err_qdot it makes over the
+    step); w = 0 (VEL_RATE = 0): the velocities are left out of the error norm; nothing when st[N_POS] = 0."""
+    n_pos = int(st[N_POS])
+    if n_pos == 0:
+        return
+    w = min(1.0, h_abs * st[VEL_RATE])
+    for j in range(n_pos, 2 * n_pos):
+        scale[j] = scale[j] / w if w > 0.0 else math.inf
 
 
 def _filter(Pf, err, scratch):

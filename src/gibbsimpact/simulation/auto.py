@@ -28,9 +28,19 @@ impact where DOP853 takes 2.6e5 (docs/benchmarks.md, benchmarks/bench_stiff.py).
 rtol 1e-3 the compiled Radau costs 0.17 s on the R-Pb arm's second (675 steps; DOP853 0.21 s at rtol 1e-2,
 0.26 s at 1e-4), at rtol 1e-2 0.067 s, 3x less than DOP853 at that tolerance; below n_stab = 100 (case 1 as shipped: 26) DOP853's
 steps are set by accuracy whatever the tolerance, and it stays.
+
+The fast modes of a singularly perturbed chain. When auto takes Radau and the chain's frequencies at q0 have a
+gap of FAST_GAP (= 100) or more between consecutive ones, omega_lo < omega_hi (case 1 with EI = 1e9 on link 1:
+151 and 1.07e6 rad/s, a gap of 7086; the bundled cases' widest gaps are 1-17), the modes above it are a very
+stiff spring on the slow chain, which an impact excites at amplitudes far above the tolerances: auto then sets
+the cutoff_frequency sqrt(omega_lo omega_hi) (unless the user gave one), and the compiled Radau steps over
+those modes (gibbsimpact.simulation.compiled_radau: left out of the error estimate, velocities weighted by h,
+RADAU5's tolerances), damping them (docs/theory.md §14.1).
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
@@ -45,6 +55,48 @@ EXPLICIT_METHOD, IMPLICIT_METHOD = "DOP853", "Radau"
 STIFF_STEPS = 1e4
 #: Loosest rtol at which DOP853 is kept on a chain with n_stab >= LOOSE_STEPS (module docstring).
 LOOSE_RTOL, LOOSE_STEPS = 1e-3, 100.0
+#: Smallest ratio of consecutive frequencies that auto reads as fast modes to step over (module docstring).
+FAST_GAP = 100.0
+#: Frequencies below this fraction of the highest are rigid motions' zeros in round-off (fast_mode_cutoff).
+RIGID_ROUNDOFF = 1e-6
+
+
+class AutoChoice(NamedTuple):
+    """What method="auto" chose: method ("Radau" or "DOP853"), reason (one sentence), cutoff_frequency [rad/s]
+    of the fast modes to step over (None: every mode followed)."""
+
+    method: str
+    reason: str
+    cutoff_frequency: float | None
+
+
+def fast_mode_cutoff(lam: np.ndarray) -> tuple[float | None, str]:
+    """(sqrt(omega_lo omega_hi) [rad/s], a sentence) at the widest gap omega_hi / omega_lo >= FAST_GAP between
+    consecutive non-zero frequencies omega = |lambda| of the eigenvalues lam (n,) [1/s]; (None, "") without
+    such a gap (module docstring). Frequencies below RIGID_ROUNDOFF omega_max count as zero: a rigid motion's
+    zero eigenvalue is a 2 x 2 Jordan block, computed to ~sqrt(eps) omega_max = 1.5e-8 omega_max."""
+    omega = np.abs(lam)
+    omega = np.unique(omega[omega > RIGID_ROUNDOFF * omega.max(initial=0.0)])
+    if omega.size < 2:
+        return None, ""
+    k = int(np.argmax(omega[1:] / omega[:-1]))
+    lo, hi = float(omega[k]), float(omega[k + 1])
+    if hi / lo < FAST_GAP:
+        return None, ""
+    cut = float(np.sqrt(lo * hi))
+    return cut, (f"; the modes above {cut:.3g} rad/s (a gap of {hi / lo:.0f}x, {lo:.4g} to {hi:.4g} rad/s) are "
+                 "stepped over and damped (cutoff_frequency; the energy audit's numerical part holds their energy)")
+
+
+def auto_choice(model, q0: np.ndarray, t_span, max_step: float = np.inf, rtol: float = 0.0,
+                cutoff_frequency: float | None = None) -> AutoChoice:
+    """choose_method's (method, reason) and, when it takes Radau, the cutoff frequency [rad/s]: the user's
+    cutoff_frequency if given, else fast_mode_cutoff's at q0 (N,) [m, rad] (None: no gap)."""
+    method, why = choose_method(model, q0, t_span, max_step, rtol)
+    if method != IMPLICIT_METHOD or cutoff_frequency is not None:
+        return AutoChoice(method, why, cutoff_frequency)
+    cut, more = fast_mode_cutoff(linearised_eigenvalues(model, np.asarray(q0, dtype=float)))
+    return AutoChoice(method, why + more, cut)
 
 
 def choose_method(model, q0: np.ndarray, t_span, max_step: float = np.inf, rtol: float = 0.0) -> tuple[str, str]:

@@ -15,6 +15,12 @@ constant (no damped link behind a FixedPrismatic guide) and whose inputs are the
 a case file (constant, sine, ramp, pd on its own coordinate: gibbsimpact.dynamics.inputs) or
 constants. Every other phase of a run with method="Radau" runs scipy's Radau with the kernel's
 Jacobian; so does every phase when the user's inputs are Python callables.
+
+Stepping over fast modes (docs/theory.md §14.1): with a cutoff frequency (simulate's cutoff_frequency, or
+method="auto" at a gap in the chain's spectrum) the modes of d qddot/d q above it leave the error estimate
+(:func:`slow_projector`), velocity errors count min(1, h VELOCITY_RATE) of position errors (RADAU5's
+scaling of index-2 variables, in the error norm and in Newton's) and the estimate is held to RADAU5's
+tolerances (:func:`radau5_tolerances`): the L-stable steps then pass over those modes and damp them.
 """
 
 from __future__ import annotations
@@ -29,6 +35,9 @@ from ..kernel import radau_entry
 from ..kernel import radau as rk
 
 _EPS = np.finfo(float).eps
+#: [1/s] With the fast modes stepped over, a velocity error counts min(1, h VELOCITY_RATE) of a position error
+#: (kernel.radau._velocity_weight): RADAU5's h-scaling of index-2 variables, h taken in seconds.
+VELOCITY_RATE = 1.0
 
 
 class FlightProgram:
@@ -44,6 +53,8 @@ class FlightProgram:
         self.fin, self.C = np.array(fin, dtype=float), np.array(C, dtype=float)  # writable copies (the signature)
         self.A = np.zeros((0, 0))
         self.equations, self.cutoff = equations, cutoff
+        # with a cutoff, the fast modes are stepped over (module docstring): velocity weighting on q (N,)
+        self.n_pos = 0 if cutoff is None else equations.N
 
     def jacobian(self, t: float, y: np.ndarray) -> np.ndarray:
         """df/dy (n, n) at (t, y) (gibbsimpact.simulation.implicit.rhs_jacobian)."""
@@ -69,7 +80,7 @@ class LinearProgram:
         self.entry = radau_entry(self.variant)
         self.A = np.ascontiguousarray(A, dtype=float)
         self.fin, self.C = np.zeros((0, 6)), np.zeros((int(self.idat[1]), int(self.idat[1])))
-        self.nfev, self.cutoff = 0, None
+        self.nfev, self.cutoff, self.n_pos = 0, None, 0
 
     def jacobian(self, t, y):
         return self.A
@@ -94,18 +105,22 @@ class CompiledRadau(OdeSolver):
         n, self.program = self.n, program
         self.max_step = float(max_step)
         rtol = max(float(rtol), 100.0 * _EPS)  # as scipy: below that round-off dominates
-        self.atol = np.array(np.broadcast_to(np.asarray(atol, dtype=float), (n,)))  # writable (the signature)
+        atol = np.asarray(atol, dtype=float)
+        if program.n_pos:
+            rtol, atol = radau5_tolerances(rtol, atol)
+        self.atol = np.array(np.broadcast_to(atol, (n,)))  # writable (the signature)
         self.f = self.fun(self.t, self.y)
         h0 = first_step if first_step is not None else _first_step(self.fun, self.t, self.y, self.f, t_bound,
                                                                     self.max_step, rtol, self.atol)
         st = self.st = np.zeros(rk.SLOTS)
         st[rk.T], st[rk.T_BOUND], st[rk.H], st[rk.H_OLD], st[rk.ERR_OLD] = t0, t_bound, h0, -1.0, -1.0
         st[rk.MAX_STEP], st[rk.RTOL] = self.max_step, rtol
+        st[rk.N_POS], st[rk.VEL_RATE] = program.n_pos, VELOCITY_RATE
         st[rk.NEWTON_TOL] = max(10.0 * _EPS / rtol, min(0.03, rtol ** 0.5))
         self.J = np.ascontiguousarray(program.jacobian(t0, self.y), dtype=float)
         st[rk.JAC_CURRENT] = 1.0
         self.njev = 1
-        self.Pf = slow_projector(self.J, program.cutoff)
+        self.Pf = slow_projector(self.J, program.cutoff, program.n_pos or None)
         self.LUr, self.LUc = np.zeros((n, n)), np.zeros((n, n), dtype=complex)
         self.pr, self.pc = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
         self.Z, self.Qd = np.zeros((3, n)), np.zeros((n, 3))
@@ -140,7 +155,7 @@ class CompiledRadau(OdeSolver):
         """df/dy at (t, y) into J; the LU factors are then stale."""
         self.J[:] = self.program.jacobian(t, y)
         self.njev += 1
-        self.Pf = slow_projector(self.J, self.program.cutoff)
+        self.Pf = slow_projector(self.J, self.program.cutoff, self.program.n_pos or None)
         self.st[rk.JAC_CURRENT], self.st[rk.LU_OK] = 1.0, 0.0
 
     def _dense_output_impl(self):
@@ -165,21 +180,41 @@ class RadauPolynomial(DenseOutput):
 _POWERS = np.arange(1.0, 4.0)[:, None]  # (3, 1): x, x^2, x^3 of the dense output
 
 
-def slow_projector(J: np.ndarray, cutoff: float | None) -> np.ndarray:
-    """The error filter Pf = I - sum_k v_k u_k^H / (u_k^H v_k) (n, n) over the eigenvalues lambda_k of J (n, n)
-    [1/s] with |lambda_k| > cutoff [rad/s] (v_k, u_k their right and left eigenvectors: the spectral
-    projector on those modes along the others; real, as they come in conjugate pairs); a (0, 0) array (no
-    filter) when cutoff is None or no mode is above it. The error estimate Pf err then measures the modes
-    at or below the cutoff only, and the steps may grow past the periods of those above it."""
+def radau5_tolerances(rtol: float, atol):
+    """(rtol', atol') that the error estimate is held to when the fast modes are stepped over: rtol' =
+    0.1 rtol^(2/3), atol' = atol rtol' / rtol (atol a float or (n,) array, in y's units), as Hairer and
+    Wanner's RADAU5 does for every run. Its estimate is of order 3 (local error ~ h^4) for a method of order 5
+    (~ h^6): held to rtol' the local error of the slow motion is about rtol's, where held to rtol itself the
+    steps are as short as an order-3 method's (docs/theory.md §14.1, measured there)."""
+    rtol_new = 0.1 * rtol ** (2.0 / 3.0)
+    return rtol_new, atol * (rtol_new / rtol)
+
+
+def slow_projector(J: np.ndarray, cutoff: float | None, n_pos: int | None = None) -> np.ndarray:
+    """The error filter Pf (n, n) = I - diag(P, P) (on y = (q, qdot, ...), q (N,), N = n_pos or n // 2; the
+    other entries of y unfiltered), P = V (U^H V)^-1 U^H (N, N) the spectral projector on the modes of the
+    stiffness block A = J[N:2N, :N] = d qddot/d q [1/s^2] with |mu_k| > cutoff^2 (V, U their right and left
+    eigenvectors: A v = mu v, mu = -omega^2 for a mode of omega [rad/s]; damping and gyroscopic terms are left
+    out of the shapes), along the others; a (0, 0) array (no filter) when cutoff [rad/s] is None or no mode is
+    above it. The error estimate Pf err then measures the modes at or below the cutoff only, and the steps may
+    grow past the periods of those above it. Taken from A (N x N), whose zero eigenvalues (rigid motions) are
+    semi-simple, rather than from J (2N x 2N), where each is a 2 x 2 Jordan block: the eigenvectors of J of a
+    free-flying chain with a 1e6 rad/s mode are lost to round-off (case 1 with EI = 1e9: |Pf| ~ 1e9, and the
+    filter made the error it was to remove), those of A are not (|Pf| ~ 1)."""
     if cutoff is None:
         return np.zeros((0, 0))
-    lam, u, v = scipy.linalg.eig(J, left=True, right=True)
-    fast = np.abs(lam) > cutoff
+    n = J.shape[0]
+    N = n // 2 if n_pos is None else int(n_pos)
+    mu, u, v = scipy.linalg.eig(J[N:2 * N, :N], left=True, right=True)
+    fast = np.abs(mu) > cutoff * cutoff
     if not fast.any():
         return np.zeros((0, 0))
     u, v = u[:, fast], v[:, fast]
-    fast_part = (v / np.sum(u.conj() * v, axis=0)) @ u.conj().T
-    return np.ascontiguousarray(np.eye(J.shape[0]) - fast_part.real)
+    P = (v @ np.linalg.solve(u.conj().T @ v, u.conj().T)).real
+    Pf = np.eye(n)
+    Pf[:N, :N] -= P
+    Pf[N:2 * N, N:2 * N] -= P
+    return Pf
 
 
 def _first_step(fun, t0, y0, f0, t_bound, max_step, rtol, atol, order=3):

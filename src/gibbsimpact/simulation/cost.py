@@ -66,7 +66,7 @@ import numpy as np
 from ..dynamics.forces import generalized_force
 from ..dynamics.gibbs_appell import forward_dynamics
 from ..dynamics.kinematics import joint_jacobians
-from .auto import AUTO, choose_method
+from .auto import AUTO, auto_choice
 from .charts import charted, start_chart
 from .flight import SOLVERS
 # The linearised modes and the methods' stability and accuracy radii are in stability.py, so that
@@ -215,7 +215,7 @@ def estimate_cost(model, q0, qdot0, t_span, **options) -> CostEstimate:
     model, q0, qdot0 = start_chart(model, q0, qdot0, charted(model, fixed or None))
     method, choice = o["method"], ""
     if method == AUTO:
-        method, choice = choose_method(model, q0, t_span, o["max_step"], o["rtol"])
+        method, choice = auto_choice(model, q0, t_span, o["max_step"], o["rtol"], o["cutoff_frequency"])[:2]
     if method not in SOLVERS:
         raise ValueError(f"estimate_cost method={method!r} must be a solve_ivp method; use one of {', '.join(SOLVERS)}")
     t0, t_end = float(t_span[0]), float(t_span[1])

@@ -9,7 +9,7 @@ from numbers import Real
 import numpy as np
 
 from ..contact.walls import WALL_TYPES, is_compliant
-from .auto import AUTO, METHODS, choose_method
+from .auto import AUTO, METHODS, auto_choice
 from .contact_filter import checked_filter
 from .joint_limits import JOINT_LIMIT_MODES
 from .prescribed import prescription
@@ -140,12 +140,12 @@ class Settings:
 
     def resolve_auto(self, model, q0) -> Settings:
         """These settings with method="auto" replaced by the method it chooses for model from q0 (N,)
-        [m, rad] and the reason in method_choice (gibbsimpact.simulation.auto.choose_method); unchanged
-        for any other method."""
+        [m, rad], the reason in method_choice and the cutoff of the fast modes it steps over
+        (gibbsimpact.simulation.auto.auto_choice); unchanged for any other method."""
         if self.method != AUTO:
             return self
-        method, why = choose_method(model, q0, (self.t0, self.t_end), self.max_step, self.rtol)
-        return dataclasses.replace(self, method=method, method_choice=why)
+        c = auto_choice(model, q0, (self.t0, self.t_end), self.max_step, self.rtol, self.cutoff_frequency)
+        return dataclasses.replace(self, method=c.method, method_choice=c.reason, cutoff_frequency=c.cutoff_frequency)
 
     @property
     def wall_restitution(self) -> np.ndarray:
