@@ -89,7 +89,6 @@ class Model:
         g = np.asarray(gravity, dtype=float) if not isinstance(gravity, str) else np.array([])
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ValueError(f"Model gravity={gravity!r} must be three finite numbers (m/s^2), e.g. (0, -9.81, 0)")
-        n = chain.n_links
         self._chain = chain
         self._quadrature = (int(quadrature[0]), int(quadrature[1]))
         self._gravity = g
@@ -99,12 +98,12 @@ class Model:
         # [X1, X2, j_1 .. j_n, deltas]; fixed base: [j_1 .. j_n, deltas] (docs/theory.md §1, §8).
         base = {"free": ["X1", "X2", "X3", "theta_-1", "theta_0"], "planar": ["X1", "X2"]}.get(
             chain.base if chain.free_base else "", [])
-        kinds = [j.kind for j in chain.joints]
+        kinds = [j.spec for j in chain.joints]
         # a weld has no coordinate (formulation §17): joint variables in link order, welds skipped
-        names = base + [f"theta_{i}" if kd == "R" else f"d_{i}" for i, kd in enumerate(kinds, start=1) if kd != "W"]
+        names = base + [kd.coordinate_name(i) for i, kd in enumerate(kinds, start=1) if kd.has_coordinate]
         joint_index = []
         for kd in kinds:
-            joint_index.append(-1 if kd == "W" else len(base) + len(joint_index) - joint_index.count(-1))
+            joint_index.append(len(base) + len(joint_index) - joint_index.count(-1) if kd.has_coordinate else -1)
         delta_index = []
         directions = []
         k = len(names)
@@ -121,11 +120,11 @@ class Model:
         # The same indices as slices (each link's modes are contiguous): cheap views in the kernel.
         self._delta_slice = tuple(slice(int(d[0]), int(d[-1]) + 1) if d.size else slice(0, 0) for d in delta_index)
         self._theta_index = tuple(joint_index)
-        n_joint = n - kinds.count("W")
+        n_joint = sum(kd.has_coordinate for kd in kinds)
         self._bending = tuple([""] * (len(base) + n_joint) + directions)
         # Unit of each coordinate: angles and FE node slopes in rad, the rest in m.
         units = ["m", "m", "m", "rad", "rad"][:len(base)]
-        units += ["rad" if kd == "R" else "m" for kd in kinds if kd != "W"]
+        units += [kd.unit for kd in kinds if kd.has_coordinate]
         for lk, ld in zip(chain.links, self._links):
             units += (["m", "rad"] * (ld.K.shape[0] // 2)) if lk.elements else ["m"] * ld.K.shape[0]
         self._units = tuple(units)
@@ -155,6 +154,8 @@ class Model:
     planar = property(lambda self: self._chain.planar, doc="True for a planar chain (docs/theory.md §8).")
     joint_kinds = property(lambda self: tuple(j.kind for j in self._chain.joints),
                            doc="'R', 'Pa', 'Pb' or 'W' (a weld) per joint (n,).")
+    joint_specs = property(lambda self: tuple(j.spec for j in self._chain.joints),
+                           doc="The JointKind of each joint (n,) (model.joints.JOINT_KINDS: its properties).")
     base_transform = property(lambda self: self._base_transform, doc="T_0 (4, 4) of a fixed base, None for a free one.")
     base_chart = property(lambda self: self._chart, doc=(
         "R_ref (3, 3), the reference orientation the free base's angles are measured from: "
@@ -271,7 +272,7 @@ class Model:
         order (n_joints): hosts of a prismatic child joint, then the leaves of a tree but the last
         link (formulation §17: every link end that carries no child)."""
         joints = self._chain.joints
-        hosts = [i - 1 for i, j in enumerate(joints) if i > 0 and j.kind in ("Pa", "Pb")]
+        hosts = [i - 1 for i, j in enumerate(joints) if i > 0 and j.spec.prismatic]
         return tuple(hosts + [i for i in self._chain.free_tips if i != len(joints) - 1])
 
     @property
@@ -284,7 +285,7 @@ class Model:
         out = []
         for i in range(n):
             at_tip = [j for j in chain.children[i] if chain.attach[j] in (None, chain.links[i].length)
-                      and chain.joints[j].kind in ("R", "W")]
+                      and not chain.joints[j].spec.prismatic]
             out.append(n if i == n - 1 else (at_tip[0] if at_tip else extra[i]))
         return tuple(out)
 
@@ -329,7 +330,7 @@ class Model:
         """' (joint i is a gi.Weld: no coordinate)' when name is theta_i of a welded joint, else ''."""
         joint = re.fullmatch(r"theta_([1-9][0-9]*)", name)
         i = int(joint[1]) if joint else 0
-        if 1 <= i <= self.n_links and self.chain.joints[i - 1].kind == "W":
+        if 1 <= i <= self.n_links and not self.chain.joints[i - 1].spec.has_coordinate:
             return f" (joint {i} is a gi.Weld: link {i} is clamped to its parent, no coordinate)"
         return ""
 

@@ -164,7 +164,7 @@ def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
                                   (3.7 if planar else (5.0 if ncols > 1 else 6.0)) * ncols)
     note = ("red star: impacting point; red arrow: wall normal into the free region"
             + ("; red diamond: a prismatic joint at an end stop" if any(p.stops for p in panels) else "")
-            + ("; thin line on the host: the part of a link behind its guide" if "Pb" in model.joint_kinds else "")
+            + ("; thin line on the host: the part of a link behind its guide" if any(k.guide for k in model.joint_specs) else "")
             + ("" if planar else "; pale wide band: the chain's shadow on the floor; X2 vertical, "
                "camera along the least joint motion"))
     if own:
