@@ -240,7 +240,8 @@ def _describe_base(m) -> str:
     pos = ", ".join(f"{c:g}" for c in base.position)
     what = {"R": "joint 1 turns link 1 by theta_1 about z there",
             "Pa": "joint 1 is a carriage on a rail along the base x axis",
-            "Pb": "joint 1 is a guide at the base origin that link 1 slides through"}[m.chain.joints[0].kind]
+            "Pb": "joint 1 is a guide at the base origin that link 1 slides through",
+            "W": "joint 1 welds link 1 to the base there (no coordinate)"}[m.chain.joints[0].kind]
     return f"base: fixed at ({pos}) m, angle {np.degrees(base.angle):g} deg about X3; {what}"
 
 
