@@ -301,8 +301,9 @@ class Model:
 
         The common case, float64 arrays of shape (N,) with finite entries, costs a shape compare
         and one dot product (q.q + qdot.qdot is finite exactly when every entry is, or overflowed
-        beyond 1e154 with numpy's RuntimeWarning, which the full check below then clears), so that the alias methods cost
-        what the kernel costs.
+        beyond 1e154 with numpy's RuntimeWarning, which the full check below then clears). (The alias
+        methods below leave the check of the common case to the compiled call, and come here only
+        for the message of a state it refused.)
         """
         N = len(self._names)
         if q.__class__ is np.ndarray and q.dtype is _F64 and q.shape == (N,):
@@ -348,56 +349,57 @@ class Model:
             q[self._names.index(name)] = float(v)
         return q
 
-    # -- algorithms (thin delegations to pure functions) ---------------------
+    # -- algorithms (one-line aliases of the pure functions of gibbsimpact.dynamics) --------------
+    # Each is one call of the compiled kernel, which validates q and qdot (check=True: their sizes
+    # and finite entries, with Model.check_state's messages on the error path), so that an alias
+    # costs what its kernel call costs (benchmarks/bench_entry.py).
     def mass_matrix(self, q):
         """Mass matrix M(q), shape (N, N) [kg, kg m, kg m^2 by block]."""
-        return _dynamics().mass_matrix(self, self.check_state(q))
+        return _dynamics().mass_matrix(self, q, check=True)
 
     def bias_forces(self, q, qdot):
         """Velocity-product terms h(q, qdot), shape (N,) [N, N m]."""
-        return _dynamics().bias_forces(self, *self.check_state(q, qdot))
+        return _dynamics().bias_forces(self, q, qdot, check=True)
 
     def potential_forces(self, q):
         """Gradient dV/dq of gravity plus strain energy, shape (N,) [N, N m]."""
-        return _dynamics().potential_forces(self, self.check_state(q))
+        return _dynamics().potential_forces(self, q, check=True)
 
     def forward_dynamics(self, q, qdot):
         """Generalised accelerations qddot, shape (N,): M qddot = -h - dV/dq."""
-        return _dynamics().checked_forward_dynamics(self, q, qdot)
+        return _dynamics().forward_dynamics(self, q, qdot, check=True)
 
     def energy(self, q, qdot):
         """Energy(kinetic, gravity, strain, total) in joules."""
-        return _dynamics().energy(self, *self.check_state(q, qdot))
+        return _dynamics().energy(self, q, qdot, check=True)
 
     def joint_positions(self, q):
         """Inertial positions of O_1 ... O_(n+1), shape (n+1, 3) [m]."""
-        return _kinematics().joint_positions(self, self.check_state(q))
+        return _kinematics().joint_positions(self, q, check=True)
 
     def joint_jacobians(self, q):
         """Jacobians d O_j / d q, shape (n+1, 3, N)."""
-        return _kinematics().joint_jacobians(self, self.check_state(q))
+        return _kinematics().joint_jacobians(self, q, check=True)
 
     def joint_velocities(self, q, qdot):
-        """Inertial velocities of O_1 ... O_(n+1), shape (n+1, 3) [m/s]."""
+        """Inertial velocities of O_1 ... O_(n+1), shape (n+1, 3) [m/s]: dO_j/dt = J_j(q) qdot."""
         q, qdot = self.check_state(q, qdot)
         return self.joint_jacobians(q) @ qdot
 
     def linear_momentum(self, q, qdot):
         """Total linear momentum, shape (3,) [kg m/s]."""
-        return _dynamics().momentum(self, *self.check_state(q, qdot))[0]
+        return _dynamics().linear_momentum(self, q, qdot, check=True)
 
     def angular_momentum(self, q, qdot, about=None):
         """Angular momentum about ``about`` (3,) [m], default the mass centre; (3,) [kg m^2/s]."""
-        momentum = _dynamics().momentum
-        q, qdot = self.check_state(q, qdot)
-        L, H0, c = momentum(self, q, qdot)
+        L, H0, c = _dynamics().momentum(self, q, qdot, check=True)
         point = c if about is None else np.asarray(about, dtype=float)
         # H_P = H_0 - P x L
         return H0 - np.cross(point, L)
 
     def center_of_mass(self, q):
         """Mass centre, shape (3,) [m]."""
-        return _dynamics().center_of_mass(self, self.check_state(q))
+        return _dynamics().center_of_mass(self, q, check=True)
 
     def __repr__(self):
         return f"Model(n_links={self.n_links}, n_dof={self.n_dof}, gravity={tuple(self._gravity)})"
