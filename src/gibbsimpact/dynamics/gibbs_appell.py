@@ -100,6 +100,7 @@ def _raise_singular(model, q, status, dmin, dmax):
 
 
 _EMPTY = np.empty
+_TUPLE_NEW = tuple.__new__
 _JOB_QDDOT, _JOB_M, _JOB_H, _JOB_ENERGY, _JOB_MOMENTUM = _k.JOB_QDDOT, _k.JOB_M, _k.JOB_H, _k.JOB_ENERGY, _k.JOB_MOMENTUM
 _CHECKED_QDDOT = _k.JOB_QDDOT | _k.JOB_FINITE
 
@@ -170,7 +171,8 @@ def energy(model, q: np.ndarray, qdot: np.ndarray, *, check: bool = False) -> En
     E_k = 1/2 qdot^T M qdot,  V_g = -g~^T sum T_i m_r,i,  V_s = 1/2 delta^T K delta
     """
     kin, grav, strain = one_state(model, q, qdot, _JOB_ENERGY, None, check)[3:6].tolist()
-    return Energy(kin, grav, strain, kin + grav + strain)
+    # = Energy(kin, grav, strain, total), without the Python frame of a NamedTuple's __new__ (~0.2 us)
+    return _TUPLE_NEW(Energy, (kin, grav, strain, kin + grav + strain))
 
 
 def energies(model, qs: np.ndarray, qdots: np.ndarray) -> Energy:
