@@ -36,7 +36,13 @@ that fails prints its error and the next one runs):
    run first, then the minimum of 3) in a subprocess, against the same run with
    the pre-numba kernel of commit 54f2dfd (a temporary git worktree, PYTHONPATH
    to its src/; if that commit is unavailable, the current code with
-   NUMBA_DISABLE_JIT=1). Targets: speed-up >= 12, warm wall time <= 0.15 s.
+   NUMBA_DISABLE_JIT=1). That commit's case reader rejects keys added since
+   (``geometric_stiffening``): it reads today's case 1 with them removed, after
+   a check that each has the value that commit has built in (a linear beam,
+   ``false``), and the two runs' impact times must agree to 1e-6 s.
+   Targets: speed-up >= 12, warm wall time <= 0.15 s. Its code is
+   benchmarks/bench_baseline.py; runs on its own with ``--only simulate`` (or
+   ``python benchmarks/bench_baseline.py``).
 5. Cold start: ``python -m gibbsimpact run cases/circle_two_link.toml
    --no-plots --out TMP`` in a subprocess with a fresh NUMBA_CACHE_DIR (CPU
    time of the child from getrusage, and wall time), then the same command
@@ -67,6 +73,7 @@ that fails prints its error and the next one runs):
 Usage:
     python benchmarks/bench_kernel.py [--quick] [--skip-cold] [--skip-simulate] [--repeats R]
     python benchmarks/bench_kernel.py --only prismatic [--quick] [--repeats R]
+    python benchmarks/bench_kernel.py --only simulate [--quick]
 
 ``--quick`` is a smoke run: n = 2, 4, 8, 3 repeats of short loops, 1 timed
 simulate run, sympy for n <= 4 only.
@@ -96,7 +103,6 @@ from gibbsimpact.dynamics.gibbs_appell import forward_dynamics
 ROOT = Path(__file__).resolve().parent.parent
 CASE1 = ROOT / "cases" / "circle_two_link.toml"
 PNG = Path(__file__).resolve().parent / "scaling.png"
-BASELINE_COMMIT = "54f2dfd"  # the last commit with the numpy kernel
 
 LENGTH, MU, EI = 1.0, 1.0, 20.0
 ROTARY = (5e-5, 2.5e-5, 2.5e-5)  # (j_x, j_y, j_z) [kg m]: a rod of radius 1 cm, mu = 1 kg/m
@@ -164,6 +170,10 @@ def fmt(v, spec="{:.1f}", width=9):
 
 def section(title):
     print(f"\n== {title} " + "=" * max(0, 88 - len(title)), flush=True)
+
+
+def _git(*args, check=True):
+    return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True, check=check)
 
 
 def run_section(fn, *args):
@@ -364,130 +374,6 @@ def sympy_scaling(cfg, rigid):
         print(f"{n:>3} {model.n_dof:>4} {t_derive:>9.1f} {fmt(t_sym, width=10)} {fmt(t_gi)} "
               f"{fmt(t_sym / t_gi, '{:.2f}')}", flush=True)
     return out
-
-
-# Run inside a child process: time gi.simulate on case 1, warm, and print one JSON line.
-_SIMULATE_CHILD = r"""
-import json, sys, time
-import gibbsimpact as gi
-case = gi.load_case(sys.argv[1])
-repeats = int(sys.argv[2])
-res = case.simulate()  # warm: compile / load caches
-walls, cpus = [], []
-for _ in range(repeats):
-    t0, c0 = time.perf_counter(), time.process_time()
-    res = case.simulate()
-    walls.append(time.perf_counter() - t0)
-    cpus.append(time.process_time() - c0)
-print(json.dumps(dict(file=gi.__file__, wall=walls, cpu=cpus, impacts=len(res.impacts), nfev=res.nfev,
-                      status=res.status, t_end=float(res.t[-1]))))
-"""
-
-
-# What a run of case 1 costs at least while scipy steps it: the same chain integrated by
-# solve_ivp (same method and tolerances, no events, no walls) with the bare compiled kernel
-# as its right-hand side, per RHS evaluation; and simulate with joint contacts only.
-_FLOOR_CHILD = r"""
-import json, sys, time
-import numpy as np
-from scipy.integrate import solve_ivp
-import gibbsimpact as gi
-from gibbsimpact import kernel as K
-case = gi.load_case(sys.argv[1])
-repeats = int(sys.argv[2])
-m = case.model
-fdat, idat, zeros, v = m.kernel_data
-N = m.n_dof
-kern = K.compiled(v)
-def f(t, y):
-    out = K.output(idat, 1, K.JOB_SOLVE)
-    kern(fdat, idat, y[:N], y[N:], zeros, K.JOB_SOLVE, *v, out)
-    return out[3:3 + 2 * N]
-kw = case.simulate_kwargs()
-y0 = np.concatenate((case.q0, case.qdot0))
-plain = []
-for _ in range(repeats + 1):
-    c0 = time.process_time()
-    r = solve_ivp(f, (0.0, 1.0), y0, method=kw["method"], rtol=kw["rtol"], atol=kw["atol"])
-    plain.append(time.process_time() - c0)
-joints = []
-for _ in range(repeats + 1):
-    c0 = time.process_time()
-    res = case.simulate(link_contacts=False)
-    joints.append(time.process_time() - c0)
-print(json.dumps(dict(per_rhs=min(plain[1:]) / r.nfev, plain_nfev=int(r.nfev), joints_cpu=min(joints[1:]),
-                      joints_nfev=res.nfev, joints_impacts=len(res.impacts))))
-"""
-
-
-def _run_simulate_child(env, repeats, label):
-    p = subprocess.run([sys.executable, "-c", _SIMULATE_CHILD, str(CASE1), str(repeats)], env=env, cwd=ROOT,
-                       capture_output=True, text=True, timeout=1800, check=False)
-    if p.returncode != 0:
-        raise RuntimeError(f"{label} run failed (exit {p.returncode}):\n{p.stderr[-2000:]}")
-    return json.loads(p.stdout.strip().splitlines()[-1])
-
-
-def _git(*args, check=True):
-    return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True, check=check)
-
-
-def simulate_vs_baseline(cfg):
-    """Section 4: gi.simulate of case 1, warm, against the pre-numba kernel of commit 54f2dfd."""
-    section(f"4. gi.simulate of case 1 (warm), current code against the numpy kernel of {BASELINE_COMMIT}")
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src")] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
-    cur = _run_simulate_child(env, cfg.sim_repeats, "current")
-    tmp = Path(tempfile.mkdtemp(prefix="gi_baseline_"))
-    wt = tmp / "worktree"
-    added = False
-    try:
-        have = _git("cat-file", "-e", f"{BASELINE_COMMIT}^{{commit}}", check=False).returncode == 0
-        if have:
-            r = _git("worktree", "add", "--detach", str(wt), BASELINE_COMMIT, check=False)
-            added = r.returncode == 0
-            if not added:
-                print(f"git worktree add failed: {r.stderr.strip()}")
-        if added:
-            base_env = dict(os.environ, PYTHONPATH=str(wt / "src"))
-            how = f"commit {BASELINE_COMMIT} (worktree {wt})"
-        else:
-            print(f"commit {BASELINE_COMMIT} unavailable: the baseline is the current code with NUMBA_DISABLE_JIT=1")
-            base_env = dict(env, NUMBA_DISABLE_JIT="1")
-            how = "current code, NUMBA_DISABLE_JIT=1"
-        base = _run_simulate_child(base_env, cfg.sim_repeats, "baseline")
-        if added and not Path(base["file"]).resolve().is_relative_to(wt.resolve()):
-            print(f"warning: the baseline imported {base['file']}, not the worktree")
-    finally:
-        if added:
-            r = _git("worktree", "remove", "--force", str(wt), check=False)
-            if r.returncode != 0:
-                print(f"git worktree remove failed: {r.stderr.strip()}")
-        shutil.rmtree(tmp, ignore_errors=True)
-    print(f"baseline: {how}")
-    print(f"{'run':<10} {'wall[s]':>8} {'cpu[s]':>8} {'nfev':>6} {'impacts':>7} {'status':>9}  imported from")
-    for label, r in (("current", cur), ("baseline", base)):
-        print(f"{label:<10} {min(r['wall']):>8.3f} {min(r['cpu']):>8.3f} {r['nfev']:>6} {r['impacts']:>7} "
-              f"{r['status']:>9}  {r['file']}")
-    fl = subprocess.run([sys.executable, "-c", _FLOOR_CHILD, str(CASE1), str(cfg.sim_repeats)], env=env, cwd=ROOT,
-                        capture_output=True, text=True, timeout=1800, check=False)
-    floor = None
-    if fl.returncode == 0:
-        floor = json.loads(fl.stdout.strip().splitlines()[-1])
-        print(f"joint contacts only (link_contacts=False): {floor['joints_cpu']:.3f} s CPU, nfev {floor['joints_nfev']}, "
-              f"{floor['joints_impacts']} impacts")
-        print(f"floor: scipy's {floor['plain_nfev']}-evaluation integration of the same chain without events, bare "
-              f"kernel as RHS, costs {1e6 * floor['per_rhs']:.1f} us CPU per evaluation: {cur['nfev']} evaluations "
-              f"= {floor['per_rhs'] * cur['nfev']:.3f} s before any event, impact or sample")
-    else:
-        print(f"floor measurement failed: {fl.stderr[-1000:]}")
-    speedup = min(base["wall"]) / min(cur["wall"])
-    warm = min(cur["wall"])
-    print(f"speed-up baseline/current {speedup:.2f}x (target >= 12x) {verdict(speedup >= 12)}; "
-          f"warm wall {warm:.3f} s (target <= 0.15 s) {verdict(warm <= 0.15)}")
-    if cur["impacts"] != 4 or base["impacts"] != 4:
-        print(f"note: case 1 should have 4 impacts (current {cur['impacts']}, baseline {base['impacts']})")
-    return {"current": cur, "baseline": base, "speedup": speedup, "floor": floor}
 
 
 def cold_start(cfg):
@@ -709,8 +595,8 @@ def main(argv=None):
     ap.add_argument("--skip-cold", action="store_true", help="skip section 5 (cold start)")
     ap.add_argument("--skip-simulate", action="store_true", help="skip section 4 (simulate against the baseline)")
     ap.add_argument("--repeats", type=int, default=None, help="timing loops per measurement; the minimum is reported")
-    ap.add_argument("--only", choices=("prismatic",), default=None,
-                    help="run one section on its own: prismatic = section 7 (no plot)")
+    ap.add_argument("--only", choices=("prismatic", "simulate"), default=None,
+                    help="run one section on its own (no plot): prismatic = section 7, simulate = section 4")
     args = ap.parse_args(argv)
     cfg = argparse.Namespace(
         sizes=(2, 4, 8) if args.quick else (2, 4, 8, 16, 32),
@@ -723,6 +609,10 @@ def main(argv=None):
     if args.only == "prismatic":
         print(f"{cfg.repeats} repeats of ~{cfg.budget} s loops per timing")
         return {"prismatic": run_section(prismatic_chains, cfg)}
+    if args.only == "simulate":
+        from bench_baseline import simulate_vs_baseline
+
+        return {"simulate": run_section(simulate_vs_baseline, cfg)}
     print(f"sizes n = {cfg.sizes}; {cfg.repeats} repeats of ~{cfg.budget} s loops per timing (minimum reported)")
     results = {}
     results["rigid"] = run_section(rigid_vs_pinocchio, cfg)
@@ -732,6 +622,8 @@ def main(argv=None):
     if args.skip_simulate:
         print("\n(section 4 skipped: --skip-simulate)")
     else:
+        from bench_baseline import simulate_vs_baseline  # section 4 lives in its own file
+
         results["simulate"] = run_section(simulate_vs_baseline, cfg)
     if args.skip_cold:
         print("\n(section 5 skipped: --skip-cold)")

@@ -27,9 +27,9 @@ import gibbsimpact as gi
 from gibbsimpact.contact import candidates as lp
 from gibbsimpact.dynamics.kinematics import joint_positions
 
-from conftest import ISSUE25_ITEM5_FLOOR, issue25_item5_model, random_state
-from link_models import (CC, MODELS, _case1, _obstacles_near, _prismatic, _spatial_fe, _state,  # noqa: F401
-                         _walls_hugging, _walls_near)
+from conftest import ISSUE25_ITEM5_FLOOR, issue25_item5_model
+from link_models import (MODELS, _case1, _obstacles_near, _prismatic, _spatial_fe, _state, _walls_hugging,
+                         _walls_near)
 
 # -- 1. positions ------------------------------------------------------------------------------
 

@@ -28,11 +28,11 @@ import pytest
 
 try:
     from reference.sympy_chain import (
-        RefLink, RefMode, beta_l, derive, fe_integrals_exact, modal_integrals, reference_model,
+        RefLink, RefMode, beta_l, fe_integrals_exact, modal_integrals, reference_model,
     )
 except ImportError:  # tests/ collected as a package
     from tests.reference.sympy_chain import (
-        RefLink, RefMode, beta_l, derive, fe_integrals_exact, modal_integrals, reference_model,
+        RefLink, RefMode, beta_l, fe_integrals_exact, modal_integrals, reference_model,
     )
 
 RTOL = 1e-9

@@ -114,3 +114,61 @@ def test_obstacles_are_drawn_as_filled_bodies():
     surfaces = {c.get_gid() for c in ax3.collections if isinstance(c, Poly3DCollection)}
     assert {"obstacle 2", "obstacle 3"} <= surfaces and not any(g and "obstacle 1" in g for g in surfaces)
     plt.close(fig)
+
+
+# -- a walker: one long collision episode, a strike per step; a hub where six spokes meet -----------------
+
+CASES = __import__("pathlib").Path(__file__).resolve().parents[2] / "cases"
+
+
+@pytest.fixture(scope="module")
+def wheel():
+    """The rimless wheel of cases/ (six rigid spokes of l = 1 m welded to a hub, plastic strikes on a 12 deg
+    slope) to t = 1.7 s: two strikes, O8+O9 then O9+O10, in one collision episode (a foot always rests)."""
+    import gibbsimpact as gi
+
+    return gi.load_case(CASES / "rimless_wheel.toml").simulate(t_end=1.7)
+
+
+def test_a_walker_gets_a_panel_per_strike_within_its_one_episode(wheel):
+    from gibbsimpact.plotting.impacts import impact_groups, panel_groups
+
+    assert impact_groups(wheel) == ([(0, 1)], True) and panel_groups(wheel) == [(0, 0), (1, 1)]
+    fig = plot_configurations(wheel, n_points=5)
+    panels = [a for a in fig.axes if a.get_visible()]
+    assert [a.get_title().split(":")[0] for a in panels] == ["t = 0 s (initial)", "impact 1", "impact 2"]
+    assert panels[1].get_title().endswith("O8+O9") and panels[2].get_title().endswith("O9+O10")
+    assert "2 impacts in 1 collision episode, one panel per impact" in fig._suptitle.get_text().replace("\n", " ")
+    # Each strike panel stars the two feet on the ground, one chord of the wheel apart: 2 l sin(pi / 6) = l.
+    for a in panels[1:]:
+        stars = np.array([(x, y) for ln in a.get_lines() if ln.get_marker() == "*"
+                          for x, y in zip(ln.get_xdata(), ln.get_ydata())])
+        assert len(stars) == 2
+        assert np.linalg.norm(stars[1] - stars[0]) == pytest.approx(2.0 * np.sin(np.pi / 6.0), abs=1e-9)
+
+
+def test_points_that_coincide_share_one_label_path_and_curve(wheel):
+    # The six spokes' frame origins O1 ... O6 are the hub (welds at x = 0): one label, one path, one curve.
+    from gibbsimpact.plotting import plot_joint_positions
+
+    P = wheel.joint_positions()
+    assert np.abs(P[:, :6] - P[:, :1]).max() <= 1e-12 and np.abs(P[:, 6:] - P[:, :1]).max() > 0.9
+    panel = plot_configurations(wheel, n_points=5).axes[0]
+    labels = [t.get_text() for t in panel.texts]
+    assert labels.count("$O_{1}$\u2013$O_{6}$") == 1 and not {f"$O_{{{j}}}$" for j in range(1, 7)} & set(labels)
+    assert sorted(labels) == sorted(["$O_{1}$\u2013$O_{6}$"] + [f"$O_{{{j}}}$" for j in range(7, 13)])
+    ax = plot_trajectory(wheel, n_points=5).axes[0]
+    paths = [t.get_text() for t in ax.get_legend().get_texts() if t.get_text().startswith("path of")]
+    assert paths[0] == "path of $O_{1}$\u2013$O_{6}$ (joint 1 on the base)" and len(paths) == 7
+    legend = [t.get_text() for t in plot_joint_positions(wheel).axes[0].get_legend().get_texts()]
+    assert legend[0] == "$O_{1}$\u2013$O_{6}$ (joint 1 on the base)" and len(legend) == 7
+
+
+def test_a_run_without_impacts_says_so_and_explains_no_marks():
+    res = burst_result(bursts=())  # the arm on its floor, never touching it
+    assert not res.impacts
+    fig = plot_configurations(res, n_points=5)
+    assert "configurations at the start and the end, no impacts" in fig._suptitle.get_text()
+    assert [a.get_title().split(" (")[1] for a in fig.axes if a.get_visible()] == ["initial)", "final)"]
+    assert "red star" not in fig._supxlabel.get_text()
+    assert "red star: impacting point" in plot_configurations(burst_result(), n_points=5)._supxlabel.get_text()

@@ -26,6 +26,7 @@ from .common import (EXIT_BAD_INPUT, EXIT_CODES, EXIT_INTERNAL, EXIT_INTERRUPTED
                      EXIT_OUTPUT, EXIT_STOPPED, _error, _float, _load, _positive_int, _worst, add_limit_options,
                      add_method_option, add_rtol_option)
 from .outputs import OUTPUT_FILES, clear_outputs, output_names, write_outputs
+from .report import describe_saved_result, saved_result_path
 from .run import cmd_run
 
 # Public names of gibbsimpact.cli (its __init__ takes them from here), the run's from cli/run.py and outputs.py.
@@ -84,9 +85,13 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--animate", action="store_true", help="also write animation.gif")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no report on stdout")
 
-    s = sub.add_parser("show", help="describe cases: coordinates, frequencies, walls, initial energy and gaps",
-                       description="Describe the model of each CASE in words without running it.")
-    s.add_argument("case", metavar="CASE.toml", nargs="+", help="case file(s)")
+    s = sub.add_parser("show", help="describe cases (model, initial energy and gaps) or saved runs (status, "
+                                    "impacts, energy audit, method)",
+                       description="Describe the model of each CASE in words without running it; for a saved "
+                                   "run (an output folder of 'gibbsimpact run', or a result .npz file) print its "
+                                   "report instead: status, method, impacts, energy balance and audit, cost.")
+    s.add_argument("case", metavar="CASE.toml|RESULT", nargs="+",
+                   help="case file(s), or output folder(s) holding result.npz, or result .npz file(s)")
 
     e = sub.add_parser("equations", help="derive the symbolic equations of motion of a case's chain",
                        description="Derive M(q) qddot = forcing(q, qdot) of CASE symbolically (gi.derive_equations), "
@@ -365,9 +370,14 @@ def _describe_damping(m, i: int) -> str:
 
 
 def cmd_show(args) -> int:
-    """Describe every case given; the exit code is the worst (2 if any file is bad)."""
+    """Describe every case or saved run given; the exit code is the worst (2 if any file is bad)."""
     code, shown = EXIT_OK, 0
     for path in args.case:
+        saved = saved_result_path(path)
+        if saved is not None:
+            bad = _show_saved(path, saved, shown)
+            code, shown = _worst(code, bad), shown + (bad == EXIT_OK)
+            continue
         case, bad = _load(path)
         if case is None:
             code = _worst(code, bad)
@@ -381,6 +391,22 @@ def cmd_show(args) -> int:
             print(f"gibbsimpact: {path}: validity warning: {msg}", file=sys.stderr)
         shown += 1
     return code
+
+
+def _show_saved(argument, path: Path, shown: int) -> int:
+    """Print the report of the saved run at ``path`` (cli/report.py); 2 after an error line when it is none."""
+    import zipfile
+
+    if not path.is_file():
+        return _error(f"RESULT: {argument!r}: no such file; give a result .npz or the output folder of a run",
+                      EXIT_BAD_INPUT)
+    try:
+        text = describe_saved_result(path)
+    except (ValueError, OSError, KeyError, zipfile.BadZipFile) as exc:
+        return _error(f"RESULT: {argument!r}: not a readable gibbsimpact result ({exc}); give the result.npz "
+                      "that 'gibbsimpact run', Result.save or a sweep wrote", EXIT_BAD_INPUT)
+    print(("\n" if shown else "") + text, flush=True)
+    return EXIT_OK
 
 
 def cmd_equations(args) -> int:

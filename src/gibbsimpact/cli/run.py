@@ -12,10 +12,10 @@ import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..simulation.charts import recharts_text
 from .common import (EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_OUTPUT, EXIT_STOPPED,
                      OPTION_NAMES, _error, _load, _worst)
 from .outputs import Interrupts, write_outputs
+from .report import run_report_lines
 
 #: ``run`` warns before a run whose estimated CPU time exceeds this [s]: ten minutes.
 WARN_CPU_SECONDS = 600.0
@@ -240,28 +240,11 @@ def _simulate_and_write(path, case, args, overrides, out, progress, say) -> int:
 
 
 def _say_run(result, report, say) -> None:
-    """The report of a run on stdout: status, the first 20 impacts, the energy balance, cost and files."""
-    E = result.energy()
-    say(f"status: {result.status} ({result.message})")
-    for k, rec in enumerate(result.impacts[:20], start=1):
-        joints = "+".join(f"end stop of joint {j}" if w < 0 else f"O{j}" for j, w in zip(rec.joints, rec.wall))
-        say(f"  impact {k}: t = {rec.time:.6f} s  {joints}")
-    if len(result.impacts) > 20:
-        say(f"  ... {len(result.impacts)} impacts in all (impacts.csv)")
-    if result.charts:
-        say(recharts_text(result.charts) + ": theta_-1, theta_0, theta_1 jump there, the orientation does not "
-            "(base_qw ... base_qz in timeseries.csv; docs/theory.md §2.1)")
-    what = "power-balance error E - W" if result.work is not None else "energy drift"
-    say(f"energy: {E.total[0]:.9g} J -> {E.total[-1]:.9g} J; {what} over the whole run "
-        f"{result.energy_error_whole_run_J:.3g} J (relative {result.energy_error_whole_run:.2e} of the scale "
-        f"{result.energy_scale:.4g} J); max per flight phase {result.energy_error_per_phase:.2e} (relative)")
-    audit = result.energy_audit()
-    actuators = f"actuators {audit['actuators']:.4g}, " if result.prescribed else ""
-    say(f"energy audit [J]: inputs {audit['inputs']:.4g}, damping and friction {audit['damping_and_friction']:.4g}, "
-        f"{actuators}impacts {audit['impacts']:.4g}, numerical {audit['numerical']:.3g} "
-        f"({result.settings.get('method')})")
-    say(f"{result.nfev} right-hand-side evaluations, {result.wall_time:.2f} s; {len(report.written)} files in "
-        f"{report.out}")
+    """The report of a run on stdout (cli/report.py's run_report_lines), then the files written."""
+    lines = run_report_lines(result)
+    lines[-1] += f"; {len(report.written)} files in {report.out}"
+    for line in lines:
+        say(line)
     if "figures" in report.skipped and not report.lost:
         say(f"figures not drawn ({report.skipped['figures']}); to draw them: python -c \"import gibbsimpact as gi; "
             f"gi.load_result('{report.out / 'result.npz'}').plot(directory='{report.out}')\"")

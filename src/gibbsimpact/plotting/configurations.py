@@ -10,8 +10,9 @@ from ..contact.walls import describe
 from ..dynamics.kinematics import transforms
 from .geometry import (_run_camera, _scene_extent_2d, _scene_extent_3d, _scene_points, _stop_point, _to3,
                        is_planar)
-from .impacts import _episode_contacts, _range_text, impact_groups
-from .labels import _point_label, _sample_index, _split_contacts, _status_box, _title
+from .impacts import _episode_contacts, _range_text, impact_groups, panel_groups
+from .labels import (_point_label, _sample_index, _split_contacts, _status_box, _title, _wrap_note,
+                     coincident_groups)
 from .scene import _draw_chain_2d, _draw_chain_3d, _draw_links, _draw_walls_2d, _draw_walls_3d, _setup_3d
 from .style import _STOP_MARKER, _T0_STYLE, _figure, _given_axes, _joint_colour, _legend
 
@@ -60,7 +61,7 @@ def _panels(result) -> list:
     last = result.impacts[-1].time if result.impacts else -np.inf
     final = not result.impacts or (result.status != "finished" and t_end > last + 1e-9 * max(1.0, abs(t_end)))
     room = _MAX_PANELS - 1 - int(final)
-    episodes = impact_groups(result)[0]
+    episodes = panel_groups(result)
     if len(episodes) > room:
         episodes = episodes[:room - 1] + episodes[-1:]
     panels += [_episode_panel(result, a, b) for a, b in episodes]
@@ -77,16 +78,29 @@ def _configurations_title(result, panels, case_name, width_in: float) -> str:
     drawn = [p.episode for p in panels if p.episode is not None]
     n_imp = len(result.impacts)
     groups, physical = impact_groups(result)
-    n_ep = len(groups)
+    n_ep, n_panels = len(groups), len(panel_groups(result))
     shown = ""
     if n_ep < n_imp:
         kind = "collision" if physical else "contact"
-        shown = f"; {n_imp} impacts in {n_ep} {kind} episode{'s' if n_ep > 1 else ''}, one panel each"
-        if len(drawn) < n_ep:
-            shown += f" (the first {len(drawn) - 1} and the last)"
+        shown = f"; {n_imp} impacts in {n_ep} {kind} episode{'s' if n_ep > 1 else ''}, " + (
+            "one panel each" if n_panels == n_ep else "one panel per impact" if n_panels == n_imp else
+            f"{n_panels} panels, a new one where the chain has moved")
+        if len(drawn) < n_panels:
+            shown += f" (the first {len(drawn) - 1} and the last drawn)"
     elif len(drawn) < n_imp:
         shown = f"; impacts 1-{drawn[-2][1]} and {drawn[-1][0]} of {n_imp} drawn"
-    return _title(result, f"configurations at the impacts ({walls}{shown})", case_name, width_in=width_in)
+    what = "configurations at the impacts" if n_imp else "configurations at the start and the end, no impacts"
+    return _title(result, f"{what} ({walls}{shown})", case_name, width_in=width_in)
+
+
+def _panel_title(ax, text: str) -> str:
+    """A panel's title broken into lines as wide as its column of the figure (9 pt; labels._wrap_note's
+    measure), or as its Axes when they were given, so that a long list of contacts does not run over the
+    next panel."""
+    spec = ax.get_subplotspec()
+    width = ax.figure.get_figwidth() / spec.get_gridspec().ncols if spec is not None else \
+        ax.get_position().width * ax.figure.get_figwidth()
+    return _wrap_note(text, width, fontsize=9.0)
 
 
 def _draw_panels_2d(result, axes, panels, n_points, all_pts):
@@ -99,7 +113,7 @@ def _draw_panels_2d(result, axes, panels, n_points, all_pts):
         a.set_xlim(extent[0], extent[1])
         a.set_ylim(extent[2], extent[3])
         a.set_aspect("equal")
-        a.set_title(p.text, fontsize=9)
+        a.set_title(_panel_title(a, p.text), fontsize=9)
         a.set_xlabel("$X_1$ [m]", fontsize=8)
         a.set_ylabel("$X_2$ [m]", fontsize=8)
         a.tick_params(labelsize=7)
@@ -118,9 +132,21 @@ def _draw_panels_3d(result, axes, panels, n_points, all_pts, own: bool):
                        stops=p.stops)
         _setup_3d(a, lo, hi, view, zoom=0.92 if own else 1.0)
         if own:  # inside the panel's box: the panels touch
-            a.text2D(0.5, 0.99, p.text, transform=a.transAxes, ha="center", va="top", fontsize=9)
+            a.text2D(0.5, 0.99, _panel_title(a, p.text), transform=a.transAxes, ha="center", va="top", fontsize=9)
         else:
-            a.set_title(p.text, fontsize=9)
+            a.set_title(_panel_title(a, p.text), fontsize=9)
+
+
+def _configurations_note(model, panels, planar: bool) -> str:
+    """The footnote of the configuration figure: what its marks mean, only those it draws."""
+    parts = [
+        "red star: impacting point; red arrow: wall normal into the free region" if any(p.hit for p in panels) else "",
+        "red diamond: a prismatic joint at an end stop" if any(p.stops for p in panels) else "",
+        "thin line on the host: the part of a link behind its guide" if any(k.guide for k in model.joint_specs) else "",
+        "" if planar else "pale wide band: the chain's shadow on the floor; X2 vertical, camera along the least "
+                          "joint motion",
+    ]
+    return "; ".join(p for p in parts if p)
 
 
 def _configurations_figure(planar: bool, n: int, title: str):
@@ -162,11 +188,7 @@ def plot_configurations(result, case_name=None, n_points: int = 41, ax=None):
     all_pts = np.concatenate([_scene_points(p.model, p.q, n_points) for p in panels])
     title = _configurations_title(result, panels, case_name,
                                   (3.7 if planar else (5.0 if ncols > 1 else 6.0)) * ncols)
-    note = ("red star: impacting point; red arrow: wall normal into the free region"
-            + ("; red diamond: a prismatic joint at an end stop" if any(p.stops for p in panels) else "")
-            + ("; thin line on the host: the part of a link behind its guide" if any(k.guide for k in model.joint_specs) else "")
-            + ("" if planar else "; pale wide band: the chain's shadow on the floor; X2 vertical, "
-               "camera along the least joint motion"))
+    note = _configurations_note(model, panels, planar)
     if own:
         fig, axes = _configurations_figure(planar, n, title)
     if planar:
@@ -204,9 +226,11 @@ def _draw_trajectory(ax, result, n_points, P, planar: bool, floor=None):
     impact points (red stars) and end stops (red diamonds), into 2D or 3D axes."""
     model, first, last = result.model, result.model_at(0), result.model_at(len(result.t) - 1)
     put = (lambda Q: (Q[..., 0], Q[..., 1])) if planar else _to3
-    for j in range(P.shape[1]):
-        ax.plot(*put(P[:, j]), lw=0.9, color=_joint_colour(j), label=f"path of {_point_label(model, j + 1)}",
-                zorder=2)
+    # Points together all run long (a tree's joint): one path, coloured by its place among the paths.
+    for c, group in enumerate(coincident_groups(P)):
+        j = group[0]
+        ax.plot(*put(P[:, j]), lw=0.9, color=_joint_colour(c), zorder=2,
+                label=f"path of {_point_label(model, j + 1, [k + 1 for k in group])}")
     _draw_links(lambda Q, **st: ax.plot(*put(Q), solid_capstyle="round", **st), first, result.q[0], n_points,
                 lw=_T0_STYLE["lw"], colour=_T0_STYLE["color"], label=False, ls=_T0_STYLE["ls"], zorder=2.5)
     ax.plot(*put(np.zeros((0, 3))), label="chain at $t_0$", **_T0_STYLE)

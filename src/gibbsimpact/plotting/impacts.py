@@ -14,7 +14,7 @@ impulse, effective restitution and energy lost, not a count of micro-impacts. A 
 (no settings) falls back to contact episodes by time: a run of impacts each following the previous one
 by at most ``EPISODE_GAP`` of the run's duration, 1/300, three pixel columns of a time axis about 900
 pixels wide, so impacts that the time plots cannot tell apart form one group. The configuration figure
-draws one panel per group.
+draws one panel per group, split where the chain moved between two of its impacts (panel_groups).
 """
 
 from __future__ import annotations
@@ -22,12 +22,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..simulation.episodes import has_episodes
-from .labels import _contacts_text
+from .labels import _contacts_text, _sample_index
 
 #: Impacts drawn as numbered lines; past this count, a rug and one label per contact episode.
 MAX_LABELLED = 12
 #: Largest gap between two impacts of one contact episode, as a fraction of the run (3 px in 900).
 EPISODE_GAP = 1.0 / 300.0
+#: Two impacts of one group share a configuration panel while no contact point moved more than this
+#: fraction of the run's extent between them (panel_groups): 5 %, a few millimetres on a panel 8 cm wide.
+PANEL_MOVE = 0.05
 #: Axis fraction per character is CHAR_EM * fontsize / axis width [pt]: DejaVu Sans digits are 0.636 em.
 CHAR_EM = 0.64
 _LABEL_Y = 1.015  # axes fraction of the row of numbers above an axis
@@ -58,6 +61,27 @@ def impact_groups(result) -> tuple[list, bool]:
     groups = [(ep.impacts[0], ep.impacts[-1]) for ep in result.episodes if ep.impacts]
     covered = {i for a, b in groups for i in range(a, b + 1)}
     return sorted(groups + [(i, i) for i in range(n) if i not in covered]), True
+
+
+def panel_groups(result) -> list:
+    """The impact ranges [(first, last)] (0-based, inclusive, in time order) that the configuration figure
+    draws one panel each: impact_groups, each split between two consecutive impacts where some contact point
+    moved by more than PANEL_MOVE of the run's extent (the diagonal of the box around every point's path) from
+    the sample before the one to the sample before the other. One panel draws one state: a walker's feet strike
+    a step apart within one long collision episode (its stance foot rests in between), and each strike gets its
+    own panel, while the micro-impacts of one strike stay together."""
+    groups = impact_groups(result)[0]
+    if not groups:
+        return []
+    P = result.joint_positions()  # (K, P, 3) [m]
+    flat = P.reshape(-1, 3)
+    move = PANEL_MOVE * float(np.linalg.norm(flat.max(axis=0) - flat.min(axis=0)))
+    k = [_sample_index(result, rec.time) for rec in result.impacts]
+    out = []
+    for a, b in groups:
+        cuts = [i for i in range(a + 1, b + 1) if np.linalg.norm(P[k[i]] - P[k[i - 1]], axis=1).max() > move]
+        out += list(zip([a] + cuts, [i - 1 for i in cuts] + [b]))
+    return out
 
 
 def _range_text(first: int, last: int) -> str:

@@ -29,8 +29,45 @@ def _tex(name: str, dot: bool = False) -> str:
     return f"${sym}_{{{sub}}}$"
 
 
-def _joint_list(joints) -> str:
-    return "+".join(f"O{j}" for j in joints)
+#: Points closer than this, relative to max(1 m, their distance from the origin), are one point of a
+#: drawing: the links of a tree leaving one joint, welds at x = 0, two branches ending at one tip.
+SAME_POINT = 1e-9
+
+
+def coincident_groups(P) -> list[list[int]]:
+    """The points P (n, 3) or paths P (K, n, 3) [m] that coincide, grouped: points j and k share a group when
+    |P_j - P_k| <= SAME_POINT max(1, |P|) at every sample. Returns lists of 0-based indices, ascending, each
+    point in exactly one, ordered by their first member (a point alone is a group of one)."""
+    P = np.asarray(P, dtype=float)
+    P = P[None] if P.ndim == 2 else P
+    tol = SAME_POINT * max(1.0, float(np.abs(P).max(initial=0.0)))
+    groups, seen = [], set()
+    for j in range(P.shape[1]):
+        if j not in seen:
+            far = np.linalg.norm(P - P[:, j:j + 1], axis=2).max(axis=0)  # (n,) over the samples
+            groups.append([k for k in range(j, P.shape[1]) if k not in seen and far[k] <= tol])
+            seen.update(groups[-1])
+    return groups
+
+
+def _shared_label(js) -> str:
+    """Mathtext label of the coincident points js (1-based, ascending): '$O_{2}$', '$O_{2} = O_{3}$', or
+    for three or more consecutive numbers the range '$O_{1}$\u2013$O_{6}$' (short: it sits in a crowd of links),
+    else '$O_{2} = O_{5} = O_{7}$'."""
+    js = list(js)
+    if len(js) > 2 and js == list(range(js[0], js[-1] + 1)):
+        return f"$O_{{{js[0]}}}$\u2013$O_{{{js[-1]}}}$"
+    return "$" + " = ".join(f"O_{{{j}}}" for j in js) + "$"
+
+
+def _joint_list(joints, P=None) -> str:
+    """'O2+O4' for the joint contacts of one impact; those at one point (P (n, 3) [m], the contact points
+    at the impact; coincident_groups) joined by '=' instead: 'O2=O3+O4' (one point touching, not two)."""
+    joints = [int(j) for j in joints]
+    if P is None or len(joints) < 2:
+        return "+".join(f"O{j}" for j in joints)
+    groups = coincident_groups(np.asarray(P, dtype=float)[[j - 1 for j in joints]])
+    return "+".join("=".join(f"O{joints[k]}" for k in g) for g in groups)
 
 
 def _is_stop(wall) -> bool:
@@ -77,9 +114,10 @@ def _point_name(model, j: int, walls=()) -> str:
     return f"link {flex[j - P - 1] + 1}" if j - P - 1 < len(flex) else f"point {j}"
 
 
-def _point_label(model, j: int) -> str:
-    """Legend label of contact point O_j (1-based): '$O_{3}$ (tip of link 2)'."""
-    return f"$O_{{{j}}}$ ({_point_description(model, j)})"
+def _point_label(model, j: int, same=()) -> str:
+    """Legend label of contact point O_j (1-based): '$O_{3}$ (tip of link 2)'; with ``same`` (the 1-based
+    points that coincide with it, j among them) '$O_{1}$\u2013$O_{6}$ (joint 1 on the base)'."""
+    return f"{_shared_label(same or (j,))} ({_point_description(model, j)})"
 
 
 def _contacts_text(result, rec) -> str:
@@ -87,7 +125,10 @@ def _contacts_text(result, rec) -> str:
     'stop 2 (d_max)' for an end stop."""
     walls = tuple(rec.wall) if len(rec.wall) == len(rec.joints) else (0,) * len(rec.joints)
     if not any(_is_stop(w) for w in walls) and all(j <= result.model.n_joints for j in rec.joints):
-        return _joint_list(rec.joints)
+        if len(rec.joints) < 2:
+            return _joint_list(rec.joints)
+        k = _sample_index(result, rec.time)
+        return _joint_list(rec.joints, result.model_at(k).joint_positions(result.q[k]))
     q = _sample_at(result, rec.time)
     return "+".join(_stop_label(result, int(j), q) if _is_stop(w) else _point_name(result.model, int(j), result.walls)
                     for j, w in zip(rec.joints, walls))

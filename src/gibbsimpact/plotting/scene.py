@@ -7,6 +7,7 @@ import numpy as np
 from ..dynamics.kinematics import joint_positions, transforms
 from ..dynamics.link_points import body_centers, link_points
 from .geometry import _link_parts, _plane_polygon_3d, _prismatic_marks, _stop_point, _to3, _wall_curves_2d
+from .labels import _shared_label, coincident_groups
 from .style import _BODY_STYLE, _MARK_STYLE, _SHADOW_STYLE, _STOP_MARKER, _link_colour
 
 
@@ -81,16 +82,18 @@ def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, ar
     for j, p in enumerate(O, start=1):
         if j in hit:
             ax.plot(p[0], p[1], "*", ms=13, color="red", mec="darkred", zorder=5)
-        if labels:
-            a = T[j - 1][:2, 0] if j <= model.n_links else np.zeros(2)
-            if j <= model.n_links and model.joint_specs[j - 1].guide and np.linalg.norm(a) > 0:
-                # The rear end of a link in a guide lies on the host, with the guide just ahead:
-                # its label goes beside the link (right-hand side), not onto the guide.
-                a = a / np.linalg.norm(a)
-                ax.annotate(f"$O_{{{j}}}$", p[:2], xytext=(9 * a[1], -9 * a[0]), textcoords="offset points",
-                            fontsize=8, zorder=6, ha="center", va="center")
-            else:
-                ax.annotate(f"$O_{{{j}}}$", p[:2], xytext=(4, 4), textcoords="offset points", fontsize=8, zorder=6)
+    # One label per point: the points that coincide (a tree's links leaving one joint) share it.
+    for group in coincident_groups(O) if labels else ():
+        j, p, text = group[0] + 1, O[group[0]], _shared_label([k + 1 for k in group])
+        a = T[j - 1][:2, 0] if j <= model.n_links else np.zeros(2)
+        if j <= model.n_links and model.joint_specs[j - 1].guide and np.linalg.norm(a) > 0:
+            # The rear end of a link in a guide lies on the host, with the guide just ahead:
+            # its label goes beside the link (right-hand side), not onto the guide.
+            a = a / np.linalg.norm(a)
+            ax.annotate(text, p[:2], xytext=(9 * a[1], -9 * a[0]), textcoords="offset points",
+                        fontsize=8, zorder=6, ha="center", va="center")
+        else:
+            ax.annotate(text, p[:2], xytext=(4, 4), textcoords="offset points", fontsize=8, zorder=6)
     for i in stops:
         p = _stop_point(model, q, i)
         ax.plot(p[0], p[1], zorder=5, **_STOP_MARKER)
@@ -184,8 +187,8 @@ def _draw_chain_3d(ax, model, q, n_points, hit=(), normals=None, labels=True, fl
     for j, p in enumerate(O, start=1):
         if j in hit:
             ax.plot(*_to3(p[None, :]), "*", ms=13, color="red", mec="darkred", ls="none")
-        if labels:
-            ax.text(*_to3(p), f"  $O_{{{j}}}$", fontsize=8)
+    for group in coincident_groups(O) if labels else ():  # one label per point, as in 2D
+        ax.text(*_to3(O[group[0]]), "  " + _shared_label([k + 1 for k in group]), fontsize=8)
     for i in stops:
         ax.plot(*_to3(_stop_point(model, q, i)[None, :]), **_STOP_MARKER)
     if normals is not None:

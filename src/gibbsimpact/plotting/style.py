@@ -16,8 +16,8 @@ import sys
 import numpy as np
 
 
-#: Colours of the link drawings (cycled) ...
-LINK_COLOURS = ("#1f77b4", "#ff7f0e", "#8c564b", "#e377c2", "#bcbd22")
+#: Colours of the link drawings (cycled; seven, so that the six spokes of a rimless wheel differ) ...
+LINK_COLOURS = ("#1f77b4", "#ff7f0e", "#8c564b", "#e377c2", "#bcbd22", "#5254a3", "#e7ba52")
 #: ... and of the joints' paths and time curves (O_1, O_2, ...): no colour of either set is in the
 #: other, and neither holds red, which marks impacts.
 JOINT_COLOURS = ("#6a3d9a", "#1b9e77", "#17becf", "#2ca02c", "#253494", "#a6761d", "#7f7f7f")

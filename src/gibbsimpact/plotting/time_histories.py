@@ -11,7 +11,7 @@ from ..simulation.charts import recharts_text
 from .geometry import is_planar
 from .decimate import COLUMNS_PER_INCH, DENSE_TURNS, envelope, minmax_decimate, visible_turns
 from .impacts import _impact_lines, _impact_note, _number_impacts
-from .labels import _point_label, _point_name, _status_box, _tex, _title, _wrap_note
+from .labels import _point_label, _point_name, _status_box, _tex, _title, _wrap_note, coincident_groups
 from .style import _P_STYLES, _RANGE_STYLE, _STYLES, _figure, _given_axes, _joint_colour, _legend, _link_colour, _style
 
 
@@ -44,6 +44,9 @@ def _finish_time_figure(fig, axes, result, title, own: bool, number_axes=None, r
         _status_box(axes[0], result)
     for ax in number_axes:
         _number_impacts(ax, result)
+        # The y axis' multiplier ("1e-3") goes left of the corner, clear of the row of impact numbers.
+        ax.yaxis.get_offset_text().set_x(-0.01)
+        ax.yaxis.get_offset_text().set_horizontalalignment("right")
 
 
 def _curve(ax, t, y, label=None, **style):
@@ -376,7 +379,9 @@ def plot_contact_forces(result, case_name=None, ax=None):
     return fig
 
 
-def _joint_components(result, values, what, unit, case_name, ax):
+def _joint_components(result, values, what, unit, case_name, ax, positions=None):
+    """values (K, P, 3) of the contact points, one axis per component; ``positions`` (K, P, 3) [m]
+    (default Result.joint_positions()) tell which points coincide all run long: they share one curve."""
     dims = 2 if is_planar(result) else 3
     own = ax is None
     if own:
@@ -385,10 +390,13 @@ def _joint_components(result, values, what, unit, case_name, ax):
     else:
         axes = _given_axes(ax, dims, f"plot_{what.replace(' ', '_')}")
         fig = axes[0].figure
+    # Points together all run long (a tree's joint, coincident_groups of the positions): one curve each.
+    groups = coincident_groups(result.joint_positions() if positions is None else positions)
     for a, axis in enumerate(axes):
-        for j in range(values.shape[1]):
-            _curve(axis, result.t, values[:, j, a], label=_point_label(result.model, j + 1),
-                   **_style(j, _joint_colour(j)))
+        for c, group in enumerate(groups):  # coloured by its place among the curves, as the paths
+            j = group[0]
+            _curve(axis, result.t, values[:, j, a], label=_point_label(result.model, j + 1, [k + 1 for k in group]),
+                   **_style(c, _joint_colour(c)))
         axis.set_ylabel(f"along $X_{a + 1}$ [{unit}]")
     _legend(axes[0], outside=own)
     _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
@@ -400,7 +408,8 @@ def plot_joint_positions(result, case_name=None, ax=None):
 
     ax : None (a new figure) or up to 2 (planar) / 3 Axes for the components X1, X2, X3 in turn.
     """
-    return _joint_components(result, result.joint_positions(), "joint positions", "m", case_name, ax)
+    P = result.joint_positions()
+    return _joint_components(result, P, "joint positions", "m", case_name, ax, positions=P)
 
 
 def plot_joint_velocities(result, case_name=None, ax=None):

@@ -1,0 +1,84 @@
+"""What a run did, in lines of text: ``gibbsimpact run`` prints them after each run, and ``gibbsimpact show``
+prints them for a saved run (an output folder of ``run``, or any ``result.npz`` that Result.save or a sweep
+wrote), read back with gibbsimpact.load_result.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..simulation.charts import recharts_text
+
+#: Impacts listed one per line; the others are counted (impacts.csv has them all).
+SHOWN_IMPACTS = 20
+#: The file of a run's output folder that ``show FOLDER`` reads.
+RESULT_FILE = "result.npz"
+
+
+def run_report_lines(result) -> list[str]:
+    """The report of a Result: status, method, the first SHOWN_IMPACTS impacts, recharts, energy and audit, cost.
+
+    Energies in J (E = kinetic + gravitational + strain, docs/theory.md §5); the energy drift is
+    E(t_end) - E(t0) (with inputs or damping the power-balance error E - W, §9), relative to
+    Result.energy_scale; the audit splits E(t_end) - E(t0) into inputs, damping and friction,
+    actuators, impacts and the numerical rest (Result.energy_audit). The last line is the cost:
+    right-hand-side evaluations and wall time [s].
+    """
+    E = result.energy()
+    lines = [f"status: {result.status} ({result.message})", _method_line(result.settings)]
+    for k, rec in enumerate(result.impacts[:SHOWN_IMPACTS], start=1):
+        joints = "+".join(f"end stop of joint {j}" if w < 0 else f"O{j}" for j, w in zip(rec.joints, rec.wall))
+        lines.append(f"  impact {k}: t = {rec.time:.6f} s  {joints}")
+    if len(result.impacts) > SHOWN_IMPACTS:
+        lines.append(f"  ... {len(result.impacts)} impacts in all (impacts.csv)")
+    if result.charts:
+        lines.append(recharts_text(result.charts) + ": theta_-1, theta_0, theta_1 jump there, the orientation does "
+                     "not (base_qw ... base_qz in timeseries.csv; docs/theory.md §2.1)")
+    what = "power-balance error E - W" if result.work is not None else "energy drift"
+    lines.append(f"energy: {E.total[0]:.9g} J -> {E.total[-1]:.9g} J; {what} over the whole run "
+                 f"{result.energy_error_whole_run_J:.3g} J (relative {result.energy_error_whole_run:.2e} of the scale "
+                 f"{result.energy_scale:.4g} J); max per flight phase {result.energy_error_per_phase:.2e} (relative)")
+    audit = result.energy_audit()
+    actuators = f"actuators {audit['actuators']:.4g}, " if result.prescribed else ""
+    lines.append(f"energy audit [J]: inputs {audit['inputs']:.4g}, damping and friction "
+                 f"{audit['damping_and_friction']:.4g}, {actuators}impacts {audit['impacts']:.4g}, numerical "
+                 f"{audit['numerical']:.3g} ({result.settings.get('method')})")
+    lines.append(f"{result.nfev} right-hand-side evaluations, {result.wall_time:.2f} s")
+    return lines
+
+
+def _method_line(settings: dict) -> str:
+    """One line: the solver and its tolerances, and why method="auto" chose it (Result.settings)."""
+    tol = ", ".join(f"{k} {settings[k]:g}" for k in ("rtol", "atol") if isinstance(settings.get(k), (int, float)))
+    line = f"method: {settings.get('method')}" + (f", {tol}" if tol else "")
+    if settings.get("method_choice"):  # "auto: <method>, <why>" (simulation.auto.choose_method)
+        line += f"; {settings['method_choice']}"
+    return line
+
+
+def saved_result_path(argument) -> Path | None:
+    """The result file a ``show`` argument names (a ``.npz`` file, or a folder holding RESULT_FILE), else None:
+    the argument is then a case file."""
+    p = Path(argument)
+    if p.suffix == ".npz":
+        return p
+    if p.is_dir() and (p / RESULT_FILE).is_file():
+        return p / RESULT_FILE
+    return None
+
+
+def describe_saved_result(path: Path) -> str:
+    """A saved run in words (what ``gibbsimpact show FOLDER|result.npz`` prints): where it came from, its model
+    and span, then run_report_lines. Raises ValueError or OSError when ``path`` is no readable result."""
+    from ..io.result_files import load_result
+
+    result, meta = load_result(path, with_metadata=True)
+    m = result.model
+    case = f" of case {meta['case']}" if meta.get("case") else ""
+    t_end = result.settings.get("t_span", [None, None])[1]
+    asked = f" (asked for {t_end:g} s)" if isinstance(t_end, (int, float)) and t_end != result.t[-1] else ""
+    lines = [f"saved run{case} ({path})",
+             f"  {m.n_links} link(s), N = {m.n_dof} coordinates, {len(result.walls)} wall(s); "
+             f"t = {result.t[0]:g} -> {result.t[-1]:g} s{asked}, {len(result.t)} samples, "
+             f"{len(result.impacts)} impact(s)"]
+    return "\n".join(lines + run_report_lines(result))

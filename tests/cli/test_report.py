@@ -1,0 +1,97 @@
+"""``gibbsimpact show`` of a saved run: the report of ``run`` read back from result.npz (cli/report.py).
+
+Two routes to one text: the report ``run`` prints from the Result in memory, and the one ``show`` prints
+from the file; the numbers in it are case 1's published ones (cases/circle_two_link.toml: O2 at 0.451524 s,
+O1 and O3 together at 0.474918 s, total energy -4.905 J throughout).
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import gibbsimpact as gi
+from gibbsimpact.cli import commands as cli
+from gibbsimpact.simulation.auto import choose_method
+from test_commands import CASES, run_main  # the command line in-process, compile notices dropped from stderr
+
+
+@pytest.fixture(scope="module")
+def case1_run(tmp_path_factory):
+    """Case 1 to t = 0.5 s (two impacts) by ``run``: (its output folder, what it printed on stdout)."""
+    import contextlib
+    import io
+
+    out = tmp_path_factory.mktemp("case1_report")
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = cli.main(["run", str(CASES / "circle_two_link.toml"), "--out", str(out), "--t-end", "0.5",
+                         "--no-plots"])
+    assert code == 0
+    return out, buf.getvalue()
+
+
+def test_show_prints_the_run_report_of_a_saved_folder(case1_run, capsys):
+    out, printed = case1_run
+    code, text, err = run_main(["show", out], capsys)
+    assert code == 0 and err == ""
+    # The report run printed from memory, from "status:" to the cost line (which run follows with the files).
+    live = printed[printed.index("status:"):].splitlines()
+    live[-1] = live[-1].split("; ")[0]
+    assert text.splitlines()[2:] == live
+    assert text.startswith(f"saved run of case circle_two_link ({out / 'result.npz'})")
+    assert "2 link(s), N = 9 coordinates, 1 wall(s); t = 0 -> 0.5 s" in text
+    assert "status: finished" in text and "method: DOP853, rtol 1e-10, atol 1e-12\n" in text
+    times = [float(t) for t in re.findall(r"impact \d: t = ([0-9.]+) s", text)]
+    np.testing.assert_allclose(times, [0.451524, 0.474918], atol=1e-6)
+    assert "s  O2\n" in text and "s  O1+O3\n" in text
+    assert "energy: -4.905 J -> -4.905 J" in text and "energy audit [J]: inputs 0," in text
+
+
+def test_show_reads_a_result_file_and_a_case_in_one_call(case1_run, capsys):
+    out, _ = case1_run
+    code, text, err = run_main(["show", out / "result.npz", CASES / "circle_two_link.toml"], capsys)
+    assert code == 0 and err == ""
+    saved, case = text.split("\n\ncase circle_two_link")
+    assert saved.startswith("saved run of case circle_two_link") and "impact 2: t = 0.474918 s  O1+O3" in saved
+    assert "initial energy:" in case
+
+
+def test_show_names_the_method_auto_chose(tmp_path, capsys):
+    """The reason printed is choose_method's for the case's model, initial state, span and tolerance."""
+    code = cli.main(["run", str(CASES / "circle_two_link.toml"), "--out", str(tmp_path), "--t-end", "0.05",
+                     "--method", "auto", "--no-plots", "--quiet"])
+    assert code == 0
+    case = gi.load_case(CASES / "circle_two_link.toml")
+    method, why = choose_method(case.model, case.q0, (0.0, 0.05), np.inf, case.solver["rtol"])
+    capsys.readouterr()
+    code, text, err = run_main(["show", tmp_path], capsys)
+    assert code == 0 and why.startswith(f"auto: {method}")
+    assert f"method: {method}, rtol 1e-10, atol 1e-12; {why}\n" in text
+
+
+def test_show_of_a_result_saved_from_python_has_no_case_name(case1_run, tmp_path, capsys):
+    out, _ = case1_run
+    res = gi.load_result(out / "result.npz")
+    path = res.save(tmp_path / "mine.npz")
+    code, text, err = run_main(["show", path], capsys)
+    assert code == 0 and text.startswith(f"saved run ({path})")
+
+
+@pytest.mark.parametrize("name, expected", [
+    ("missing.npz", "RESULT: '{p}': no such file; give a result .npz or the output folder of a run"),
+    ("garbage.npz", "RESULT: '{p}': not a readable gibbsimpact result"),
+    ("plain.npz", "RESULT: '{p}': not a readable gibbsimpact result ({p} is not a gibbsimpact result (no 'meta' "
+                  "entry))"),
+])
+def test_show_of_a_bad_result_file_is_exit_2_naming_it(name, expected, tmp_path, capsys):
+    p = tmp_path / name
+    if name == "garbage.npz":
+        p.write_bytes(b"not a zip file")
+    elif name == "plain.npz":
+        np.savez(p, t=np.zeros(3))
+    code, text, err = run_main(["show", p], capsys)
+    assert code == 2 and text == ""
+    assert err.startswith("gibbsimpact: error: " + expected.format(p=p))
