@@ -46,6 +46,8 @@ def entries(model, q, qd):
         ("Model.energy", lambda: model.energy(q, qd), K.JOB_ENERGY),
         ("dynamics.energy", lambda: ga.energy(model, q, qd), K.JOB_ENERGY),
         ("Model.linear_momentum", lambda: model.linear_momentum(q, qd), K.JOB_MOMENTUM),
+        ("Model.center_of_mass", lambda: model.center_of_mass(q), K.JOB_MOMENTUM),
+        ("Model.potential_forces", lambda: model.potential_forces(q), K.JOB_H),
         ("Model.joint_positions", lambda: model.joint_positions(q), K.JOB_POINTS),
         ("kinematics.joint_positions", lambda: kin.joint_positions(model, q), K.JOB_POINTS),
         ("Model.joint_jacobians", lambda: model.joint_jacobians(q), K.JOB_POINTS | K.JOB_JACOBIANS),
@@ -58,6 +60,32 @@ def bare(model, q, qd, job):
     f = K.compiled(v)
     out = K.output(idat, 1, job)
     return lambda: f(fdat, idat, q, qd, zeros, job, v[0], v[1], out)
+
+
+def _nothing(model):
+    """A compiled function of the kernel's nine arguments and types (model's variant) that does nothing."""
+    import numba
+
+    v = model.kernel_data[3]
+    sig = K.compile._ENTRY_SIG.format(*K.compile._signature_args(v))
+    return numba.njit(sig)(lambda fdat, idat, qs, qds, Q, job, pris, ends, out: 0.0)
+
+
+def floors(model, q, qd):
+    """The floors of every entry point: (the call from Python of ``_nothing``: numba's dispatch, unboxing
+    nine arguments and boxing a float; a Python function that allocates the output of JOB_POINTS, makes
+    that call and returns a reshaped view of it: joint_positions' steps around a kernel that costs nothing)."""
+    fdat, idat, zeros, v = model.kernel_data
+    nothing, job = _nothing(model), K.JOB_POINTS
+    size, P = K.output(idat, 1, job).size, model.n_joints
+    out0 = np.empty(size)
+
+    def entry(q, qd):
+        out = np.empty(size)
+        nothing(fdat, idat, q, qd, zeros, job, v[0], v[1], out)
+        return out[3:].reshape(P, 3)
+
+    return lambda: nothing(fdat, idat, q, qd, zeros, job, v[0], v[1], out0), lambda: entry(q, qd)
 
 
 def best(fn, number, repeat):
@@ -76,6 +104,10 @@ def main():
         qd = rng.normal(size=model.n_dof)
         print(f"\n{name} (N = {model.n_dof})")
         print(f"  {'entry point':28s} {'us/call':>9s} {'kernel us':>10s} {'ratio':>6s}")
+        call, entry = floors(model, q, qd)
+        call(), entry()
+        print(f"  {'(floor: an empty call)':28s} {best(call, args.number, args.repeat):9.2f}")
+        print(f"  {'(floor: an empty entry)':28s} {best(entry, args.number, args.repeat):9.2f}")
         for label, call, job in entries(model, q, qd):
             call()
             k = bare(model, q, qd, job)

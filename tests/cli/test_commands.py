@@ -216,6 +216,38 @@ def test_show_describes_the_model(capsys):
     assert code == 0 and "16 first-order ODEs" in out and "mode 1 in z" in out and "1.80754863 J" in out
 
 
+def test_show_describes_a_root_welded_to_a_fixed_base(tmp_path, capsys):
+    # Joint 1 a weld on a fixed base (a flexible link clamped at an angle): show stopped with a KeyError.
+    case = tmp_path / "welded_root.toml"
+    case.write_text('''name = "welded_root"
+gravity_m_per_s2 = [0.0, -9.81, 0.0]
+[time]
+t_end_s = 0.1
+[base]
+type = "fixed"
+position_m = [0.0, 0.6]
+[[links]]
+length_m = 1.0
+mass_per_length_kg_per_m = 1.0
+EI_N_m2 = 25.0
+elements = 2
+element_directions = ["y"]
+[links.joint]
+type = "W"
+angle_deg = -30.0
+[[links]]
+length_m = 0.6
+mass_per_length_kg_per_m = 0.5
+EI_N_m2 = 8.0
+''')
+    code, out, err = run_main(["show", case], capsys)
+    assert code == 0, err
+    assert "joint 1 welds link 1 to the base there (no coordinate)" in out
+    assert "W (weld, no coordinate): link 1 fixed at -30 deg on the base" in out
+    # N = theta_2 and link 1's four element coordinates (2 elements, deflection and slope at 2 nodes)
+    assert "N = 5 generalised coordinates" in out
+
+
 def test_progress_bar_only_on_a_terminal(tmp_path, monkeypatch):
     # The CLI asks simulate for its tqdm bar (progress=True) when stderr is a terminal and not --quiet.
     class Tty(_io.StringIO):

@@ -60,6 +60,24 @@ def test_end_joints_of_prismatic_chains():
     assert lp.end_joints(_case1()).tolist() == [[0, 1], [1, 2]]
 
 
+def test_end_joints_of_a_serial_chain_with_a_weld(rng):
+    """A weld sits at its host's tip like a revolute (model.joints.JOINT_KINDS: not prismatic), so the
+    tip of its host is the weld's frame origin, not an extra point: the end of each link's search
+    interval is the contact point Model.tip_points names (before, the weld took an extra point
+    index P that joint_positions has not). The positions are checked against the kernel's."""
+    link = gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode("clamped-clamped", "y")])
+    model = gi.Model(gi.Chain([link] * 3, joints=[gi.Revolute(), gi.Weld(0.3), gi.Revolute()],
+                              base=gi.FixedBase((0.0, 0.0))))
+    ends = lp.end_joints(model)
+    assert ends.tolist() == [[0, 1], [1, 2], [2, 3]]
+    assert ends[:, 1].tolist() == list(model.tip_points)
+    q = rng.normal(scale=0.1, size=model.n_dof)  # theta_1, theta_3 [rad], one delta per link [m]
+    P = joint_positions(model, q)
+    for i in range(model.n_links):
+        tip = lp.material_points(model, q, i, [model.chain.links[i].length])[0]
+        assert np.max(np.abs(tip - P[ends[i, 1]])) <= 1e-13
+
+
 # -- 2. Jacobian and velocity-product acceleration ----------------------------------------------
 
 def _fd_jacobian(model, q, i, x, eps=1e-6):

@@ -432,6 +432,50 @@ def test_read_only_applied_forces_and_wrong_sizes():
         dy.mass_matrix(model, q[:-2])
 
 
+def test_the_entry_point_checks_sizes_and_with_job_finite_the_entries():
+    # The kernel refuses (-1.0, nothing written) states whose sizes disagree with each other or
+    # with N, and a Q of another size with a solve job; with JOB_FINITE, a non-finite entry of qs
+    # or qds (-2.0, nothing written); JOB_FINITE adds no output section. Before, a qds shorter
+    # than qs was read past its end.
+    model = two_link_circle_model()
+    fdat, idat, zeros, v = model.kernel_data
+    f, N = _k.compiled(v), model.n_dof
+    q, qd = random_state(model, np.random.default_rng(7))
+    assert _k.output(idat, 1, _k.JOB_QDDOT | _k.JOB_FINITE).size == N
+    assert _k.output(idat, 2, _k.JOB_ENERGY | _k.JOB_FINITE).size == _k.output(idat, 2, _k.JOB_ENERGY).size
+    for job in (_k.JOB_ENERGY, _k.JOB_QDDOT, _k.JOB_M | _k.JOB_POINTS):
+        for bad in ((q, qd[:-1], zeros), (q[:-1], qd[:-1], zeros), (np.tile(q, 2), qd, zeros)):
+            out = np.full(_k.output(idat, 1, job).size, 7.0)
+            assert f(fdat, idat, *bad, job, *v, out) == -1.0 and np.all(out == 7.0)
+    out = np.full(N, 7.0)
+    assert f(fdat, idat, q, qd, np.ones(N - 1), _k.JOB_QDDOT, *v, out) == -1.0 and np.all(out == 7.0)
+    for k in (0, N - 1):
+        for value in (np.nan, np.inf):
+            for pair in ((np.where(np.arange(N) == k, value, q), qd), (q, np.where(np.arange(N) == k, value, qd))):
+                job = _k.JOB_ENERGY | _k.JOB_FINITE
+                out = np.full(_k.output(idat, 1, job).size, 7.0)
+                assert f(fdat, idat, *pair, zeros, job, *v, out) == -2.0 and np.all(out == 7.0)
+                out = _k.output(idat, 1, _k.JOB_ENERGY)  # without the bit: computed, NaN or inf energies
+                assert f(fdat, idat, *pair, zeros, _k.JOB_ENERGY, *v, out) == 0.0
+                assert not np.all(np.isfinite(out[3:]))
+    # the bit changes nothing else: the same energies and accelerations
+    for job in (_k.JOB_ENERGY, _k.JOB_QDDOT, _k.JOB_M | _k.JOB_H | _k.JOB_POINTS):
+        a, b = _k.output(idat, 1, job), _k.output(idat, 1, job | _k.JOB_FINITE)
+        assert f(fdat, idat, q, qd, zeros, job, *v, a) == f(fdat, idat, q, qd, zeros, job | _k.JOB_FINITE, *v, b)
+        np.testing.assert_array_equal(a, b)
+
+
+def test_unchecked_forward_dynamics_passes_a_non_finite_state_through():
+    # A solver's trial state may be non-finite: forward_dynamics returns NaN accelerations (the solver
+    # then shrinks its step) and raises only with check=True (Model.forward_dynamics).
+    model = two_link_circle_model()
+    q, qd = random_state(model, np.random.default_rng(8))
+    q[2] = np.nan
+    assert np.all(np.isnan(dy.forward_dynamics(model, q, qd)))
+    with pytest.raises(ValueError, match=f"q has non-finite entries: {model.coordinate_names[2]}$"):
+        dy.forward_dynamics(model, q, qd, check=True)
+
+
 @needs_jit
 def test_no_compile_notice_when_the_cache_is_warm(compiled):
     # ``compiled`` compiled (or loaded) every variant; with a cache location they are on disk,

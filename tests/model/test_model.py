@@ -23,6 +23,23 @@ def test_a_non_finite_entry_is_named_through_every_alias(model, bad, k):
                  lambda: model.energy(np.zeros(model.n_dof), q), lambda: model.joint_positions(q)):
         with pytest.raises(ValueError, match=f"non-finite entries: {name}$"):
             call()
+    z = np.zeros(model.n_dof)
+    for call in (lambda: model.bias_forces(q, z), lambda: model.potential_forces(q), lambda: model.joint_jacobians(q),
+                 lambda: model.joint_velocities(z, q), lambda: model.linear_momentum(z, q),
+                 lambda: model.angular_momentum(q, z), lambda: model.center_of_mass(q)):
+        with pytest.raises(ValueError, match=f"non-finite entries: {name}$"):
+            call()
+
+
+def test_aliases_take_lists_and_refuse_wrong_shapes_with_check_states_messages(model):
+    N = model.n_dof
+    q = np.linspace(-0.3, 0.3, N)
+    np.testing.assert_array_equal(model.mass_matrix(q.tolist()), model.mass_matrix(q))
+    np.testing.assert_array_equal(model.forward_dynamics(q.tolist(), [0.0] * N), model.forward_dynamics(q, np.zeros(N)))
+    for call in (lambda: model.forward_dynamics(q[:-1], q[:-1]), lambda: model.mass_matrix(np.zeros(N + 1)),
+                 lambda: model.energy(q, np.zeros(3)), lambda: model.joint_positions(np.zeros(2 * N))):
+        with pytest.raises(ValueError, match="has shape"):
+            call()
 
 
 @pytest.mark.filterwarnings("ignore:overflow encountered")  # numpy's, from the dot product that overflows

@@ -14,6 +14,7 @@ import numpy as np
 import scipy.linalg as sl
 
 from ..model.bodies import RigidBody
+from ..model.joints import JOINT_KINDS
 from ..model.model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, SlidingPrismatic, Weld
 from ..model.modes import MODE_DIRECTIONS, MODE_KINDS, Mode, natural_frequency
 from .keypaths import join, key_path
@@ -244,7 +245,7 @@ def _element_frequencies_ok(r: _Reader, model: Model) -> bool:
             continue
         omega = math.sqrt(max(float(sl.eigh(ld.K, ld.M_dd, eigvals_only=True)[-1]), 0.0))
         at = ""
-        if jt.kind == "Pb":
+        if jt.spec.guide:
             omega *= (link.length / jt.range[0]) ** 2
             at = (f" at the shortest protruding length d_min = {fmt(jt.range[0])} m "
                   f"({key_path('links', i, 'joint', 'range_m')})")
@@ -331,18 +332,19 @@ def _joint(r: _Reader, link_tbl, path: str):
         r.add(join(path, "type"), f"unknown joint type {kind!r}; {hint}use "
                                   + ", ".join(f"{k!r} ({what})" for k, what in _JOINT_TYPES.items()))
         return _BAD
-    ok = _keys_of_joint_type(r, tbl, path, kind)
-    rot = _joint_rotation(r, tbl, path) if kind in ("R", "W") else None
-    if kind == "R":
-        return Revolute(axis_rotation=rot) if ok and rot is not _BAD else _BAD
-    angle = _angle(r, tbl, path, "joint")
-    if kind == "W":
-        return Weld(angle=angle, rotation=rot) if ok and angle is not _BAD and rot is not _BAD else _BAD
-    half = r.get(tbl, path, "half_length_m", "number", default=0.0)
-    rng = _joint_range(r, tbl, path, kind)
-    if not ok or _BAD in (angle, half, rng):
+    spec = JOINT_KINDS[kind]
+    ok = _keys_of_joint_type(r, tbl, path, spec)
+    rot = None if spec.prismatic else _joint_rotation(r, tbl, path)
+    angle = None if spec.turns else _angle(r, tbl, path, "joint")
+    half = r.get(tbl, path, "half_length_m", "number", default=0.0) if spec.carriage else None
+    rng = _joint_range(r, tbl, path, spec) if spec.prismatic else None
+    if not ok or any(v is _BAD for v in (rot, angle, half, rng)):
         return _BAD
-    if kind == "Pa":
+    if spec.turns:
+        return Revolute(axis_rotation=rot)
+    if not spec.has_coordinate:
+        return Weld(angle=angle, rotation=rot)
+    if spec.carriage:
         return SlidingPrismatic(angle=angle, half_length=half, range=tuple(rng))
     return FixedPrismatic(angle=angle, range=tuple(rng))
 
@@ -382,17 +384,17 @@ def _tree(r: _Reader, raw_links):
     return (tuple(parents), tuple(attach)) if ok else _BAD
 
 
-def _keys_of_joint_type(r: _Reader, tbl: dict, path: str, kind: str) -> bool:
+def _keys_of_joint_type(r: _Reader, tbl: dict, path: str, spec) -> bool:
     """False (and a problem per key) when the joint table has keys its type has not."""
     ok = True
     allowed = {"R": ("rotation_xyz_deg",), "Pa": ("angle_deg", "angle_rad", "half_length_m", "range_m"),
-               "Pb": ("angle_deg", "angle_rad", "range_m"), "W": ("angle_deg", "angle_rad", "rotation_xyz_deg")}[kind]
+               "Pb": ("angle_deg", "angle_rad", "range_m"), "W": ("angle_deg", "angle_rad", "rotation_xyz_deg")}[spec.code]
     for key in tbl:
         if key in ("type", "parent", "at_m") or key in allowed or key not in _JOINT_KEYS:
             continue
         ok = False
-        if kind in ("R", "W"):
-            name = "a revolute joint (type = 'R')" if kind == "R" else "a weld (type = 'W')"
+        if not spec.prismatic:
+            name = "a revolute joint (type = 'R')" if spec.turns else "a weld (type = 'W')"
             r.add(join(path, key), f"{name} has no {_JOINT_KEYS[key].split(' of ')[0]}: "
                                    "remove it, or set type = 'Pa' or 'Pb' for a prismatic joint")
         elif key == "rotation_xyz_deg":
@@ -404,7 +406,7 @@ def _keys_of_joint_type(r: _Reader, tbl: dict, path: str, kind: str) -> bool:
     return ok
 
 
-def _joint_range(r: _Reader, tbl: dict, path: str, kind: str):
+def _joint_range(r: _Reader, tbl: dict, path: str, spec):
     """[d_min, d_max] [m] of a prismatic joint: d_min < d_max, and d_min > 0 for Pb; _BAD on a problem."""
     rng = r.get(tbl, path, "range_m", "vector2", required=True,
                 what=f"[d_min, d_max] in m, the travel of the joint's coordinate ({_JOINT_KEYS['range_m']})")
@@ -413,7 +415,7 @@ def _joint_range(r: _Reader, tbl: dict, path: str, kind: str):
     if not rng[0] < rng[1]:
         r.add(join(path, "range_m"), f"must be [d_min, d_max] with d_min < d_max, got [{fmt(rng[0])}, {fmt(rng[1])}]")
         return _BAD
-    if kind == "Pb" and not rng[0] > 0:
+    if spec.guide and not rng[0] > 0:
         r.add(join(path, "range_m"), f"d_min = {fmt(rng[0])} m must be > 0: a Pb joint's d is the length "
                                      "protruding from the guide, and the link's stiffness grows like 1/d^3 as d -> 0")
         return _BAD
@@ -425,10 +427,10 @@ def _joint_range(r: _Reader, tbl: dict, path: str, kind: str):
 def _chain_ok(r: _Reader, links, joints, base) -> bool:
     """The rules of a chain with prismatic joints or a planar base (docs/theory.md §8, §7.3, §7.4, §9, §13),
     each reported at the key to change."""
-    kinds = [j.kind for j in joints]
-    prismatic = [k for k, kd in enumerate(kinds) if kd in ("Pa", "Pb")]
+    kinds = [j.spec for j in joints]
+    prismatic = [k for k, kd in enumerate(kinds) if kd.prismatic]
     ok = True
-    if base == "planar" and kinds[0] != "R":
+    if base == "planar" and not kinds[0].turns:
         r.add("links[1].joint.type", "on a planar free-flying base ([base] type = 'planar') joint 1 must be 'R': "
                                      "theta_1 is the chain's orientation; set [base] type = 'fixed' for a "
                                      "prismatic joint 1")
@@ -438,12 +440,12 @@ def _chain_ok(r: _Reader, links, joints, base) -> bool:
     if base == "free":
         for k in prismatic:
             r.add(key_path("links", k, "joint", "type"),
-                  f"a prismatic joint ({kinds[k]!r}) needs a planar chain, and a chain without [base] (or with "
+                  f"a prismatic joint ({kinds[k].code!r}) needs a planar chain, and a chain without [base] (or with "
                   "type = 'free') flies in space: add [base] with type = 'fixed' (or 'planar' for a floating chain)")
         return False
     ok = _bends_in_plane(r, links) and ok
     for k in prismatic:
-        rule = _pb_rules if kinds[k] == "Pb" else _pa_rules
+        rule = _pb_rules if kinds[k].guide else _pa_rules
         ok = rule(r, links, joints, k) and ok
     return ok
 

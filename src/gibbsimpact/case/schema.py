@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from ..contact.walls import MAX_FRICTION
 from ..dynamics.inputs import INPUT_KINDS
 from ..model.elements import MAX_ELEMENTS
+from ..model.joints import JOINT_KINDS
 from ..model.modes import MODE_KINDS
 from ..simulation.auto import METHODS
 from .keypaths import schema_key
@@ -243,12 +244,7 @@ _LINK_KEYS = {
     "bodies": "[[links.bodies]] tables: rigid bodies attached to the link (payloads, a hub)",
 }
 #: Joint types of [links.joint] (gi.Revolute, gi.SlidingPrismatic, gi.FixedPrismatic) -> what each is.
-_JOINT_TYPES = {
-    "R": "revolute: the link turns by theta_i at the host's tip",
-    "Pa": "sliding prismatic: a carriage fixed to the link runs along the host, d_i",
-    "Pb": "fixed prismatic: the link slides through a guide at the host's tip, d_i",
-    "W": "weld: the link is clamped to its host at the fixed angle, no coordinate",
-}
+_JOINT_TYPES = {code: kind.summary for code, kind in JOINT_KINDS.items()}
 _JOINT_KEYS = {
     "type": "'R' (revolute, the default), 'Pa' (a carriage on the host), 'Pb' (a guide at the host's tip) or 'W' (a weld)",
     "angle_deg": "fixed angle gamma of a Pa, Pb or W joint in deg",

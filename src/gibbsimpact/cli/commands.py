@@ -245,7 +245,8 @@ def _describe_base(m) -> str:
     pos = ", ".join(f"{c:g}" for c in base.position)
     what = {"R": "joint 1 turns link 1 by theta_1 about z there",
             "Pa": "joint 1 is a carriage on a rail along the base x axis",
-            "Pb": "joint 1 is a guide at the base origin that link 1 slides through"}[m.chain.joints[0].kind]
+            "Pb": "joint 1 is a guide at the base origin that link 1 slides through",
+            "W": "joint 1 welds link 1 to the base there (no coordinate)"}[m.chain.joints[0].kind]
     return f"base: fixed at ({pos}) m, angle {np.degrees(base.angle):g} deg about X3; {what}"
 
 
@@ -256,7 +257,7 @@ def _describe_tree_joint(m, i: int, jt) -> str:
 
     p, xa = m.chain.parents[i - 1], m.chain.attach[i - 1]
     where = "on the base" if p < 0 else (f"at the tip of link {p + 1}" if xa is None else f"on link {p + 1} at x = {xa:g} m")
-    if jt.kind == "W":
+    if not jt.spec.has_coordinate:
         return f"W (weld, no coordinate): link {i} fixed at {np.degrees(jt.angle):g} deg {where}"
     return f"R (revolute): link {i} turns by {m.coordinate_names[m.theta_index[i - 1]]} about z {where}"
 
@@ -267,23 +268,23 @@ def _describe_joints(case) -> list:
 
     m = case.model
     joints = m.chain.joints
-    if all(j.kind == "R" for j in joints) and m.chain.serial:
+    if all(j.spec.turns for j in joints) and m.chain.serial:
         return ["joints: all revolute (theta_i turns link i about z at the tip of link i-1, or at the base)"]
     lines = ["joints:"]
     for i, (jt, k) in enumerate(zip(joints, m.theta_index), start=1):
         host = "the base" if i == 1 else f"link {i - 1}"
-        if not m.chain.serial or jt.kind == "W":  # a tree (formulation §17): each joint's host and abscissa
+        if not m.chain.serial or not jt.spec.has_coordinate:  # a tree (formulation §17): each joint's host and abscissa
             lines.append(f"  joint {i}: {_describe_tree_joint(m, i, jt)}")
             continue
         name = m.coordinate_names[k]
-        if jt.kind == "R":
+        if jt.spec.turns:
             lines.append(f"  joint {i}: R (revolute): link {i} turns by {name} about z at the "
                          f"{'base' if i == 1 else f'tip of link {i - 1}'}")
             continue
         lo, hi = jt.range
         now = f", {case.q0[k]:g} m at t0"
         angle = f"{np.degrees(jt.angle):g} deg"
-        if jt.kind == "Pa":
+        if jt.spec.carriage:
             rail = "a straight rigid rail along the base x axis" if i == 1 else host
             lines.append(f"  joint {i}: Pa (sliding prismatic): a carriage of half-length c = {jt.half_length:g} m runs "
                          f"along {rail}, link {i} fixed to it at {angle}; {name} (the carriage centre's position "
@@ -327,14 +328,14 @@ def _describe_elements(m, i: int, q0=None) -> list:
     lines = []
     per = 2 * lk.elements
     length, scale, at = lk.length, 1.0, ""
-    if jt.kind == "Pb":
+    if jt.spec.guide:
         d0 = float(q0[m.theta_index[i - 1]]) if q0 is not None else jt.range[1]
         length, scale = d0, (lk.length / d0) ** 2
         at = f" at the protruding length {names[m.theta_index[i - 1]]} = {d0:g} m"
     for j, d in enumerate(lk.element_directions):
         first, last = names[idx[j * per]], names[idx[(j + 1) * per - 1]]
         what = "v (in-plane)" if d == "y" else "w (out-of-plane)"
-        kind = "stretching Hermite cubic element(s) on the protruding length" if jt.kind == "Pb" \
+        kind = "stretching Hermite cubic element(s) on the protruding length" if jt.spec.guide \
             else "Hermite cubic element(s)"
         lines.append(f"    {lk.elements} {kind} in {d}, bending {what}: {first} ... {last} = "
                      f"(deflection m, slope rad) at nodes 1 ... {lk.elements}")
@@ -348,7 +349,7 @@ def _describe_elements(m, i: int, q0=None) -> list:
             shown.append(f"{omega:.6g}{beam}")
         lines.append(f"      clamped-free omega{at} = {', '.join(shown)} rad/s; highest {w[-1]:.4g} rad/s "
                      f"(period {2 * np.pi / w[-1]:.3g} s)")
-        if jt.kind == "Pb":
+        if jt.spec.guide:
             w_min = w[-1] / scale * (lk.length / jt.range[0]) ** 2
             lines.append(f"      omega ~ 1/d^2: the highest is {w_min:.4g} rad/s at d_min = {jt.range[0]:g} m "
                          f"(period {2 * np.pi / w_min:.3g} s)")

@@ -76,18 +76,18 @@ def end_joints(model) -> np.ndarray:
     or the extra "tip of link i" point when the next joint is prismatic.
     """
     n = model.n_links
-    kinds = model.joint_kinds
+    kinds = model.joint_specs
     if not model.chain.serial:  # a tree (no prismatic joints): link i's frame origin and its tip point
         return np.array([(i, t) for i, t in enumerate(model.tip_points)], dtype=int).reshape(n, 2)
     extra, k = {}, n + 1
     for j in range(1, n):
-        if kinds[j] != "R":
+        if kinds[j].prismatic:
             extra[j] = k          # the tip of link j - 1 (host of joint j)
             k += 1
     out = np.empty((n, 2), dtype=int)
     for i in range(n):
-        out[i, 0] = (extra[i] if i > 0 else -1) if kinds[i] == "Pb" else i
-        out[i, 1] = n if i == n - 1 else (i + 1 if kinds[i + 1] == "R" else extra[i + 1])
+        out[i, 0] = (extra[i] if i > 0 else -1) if kinds[i].guide else i
+        out[i, 1] = n if i == n - 1 else (extra[i + 1] if kinds[i + 1].prismatic else i + 1)
     return out
 
 

@@ -53,10 +53,10 @@ class _Tables:
         """Per link (n,): length, Pb flag and q index of d, modal / finite-element / flexible flags, the
         shape coordinate's range Lc; and width, the number of stencil slots per direction."""
         n, N = model.n_links, model.n_dof
-        links, kinds = model.chain.links, model.joint_kinds
+        links, kinds = model.chain.links, model.joint_specs
         self.n, self.N = n, N
         self.length = np.array([lk.length for lk in links])
-        self.pb = np.array([k == "Pb" for k in kinds])
+        self.pb = np.array([k.guide for k in kinds], dtype=bool)
         self.d_index = np.array([model.theta_index[i] if self.pb[i] else 0 for i in range(n)], dtype=int)
         self.modal = np.array([bool(lk.modes) for lk in links])
         self.fe = np.array([lk.elements > 0 for lk in links])

@@ -86,8 +86,19 @@ def is_compliant(wall) -> bool:
     return getattr(wall, "stiffness", None) is not None
 
 
+@dataclass(frozen=True)
 class _RoundWall:
-    """What Circle and Sphere share: a radius about a centre of 2 or 3 coordinates, checked once."""
+    """What Circle and Sphere share: a radius about a centre of 2 or 3 coordinates, checked once, and
+    the contact parameters (their fields, in this order; each subclass gives ``center`` its default)."""
+
+    radius: float
+    center: tuple
+    restitution: float | None = None
+    friction: float = 0.0
+    inside: bool = True
+    stiffness: float | None = None
+    exponent: float = 1.5
+    damping: str = "flores"
 
     def __post_init__(self):
         name, dims = type(self).__name__, len(type(self).__dataclass_fields__["center"].default)
@@ -187,14 +198,7 @@ class Circle(_RoundWall):
         "lankarani-nikravesh", the relation chi(e). The same three exist for every wall type.
     """
 
-    radius: float
     center: tuple = (0.0, 0.0)
-    restitution: float | None = None
-    friction: float = 0.0
-    inside: bool = True
-    stiffness: float | None = None
-    exponent: float = 1.5
-    damping: str = "flores"
     kind = "circle"
 
     def gap(self, p: np.ndarray) -> np.ndarray:
@@ -236,14 +240,7 @@ class Sphere(_RoundWall):
     restitution, friction, inside, stiffness, exponent, damping : as for Circle.
     """
 
-    radius: float
     center: tuple = (0.0, 0.0, 0.0)
-    restitution: float | None = None
-    friction: float = 0.0
-    inside: bool = True
-    stiffness: float | None = None
-    exponent: float = 1.5
-    damping: str = "flores"
     kind = "sphere"
 
     def gap(self, p: np.ndarray) -> np.ndarray:

@@ -40,7 +40,7 @@ def _pb_stiffness(link, d: float) -> np.ndarray:
 
 def damping_depends_on_q(model) -> bool:
     """True when a damped link slides through a FixedPrismatic guide (its K depends on d)."""
-    return any(lk.damping > 0 and lk.elements and jt.kind == "Pb"
+    return any(lk.damping > 0 and lk.elements and jt.spec.guide
                for lk, jt in zip(model.chain.links, model.chain.joints))
 
 
@@ -59,7 +59,7 @@ def damping_matrix(model, q=None) -> np.ndarray:
             continue
         beta = 2.0 * zeta / ld.first_frequency
         K = ld.K
-        if model.chain.joints[i].kind == "Pb" and link.elements:
+        if model.chain.joints[i].spec.guide and link.elements:
             if q is None:
                 raise ValueError("damping_matrix(model, q): a damped link slides through a FixedPrismatic guide, "
                                  "so C depends on its protruding length; give q")

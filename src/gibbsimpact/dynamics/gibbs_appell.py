@@ -1,8 +1,11 @@
 """Gibbs-Appell equations of the flight phase (docs/theory.md §6).
 
 All functions are pure: ``f(model, q, qdot)`` with q, qdot of shape (N,).
-They are thin wrappers of the compiled kernel (``kernel.py``, whose module
-docstring derives the O(n^2) composite-body recursion):
+Each is one call of the compiled kernel (``gibbsimpact.kernel``, whose package
+docstring derives the O(n^2) composite-body recursion). With ``check=True``
+(what the Model methods pass) a non-finite entry of q or qdot raises
+Model.check_state's ValueError naming its coordinates, checked inside the
+compiled call; without it non-finite states pass through (NaN results).
 
     M(q) qddot + h(q, qdot) + dV/dq = Q,
     M = sum_i int mu J^T J dx (+ rotary),  h = sum_i int mu J^T a0 dx (+ rotary),
@@ -11,7 +14,6 @@ docstring derives the O(n^2) composite-body recursion):
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -42,26 +44,21 @@ def _vee_skew(S: np.ndarray) -> np.ndarray:
 
 
 
-def mass_matrix(model, q: np.ndarray) -> np.ndarray:
-    """Mass matrix M(q), shape (N, N) [kg, kg m, kg m^2 by block]."""
+def mass_matrix(model, q: np.ndarray, *, check: bool = False) -> np.ndarray:
+    """Mass matrix M(q), shape (N, N) [kg, kg m, kg m^2 by block]: M = sum_i int mu J^T J dx (+ rotary)."""
     N = model.n_dof
-    return one_state(model, q, None, _k.JOB_M)[3:3 + N * N].reshape(N, N)
+    return one_state(model, q, None, _JOB_M, None, check)[3:3 + N * N].reshape(N, N)
 
 
-def _h_dV(model, q, qdot):
-    N = model.n_dof
-    out = one_state(model, q, qdot, _k.JOB_H)
-    return out[3:3 + N], out[3 + N:3 + 2 * N]
+def bias_forces(model, q: np.ndarray, qdot: np.ndarray, *, check: bool = False) -> np.ndarray:
+    """Velocity-product terms h(q, qdot), shape (N,) [N, N m]: h = sum_i int mu J^T a0 dx (+ rotary)."""
+    return one_state(model, q, qdot, _JOB_H, None, check)[3:3 + model.n_dof]
 
 
-def bias_forces(model, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
-    """Velocity-product terms h(q, qdot), shape (N,) [N, N m]."""
-    return _h_dV(model, q, qdot)[0]
-
-
-def potential_forces(model, q: np.ndarray) -> np.ndarray:
+def potential_forces(model, q: np.ndarray, *, check: bool = False) -> np.ndarray:
     """dV/dq of gravity and strain energy, shape (N,) [N, N m]."""
-    return _h_dV(model, q, None)[1]
+    N = model.n_dof
+    return one_state(model, q, None, _JOB_H, None, check)[3 + N:3 + 2 * N]
 
 
 def diagnose_singular(model, q: np.ndarray) -> str:
@@ -102,10 +99,10 @@ def _raise_singular(model, q, status, dmin, dmax):
         f"mass matrix is numerically singular (condition ~{(dmax / dmin) ** 2:.1e}): {diagnose_singular(model, q)}")
 
 
-_NDARRAY = np.ndarray
 _EMPTY = np.empty
-_isfinite = math.isfinite
-_JOB_QDDOT = _k.JOB_QDDOT
+_TUPLE_NEW = tuple.__new__
+_JOB_QDDOT, _JOB_M, _JOB_H, _JOB_ENERGY, _JOB_MOMENTUM = _k.JOB_QDDOT, _k.JOB_M, _k.JOB_H, _k.JOB_ENERGY, _k.JOB_MOMENTUM
+_CHECKED_QDDOT = _k.JOB_QDDOT | _k.JOB_FINITE
 
 
 def _singular(model, q, qdot, Q):
@@ -115,13 +112,17 @@ def _singular(model, q, qdot, Q):
     _raise_singular(model, q, out[0], out[1], out[2])
 
 
-def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | None = None) -> np.ndarray:
+def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | None = None, *,
+                     check: bool = False) -> np.ndarray:
     """Generalised accelerations from M qddot = Q - h - dV/dq, shape (N,).
 
     Parameters
     ----------
     q, qdot : (N,) state [m, rad; m/s, rad/s].
     Q : (N,) optional applied generalised forces [N, N m].
+    check : validate q, qdot as Model.check_state does (what Model.forward_dynamics passes); without
+        it a non-finite state gives NaN accelerations (a solver's trial state may be one: its NaN
+        accelerations make the solver shrink the step).
 
     Raises
     ------
@@ -129,23 +130,29 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
         When M is not positive definite or its Cholesky pivots spread beyond
         1e7 (condition beyond 1e14); the message names the likely cause.
     """
-    # The hot path of every simulation (one call per RHS): float64 arrays of the right shape go
-    # straight to the kernel, which refuses (TypeError, no recompile) a non-contiguous one or one
-    # of another type; only then are they converted. It takes read-only arrays (its signature
-    # types q, qdot and Q read-only). The kernel does not check bounds: shapes are.
+    # The hot path of every simulation (one call per RHS): the arrays go straight to the kernel, which
+    # checks their sizes (and with check, their entries) and refuses (TypeError, no recompile) one of
+    # another type or memory layout; only then are they validated and converted (_forward_refused).
     f, fdat, idat, zeros, v0, v1, _ = model.kernel_call
-    shape, N = zeros.shape, zeros.size
-    if Q is None and q.__class__ is _NDARRAY and qdot.__class__ is _NDARRAY and q.shape == shape \
-            and qdot.shape == shape:
-        out = _EMPTY(N)
-        try:
-            status = f(fdat, idat, q, qdot, zeros, _JOB_QDDOT, v0, v1, out)
-        except TypeError:
-            pass
-        else:
-            if status:
-                _singular(model, q, qdot, None)
-            return out
+    out = _EMPTY(zeros.size)
+    try:
+        status = f(fdat, idat, q, qdot, zeros if Q is None else Q, _CHECKED_QDDOT if check else _JOB_QDDOT, v0, v1,
+                   out)
+    except TypeError:
+        status = -1.0
+    if status == 0.0:
+        return out
+    if status > 0.0:
+        _singular(model, q, qdot, Q)
+    return _forward_refused(model, q, qdot, Q, check)
+
+
+def _forward_refused(model, q, qdot, Q, check) -> np.ndarray:
+    """forward_dynamics of a state (or Q) the kernel refused: Model.check_state's ValueError (check), a
+    ValueError naming the shapes, or the accelerations of the converted copies."""
+    N = model.n_dof
+    if check:
+        q, qdot = model.check_state(q, qdot)
     q, qdot = as_vector(q), as_vector(qdot)
     if q.size != N or qdot.size != N:
         raise ValueError(f"forward_dynamics q, qdot have shapes {q.shape}, {qdot.shape}; this model needs "
@@ -155,31 +162,17 @@ def forward_dynamics(model, q: np.ndarray, qdot: np.ndarray, Q: np.ndarray | Non
         if Q.shape != (N,):
             raise ValueError(f"forward_dynamics Q has shape {Q.shape}; this model needs ({N},) generalised forces "
                              f"ordered as {', '.join(model.coordinate_names)}")
-    out = _EMPTY(N)
-    if f(fdat, idat, q, qdot, zeros if Q is None else Q, _JOB_QDDOT, v0, v1, out) != 0.0:
-        _singular(model, q, qdot, Q)
-    return out
+    return forward_dynamics(model, q, qdot, Q)
 
 
-def checked_forward_dynamics(model, q, qdot) -> np.ndarray:
-    """forward_dynamics(model, q, qdot) with q, qdot validated as Model.check_state does (its messages), at
-    the cost of one dot product when they are float64 (N,) arrays with finite entries: the call behind
-    Model.forward_dynamics. (forward_dynamics itself passes non-finite states through: a solver's trial
-    state may be one, and its NaN accelerations make the solver shrink the step.)"""
-    shape = model.kernel_call[3].shape
-    if q.__class__ is _NDARRAY and qdot.__class__ is _NDARRAY and q.shape == shape and qdot.shape == shape \
-            and _isfinite(q.dot(q) + qdot.dot(qdot)):
-        return forward_dynamics(model, q, qdot)
-    return forward_dynamics(model, *model.check_state(q, qdot))
-
-
-def energy(model, q: np.ndarray, qdot: np.ndarray) -> Energy:
+def energy(model, q: np.ndarray, qdot: np.ndarray, *, check: bool = False) -> Energy:
     """Kinetic, gravitational and strain energy, joules.
 
     E_k = 1/2 qdot^T M qdot,  V_g = -g~^T sum T_i m_r,i,  V_s = 1/2 delta^T K delta
     """
-    kin, grav, strain = one_state(model, q, qdot, _k.JOB_ENERGY)[3:6].tolist()
-    return Energy(kin, grav, strain, kin + grav + strain)
+    kin, grav, strain = one_state(model, q, qdot, _JOB_ENERGY, None, check)[3:6].tolist()
+    # = Energy(kin, grav, strain, total), without the Python frame of a NamedTuple's __new__ (~0.2 us)
+    return _TUPLE_NEW(Energy, (kin, grav, strain, kin + grav + strain))
 
 
 def energies(model, qs: np.ndarray, qdots: np.ndarray) -> Energy:
@@ -189,17 +182,22 @@ def energies(model, qs: np.ndarray, qdots: np.ndarray) -> Energy:
     return Energy(E[:, 0].copy(), E[:, 1].copy(), E[:, 2].copy(), E.sum(axis=1))
 
 
-def center_of_mass(model, q: np.ndarray) -> np.ndarray:
+def center_of_mass(model, q: np.ndarray, *, check: bool = False) -> np.ndarray:
     """Mass centre sum T_i m_r,i / m, shape (3,) [m]."""
-    return one_state(model, q, None, _k.JOB_MOMENTUM)[9:12] / model.total_mass
+    return one_state(model, q, None, _JOB_MOMENTUM, None, check)[9:12] / model.total_mass
 
 
-def momentum(model, q: np.ndarray, qdot: np.ndarray):
+def linear_momentum(model, q: np.ndarray, qdot: np.ndarray, *, check: bool = False) -> np.ndarray:
+    """Linear momentum L = sum (Td m_r + T m_rdot), shape (3,) [kg m/s] (momentum's first item)."""
+    return one_state(model, q, qdot, _JOB_MOMENTUM, None, check)[3:6]
+
+
+def momentum(model, q: np.ndarray, qdot: np.ndarray, *, check: bool = False):
     """Linear momentum L (3,) [kg m/s], angular momentum about the origin H0 (3,)
     [kg m^2/s], and mass centre c (3,) [m].
 
     L  = sum (Td m_r + T m_rdot),       m_rdot = int mu rdot
     H0 = sum int mu p x pdot (rotary inertia included), int mu p pdot^T = T P Td^T + T Pv T^T
     """
-    out = one_state(model, q, qdot, _k.JOB_MOMENTUM)
+    out = one_state(model, q, qdot, _JOB_MOMENTUM, None, check)
     return out[3:6], out[6:9], out[9:12] / model.total_mass

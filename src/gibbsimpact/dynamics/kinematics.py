@@ -59,28 +59,41 @@ def run_kernel(model, st, job: int, Q: np.ndarray | None = None) -> np.ndarray:
     return _k.run(v, fdat, idat, qs, qds, zeros if Q is None else Q, job)
 
 
-def one_state(model, q, qdot, job: int, Q: np.ndarray | None = None) -> np.ndarray:
+def one_state(model, q, qdot, job: int, Q: np.ndarray | None = None, check: bool = False) -> np.ndarray:
     """The kernel's output (kernel.layout) for one state q, qdot (N,) (qdot None: zeros) and the JOB_*
     bits ``job``, in a new array: the hot path of the documented single-state functions.
 
-    float64 arrays of shape (N,) go straight to the kernel (which refuses, with a TypeError and no
-    recompile, one of another memory layout); anything else is converted by as_vector first. The
-    kernel does not check bounds: shapes are, here.
+    q, qdot go straight to the kernel, which checks their sizes (and with ``check``, JOB_FINITE,
+    that every entry is finite) and refuses, with a TypeError and no recompile, an array of another
+    type or memory layout; only then are they validated and converted here (_refused). With
+    ``check`` a non-finite entry raises Model.check_state's ValueError naming its coordinates.
     """
-    f, fdat, idat, zeros, v0, v1, _ = model.kernel_call
-    shape = zeros.shape
-    qd = zeros if qdot is None else qdot
-    out = model.kernel_output(job)
-    if q.__class__ is np.ndarray and qd.__class__ is np.ndarray and q.shape == shape and qd.shape == shape:
-        try:
-            f(fdat, idat, q, qd, zeros if Q is None else Q, job, v0, v1, out)
-            return out
-        except TypeError:
-            pass
+    f, fdat, idat, zeros, v0, v1, sizes = model.kernel_call
+    if check:
+        job |= _FINITE
+    try:
+        out = _EMPTY(sizes[job])
+    except KeyError:
+        out = model.kernel_output(job)
+    try:
+        status = f(fdat, idat, q, zeros if qdot is None else qdot, zeros if Q is None else Q, job, v0, v1, out)
+    except TypeError:
+        status = -1.0
+    return out if status >= 0.0 else _refused(model, q, qdot, job, Q, check)
+
+
+def _refused(model, q, qdot, job, Q, check) -> np.ndarray:
+    """one_state for a state the kernel refused (of another type, size or layout, or non-finite):
+    Model.check_state's ValueError (check) or _wrong_states, else the call on its converted copy."""
+    if check:
+        q, qdot = model.check_state(q, qdot) if qdot is not None else (model.check_state(q), None)
     q, qd = states(q, qdot)
-    if q.size != zeros.size or qd.size != zeros.size:
+    if q.size != model.n_dof or qd.size != model.n_dof:
         raise _wrong_states(model, q, qd)
-    f(fdat, idat, q, qd, zeros if Q is None else Q, job, v0, v1, out)
+    f, fdat, idat, zeros, v0, v1, _ = model.kernel_call
+    out = model.kernel_output(job)
+    if f(fdat, idat, q, qd, zeros if Q is None else Q, job, v0, v1, out) < 0.0:  # pragma: no cover - checked above
+        raise RuntimeError("the kernel refused a validated state")
     return out
 
 
@@ -92,6 +105,9 @@ def section(model, out: np.ndarray, K: int, job: int, name: str) -> np.ndarray:
 
 
 _F64 = np.dtype(np.float64)
+_EMPTY = np.empty
+_FINITE = _k.JOB_FINITE
+_JOB_POINTS_JACOBIANS = _k.JOB_POINTS | _k.JOB_JACOBIANS
 
 
 def as_vector(a) -> np.ndarray:
@@ -184,13 +200,14 @@ def transforms(model, q: np.ndarray) -> np.ndarray:
     return frames(model, q).T
 
 
-def joint_positions(model, q: np.ndarray) -> np.ndarray:
+def joint_positions(model, q: np.ndarray, *, check: bool = False) -> np.ndarray:
     """Contact points O_1 ... O_P in the inertial frame, shape (P, 3) [m], P = model.n_joints.
 
     O_1 ... O_(n+1) are the frame origins (the joints and the last tip); with prismatic
-    joints the tips of their host links follow (Model.n_joints).
+    joints the tips of their host links follow (Model.n_joints). check: validate q as
+    Model.check_state does (gibbs_appell's module docstring).
     """
-    return one_state(model, q, None, _k.JOB_POINTS)[3:].reshape(model.n_joints, 3)
+    return one_state(model, q, None, _k.JOB_POINTS, None, check)[3:].reshape(model.n_joints, 3)
 
 
 def joint_positions_batch(model, qs: np.ndarray) -> np.ndarray:
@@ -202,9 +219,8 @@ def joint_positions_batch(model, qs: np.ndarray) -> np.ndarray:
 
 def joint_positions_and_jacobians(model, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """O_1 ... O_P, shape (P, 3) [m], and d O_j / d q, shape (P, 3, N), from one recursion."""
-    job = _k.JOB_POINTS | _k.JOB_JACOBIANS
     n1, N = model.n_joints, model.n_dof
-    out = one_state(model, q, None, job)
+    out = one_state(model, q, None, _JOB_POINTS_JACOBIANS)
     return out[3:3 + 3 * n1].reshape(n1, 3), out[3 + 3 * n1:].reshape(n1, 3, N)
 
 
@@ -223,6 +239,7 @@ def joint_velocities_batch(model, qs: np.ndarray, qdots: np.ndarray, chunk: int 
     return out
 
 
-def joint_jacobians(model, q: np.ndarray) -> np.ndarray:
-    """d O_j / d q for j = 1 ... n+1, shape (n+1, 3, N)."""
-    return joint_positions_and_jacobians(model, q)[1]
+def joint_jacobians(model, q: np.ndarray, *, check: bool = False) -> np.ndarray:
+    """d O_j / d q for j = 1 ... P, shape (P, 3, N) (joint_positions; check as there)."""
+    n1 = model.n_joints
+    return one_state(model, q, None, _JOB_POINTS_JACOBIANS, None, check)[3 + 3 * n1:].reshape(n1, 3, model.n_dof)

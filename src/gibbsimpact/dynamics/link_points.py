@@ -176,7 +176,7 @@ def _local_derivatives(model, q, qdot, i, x):
     rddot0 = np.zeros(4)
     if idx.size == 0:
         return r, dr, dr.T @ qdot, rddot0
-    if model.chain.joints[i].kind != "Pb":
+    if not model.chain.joints[i].spec.guide:
         directions, psi = shape_functions(lk, [x], 0)
         for k, (c, s) in enumerate(zip(idx, directions)):
             dr[c, 1 if s == "y" else 2] = psi[k, 0]

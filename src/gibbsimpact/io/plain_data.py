@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from ..contact.walls import WALL_KINDS
 from ..model import Chain, FixedBase, FixedPrismatic, Link, Model, Revolute, RigidBody, SlidingPrismatic, Weld
+from ..model.joints import JOINT_KINDS
 from ..model.modes import Mode
 
 __all__ = ["model_from_dict", "model_to_dict", "wall_from_dict", "wall_to_dict"]
@@ -42,11 +43,11 @@ def model_to_dict(model: Model) -> dict:
     joints = []
     for jt in model.chain.joints:
         j = {"kind": jt.kind}
-        if jt.kind in ("Pa", "Pb"):
+        if jt.spec.prismatic:
             j.update(angle=float(jt.angle), range=[float(v) for v in jt.range])
-        if jt.kind == "Pa":
+        if jt.spec.carriage:
             j["half_length"] = float(jt.half_length)
-        if jt.kind == "W":
+        if not jt.spec.has_coordinate:
             j["angle"] = float(jt.angle)
         R = getattr(jt, "axis_rotation", None) or getattr(jt, "rotation", None)
         if R is not None:
@@ -85,16 +86,21 @@ def model_from_dict(d: dict) -> Model:
     joints = []
     for j in d.get("joints", ["R"] * len(links)):
         j = {"kind": j} if isinstance(j, str) else j  # files written before prismatic joints: kinds only
-        if j["kind"] == "R":
-            joints.append(Revolute(axis_rotation=j.get("rotation")))
-        elif j["kind"] == "W":
-            joints.append(Weld(angle=j["angle"], rotation=j.get("rotation")))
-        elif j["kind"] == "Pa":
-            joints.append(SlidingPrismatic(angle=j["angle"], half_length=j["half_length"], range=tuple(j["range"])))
-        else:
-            joints.append(FixedPrismatic(angle=j["angle"], range=tuple(j["range"])))
+        joints.append(_joint_from_dict(j))
     chain = Chain(tuple(links), joints=tuple(joints), base=base, parents=d.get("parents"), attach=d.get("attach"))
     return Model(chain, gravity=tuple(d["gravity"]), **kw)
+
+
+def _joint_from_dict(j: dict):
+    """The joint of one entry of model_to_dict's "joints" (the inverse of its writer, by JOINT_KINDS)."""
+    spec = JOINT_KINDS[j["kind"]]
+    if spec.turns:
+        return Revolute(axis_rotation=j.get("rotation"))
+    if not spec.has_coordinate:
+        return Weld(angle=j["angle"], rotation=j.get("rotation"))
+    if spec.carriage:
+        return SlidingPrismatic(angle=j["angle"], half_length=j["half_length"], range=tuple(j["range"]))
+    return FixedPrismatic(angle=j["angle"], range=tuple(j["range"]))
 
 
 def wall_to_dict(w) -> dict:

@@ -36,16 +36,16 @@ from .compile import (NOTICE_AFTER_S, PRISMATIC, REVOLUTE, RIGID_ENDS, compiled,
 from .contact import contact_terms, event_gaps, friction_solve
 from .entry import kernel
 from .frames import chain_frames
-from .layout import (BASE_FIXED, BASE_FREE, BASE_PLANAR, END_GENERAL, END_RIGID, JOB_ENERGY, JOB_FRAMES, JOB_H,
-                     JOB_JACOBIANS, JOB_M, JOB_MOMENTUM, JOB_POINTS, JOB_QDDOT, JOB_SOLVE, JOINT_PA, JOINT_PB, JOINT_R,
-                     KIND_MODE, KIND_PA, KIND_PB, KIND_ROTATION, KIND_TRANSLATION, SECTIONS, WALL_CIRCLE, WALL_PLANE,
+from .layout import (BASE_FIXED, BASE_FREE, BASE_PLANAR, END_GENERAL, END_RIGID, JOB_ENERGY, JOB_FINITE, JOB_FRAMES,
+                     JOB_H, JOB_JACOBIANS, JOB_M, JOB_MOMENTUM, JOB_POINTS, JOB_QDDOT, JOB_SOLVE, JOINT_PA, JOINT_PB,
+                     JOINT_R, KIND_MODE, KIND_PA, KIND_PB, KIND_ROTATION, KIND_TRANSLATION, SECTIONS, WALL_CIRCLE, WALL_PLANE,
                      WALL_SPHERE, contact_layout, layout)
 from .jacobian import jacobian_size, state_jacobian
 from .linalg import _svd_solve, sym_solve
 from .mat4 import rodrigues_coefficients, rodrigues_directional
 
 __all__ = [
-    "BASE_FIXED", "BASE_FREE", "BASE_PLANAR", "END_GENERAL", "END_RIGID", "JOB_ENERGY", "JOB_FRAMES", "JOB_H",
+    "BASE_FIXED", "BASE_FREE", "BASE_PLANAR", "END_GENERAL", "END_RIGID", "JOB_ENERGY", "JOB_FINITE", "JOB_FRAMES", "JOB_H",
     "JOB_JACOBIANS", "JOB_M", "JOB_MOMENTUM", "JOB_POINTS", "JOB_QDDOT", "JOB_SOLVE", "JOINT_PA", "JOINT_PB",
     "JOINT_R", "KIND_MODE", "KIND_PA", "KIND_PB", "KIND_ROTATION", "KIND_TRANSLATION", "NOTICE_AFTER_S",
     "PRISMATIC", "REVOLUTE", "RIGID_ENDS", "SECTIONS", "WALL_CIRCLE", "WALL_PLANE", "WALL_SPHERE", "chain_frames",

@@ -28,8 +28,8 @@ import numpy as np
 
 from .assemble import assemble
 from .frames import chain_frames
-from .layout import (_S_DV, _S_EN, _S_H, _S_M, _S_MO, _S_STATUS, _S_YDOT, JOB_ENERGY, JOB_FRAMES, JOB_H,
-                     JOB_JACOBIANS, JOB_M, JOB_MOMENTUM, JOB_POINTS, JOB_QDDOT, JOB_SOLVE, _mmax, inline, layout,
+from .layout import (_S_DV, _S_EN, _S_H, _S_M, _S_MO, _S_STATUS, _S_YDOT, JOB_ENERGY, JOB_FINITE, JOB_FRAMES,
+                     JOB_H, JOB_JACOBIANS, JOB_M, JOB_MOMENTUM, JOB_POINTS, JOB_QDDOT, JOB_SOLVE, _mmax, inline, layout,
                      work_sizes, work_slots)
 from .linalg import _cholesky_solve
 from .moments import _sd_stride, moments
@@ -63,15 +63,22 @@ def kernel(fdat, idat, qs, qds, Q, job, pris, ends, out):
       when f_c <= j, else 0 (a tip of link h: f_c <= h, and R_h end_t_k for h's own delta_k);
       JOB_FRAMES: T, Tdot, Tddot0 (K 3 (n+1) 16,).
 
-    Returns the status of M's Cholesky factor (0.0 without JOB_SOLVE, JOB_QDDOT), or -1.0 when
-    out has the wrong size (then nothing is written: the kernel does not check bounds otherwise).
+    Returns the status of M's Cholesky factor (0.0 without JOB_SOLVE, JOB_QDDOT); -1.0 when an
+    array has the wrong size: qs not K N entries, qds not as many, Q not N (with JOB_SOLVE or
+    JOB_QDDOT), out not the layout's (then nothing is written: the kernel does not check bounds
+    otherwise); -2.0 with JOB_FINITE when qs or qds has a non-finite entry (nothing written).
     """
     n = idat[0]
     N = idat[1]
     K = qs.shape[0] // N
     L = layout(n, N, K, job, n + 1 + idat[3])
-    if out.shape[0] != L[10]:
+    if out.shape[0] != L[10] or qs.shape[0] != K * N or qds.shape[0] != K * N \
+            or ((job & (JOB_SOLVE | JOB_QDDOT)) != 0 and Q.shape[0] != N):
         return -1.0
+    if job & JOB_FINITE:
+        for i in range(K * N):
+            if not (math.isfinite(qs[i]) and math.isfinite(qds[i])):
+                return -2.0
     for i in range(L[10]):
         out[i] = 0.0
     dynamics = (job & _DYNAMICS) != 0

@@ -109,8 +109,7 @@ def _end_step(fdat, idat, link, q, qd, vel, B, w, ss, ends, at=-1):
     -(deltadot^T H(l) deltadot) e_x.
     ends: None in the variant for chains whose link ends are all rigid (see kernel).
     """
-    N = idat[1]
-    base = _H + _CI * N + _LI * link
+    base = _H + _CI * idat[1] + _LI * link
     m = idat[base]
     d0 = idat[base + 1]
     off = idat[base + 3]

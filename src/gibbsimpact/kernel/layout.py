@@ -155,6 +155,11 @@ JOB_M, JOB_H, JOB_SOLVE, JOB_ENERGY, JOB_MOMENTUM, JOB_POINTS, JOB_JACOBIANS, JO
 #: q̈ only: alone, the whole output is q̈ (N,) (forward_dynamics returns it as it is; a slice of
 #: a larger output costs ~0.3 us a call). Its status is the return value.
 JOB_QDDOT = 256
+#: Check the states first: a non-finite entry of qs or qds makes the kernel return -2.0 and write
+#: nothing (the documented entry points' validation, at the cost of a loop over 2 K N numbers; the
+#: solver's right-hand side leaves it out: its trial states may be non-finite, and their NaN
+#: accelerations make it shrink the step). It adds no output section.
+JOB_FINITE = 512
 
 
 # Sections of ``kernel``'s output, in order (``layout`` gives their offsets).
@@ -168,7 +173,7 @@ def layout(n, N, K, job, npts):
     hv = (job & JOB_H) != 0
     off = np.zeros(11, dtype=np.int64)
     # status: always but for JOB_QDDOT alone; ydot: (qdot, qddot) with JOB_SOLVE, else qddot with JOB_QDDOT
-    off[_S_STATUS + 1] = 0 if job == JOB_QDDOT else 3
+    off[_S_STATUS + 1] = 0 if (job & ~JOB_FINITE) == JOB_QDDOT else 3
     off[_S_YDOT + 1] = 2 * N if job & JOB_SOLVE else (N if job & JOB_QDDOT else 0)
     off[_S_M + 1] = N * N if job & JOB_M else 0
     off[_S_H + 1] = N if hv else 0

@@ -102,8 +102,7 @@ def _pb_moments(fdat, idat, link, q, qd, SD, o):
       dV_s/dd = 1/2 delta^T K' delta,  K'_kl = (a_k + a_l - 3) K_kl / d
     Layout: cx (m+1), c1 (m+1), Mpsi ((m+1)^2), qa (4), ha (m+1), K delta (m), dV_s/dd, V_s.
     """
-    N = idat[1]
-    base = _H + _CI * N + _LI * link
+    base = _H + _CI * idat[1] + _LI * link
     m = idat[base]
     d0 = idat[base + 1]
     jd = idat[base + 2]

@@ -26,6 +26,8 @@ from numbers import Real
 
 import numpy as np
 
+from .arguments import items_of
+
 
 def _vector3(name: str, value) -> tuple:
     v = np.asarray(value, dtype=float) if not isinstance(value, str) else None
@@ -111,16 +113,8 @@ class RigidBody:
 def check_bodies(bodies, length: float, flexible: bool) -> tuple:
     """The Link's ``bodies`` as a tuple of RigidBody with ``at`` resolved (None -> the tip l [m]);
     raises ValueError naming the entry and the fix."""
-    if isinstance(bodies, RigidBody):
-        bodies = (bodies,)
-    try:
-        bodies = tuple(bodies)
-    except TypeError:
-        raise ValueError(f"Link bodies={bodies!r} must be a list of gibbsimpact.RigidBody") from None
     out = []
-    for k, b in enumerate(bodies):
-        if not isinstance(b, RigidBody):
-            raise ValueError(f"Link bodies[{k}]={b!r} is not a gibbsimpact.RigidBody; build it as RigidBody(mass=...)")
+    for k, b in enumerate(items_of(bodies, RigidBody, "Link bodies", "; build it as RigidBody(mass=...)")):
         at = length if b.at is None else b.at
         if at > length * (1 + 1e-12):
             raise ValueError(f"Link bodies[{k}] at={at!r} is beyond the link's length {length:g} m; give 0 <= at <= l "

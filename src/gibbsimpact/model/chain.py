@@ -11,6 +11,7 @@ from typing import Callable
 
 import numpy as np
 
+from .arguments import items_of
 from .bodies import check_bodies
 from .elements import MAX_ELEMENTS
 from .joints import JOINT_TYPES, FixedBase, Revolute
@@ -99,16 +100,7 @@ class Link:
             e = _positive_scalar_or_callable("Link EI", ei)
             ei = (e, e)
         object.__setattr__(self, "EI", ei)
-        modes = self.modes
-        if isinstance(modes, Mode):
-            modes = (modes,)
-        try:
-            modes = tuple(modes)
-        except TypeError:
-            raise ValueError(f"Link modes={self.modes!r} must be a list of gibbsimpact.Mode") from None
-        for k, m in enumerate(modes):
-            if not isinstance(m, Mode):
-                raise ValueError(f"Link modes[{k}]={m!r} is not a gibbsimpact.Mode; build it as Mode('clamped-clamped', 'y')")
+        modes = items_of(self.modes, Mode, "Link modes", "; build it as Mode('clamped-clamped', 'y')")
         if len(set(modes)) != len(modes):
             raise ValueError(f"Link modes={modes!r} lists the same mode twice: its mass matrix would be singular")
         object.__setattr__(self, "modes", modes)
@@ -211,18 +203,9 @@ class Chain:
     attach: tuple | None = None
 
     def __post_init__(self):
-        links = self.links
-        if isinstance(links, Link):
-            links = (links,)
-        try:
-            links = tuple(links)
-        except TypeError:
-            raise ValueError(f"Chain links={self.links!r} must be a list of gibbsimpact.Link") from None
+        links = items_of(self.links, Link, "Chain links", "")
         if not links:
             raise ValueError("Chain links=[] is empty; give at least one gibbsimpact.Link")
-        for k, lk in enumerate(links):
-            if not isinstance(lk, Link):
-                raise ValueError(f"Chain links[{k}]={lk!r} is not a gibbsimpact.Link")
         object.__setattr__(self, "links", links)
         joints = self.joints
         if joints is None:
@@ -284,7 +267,7 @@ class Chain:
     def planar(self) -> bool:
         """True when the chain moves in the X1-X2 plane only (docs/theory.md §8):
         a planar free base, or any prismatic joint."""
-        return self.base == "planar" or any(j.kind in ("Pa", "Pb") for j in self.joints)
+        return self.base == "planar" or any(j.spec.prismatic for j in self.joints)
 
 
 def _per_link(name: str, value, n: int, what: str, fix: str) -> tuple:
@@ -333,10 +316,10 @@ def _check_tree(links, joints, base, parents, attach) -> tuple:
         out.append(float(a))
     serial = parents == tuple(range(-1, n - 1)) and all(a is None for a in out)
     for k, jt in enumerate(joints):
-        if jt.kind in ("Pa", "Pb") and not serial:
+        if jt.spec.prismatic and not serial:
             raise ValueError(f"Chain joints[{k}]={jt!r}: prismatic joints stand in serial chains only (parents=None, "
                              "attach=None); in a tree, give this link a gi.Revolute() or gi.Weld()")
-    if isinstance(base, str) and joints[roots[0]].kind != "R":
+    if isinstance(base, str) and not joints[roots[0]].spec.turns:
         raise ValueError(f"Chain joints[{roots[0]}]={joints[roots[0]]!r}: on a floating base (base={base!r}) the root's "
                          "joint must be gi.Revolute(); its theta is part of the floating orientation")
     return parents, tuple(out)
@@ -345,7 +328,7 @@ def _check_tree(links, joints, base, parents, attach) -> tuple:
 def _check_moves(links, joints, base):
     """A chain with no coordinate (N = 0: a fixed base, every joint a weld, every link rigid) has
     nothing to integrate: refuse it here rather than fail inside the kernel."""
-    if isinstance(base, str) or any(jt.kind != "W" for jt in joints) or any(lk.modes or lk.elements for lk in links):
+    if isinstance(base, str) or any(jt.spec.has_coordinate for jt in joints) or any(lk.modes or lk.elements for lk in links):
         return
     raise ValueError("Chain joints are all gi.Weld() on a fixed base and every link is rigid: the chain has no "
                      "coordinate (N = 0) and nothing moves; give a joint gi.Revolute() or a link modes=[...] or "
@@ -354,14 +337,14 @@ def _check_moves(links, joints, base):
 
 def _check_joints(links, joints, base):
     """The rules of docs/theory.md §8, §7.3, §7.4 for prismatic joints."""
-    prismatic = [k for k, j in enumerate(joints) if j.kind in ("Pa", "Pb")]
+    prismatic = [k for k, j in enumerate(joints) if j.spec.prismatic]
     planar = base == "planar" or prismatic
     for k, jt in enumerate(joints):
         R = getattr(jt, "axis_rotation", None) or getattr(jt, "rotation", None)
         if planar and R is not None and not np.allclose(np.asarray(R)[:, 2], (0.0, 0.0, 1.0), atol=1e-12):
             raise ValueError(f"Chain joints[{k}]={jt!r}: a planar chain (base='planar' or prismatic joints) moves in "
                              "the X1-X2 plane; its joints' rotations must keep the z axis (R e_z = e_z)")
-    if base == "planar" and joints[0].kind != "R":
+    if base == "planar" and not joints[0].spec.turns:
         raise ValueError(f"Chain joints[0] (joint 1)={joints[0]!r}: on a planar free base (base='planar') joint 1 "
                          "must be gi.Revolute(); its theta_1 is the floating orientation")
     if not prismatic and base != "planar":
@@ -377,7 +360,7 @@ def _check_joints(links, joints, base):
     for k in prismatic:
         jt = joints[k]
         lo, hi = jt.range
-        if jt.kind == "Pb":
+        if jt.spec.guide:
             lk = links[k]
             if lk.stiffened:
                 raise ValueError(

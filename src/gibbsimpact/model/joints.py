@@ -1,8 +1,10 @@
 """The joints of a chain (docs/theory.md §7): Revolute (R), SlidingPrismatic (Pa), FixedPrismatic
 (Pb) and Weld (W, no coordinate; formulation §17), and the FixedBase a chain may stand on instead of flying freely (docs/theory.md §8).
 
-Each is a frozen dataclass, validated once when it is built; ``kind`` ('R', 'Pa', 'Pb', 'W') is
-what the rest of the package reads.
+Each is a frozen dataclass, validated once when it is built; ``kind`` ('R', 'Pa', 'Pb', 'W') names
+its row of JOINT_KINDS, the one table of what each kind of joint is (has it a coordinate, is it
+prismatic, ...): the rest of the package asks that table (``JOINT_KINDS[kind].prismatic``, or
+``joint.spec.prismatic``) instead of testing the kind's string.
 """
 
 from __future__ import annotations
@@ -11,6 +13,58 @@ from dataclasses import dataclass
 from numbers import Real
 
 import numpy as np
+
+from ..kernel.layout import JOINT_PA, JOINT_PB, JOINT_R, JOINT_WELD
+
+
+@dataclass(frozen=True)
+class JointKind:
+    """The properties of one kind of joint (a row of JOINT_KINDS).
+
+    Attributes
+    ----------
+    code : 'R', 'Pa', 'Pb' or 'W': the joints' ``kind`` and the case file's [links.joint] type
+    name : the class that builds it (gi.Revolute, ...)
+    has_coordinate : False for a weld (no joint variable in q; formulation §17)
+    turns : its coordinate is an angle theta_i [rad] about the joint's axis (R)
+    prismatic : True when its coordinate is a length d_i [m] along a line (Pa, Pb), False when the
+        joint sits at its host's tip (or at_m) and at most turns (R, W)
+    carriage : a carriage fixed to the link slides along the host (Pa, docs/theory.md §7.3)
+    guide : the link slides through a guide at the host's tip (Pb, docs/theory.md §7.4)
+    symbol, unit : joint i's coordinate is named f"{symbol}_{i}", in ``unit`` ('theta', 'rad' or
+        'd', 'm'; '' for a weld)
+    kernel_code : the kernel's integer code of the kind (kernel.layout JOINT_*)
+    summary : one line saying what it is (case-file help, messages)
+    """
+
+    code: str
+    name: str
+    has_coordinate: bool
+    turns: bool
+    prismatic: bool
+    carriage: bool
+    guide: bool
+    symbol: str
+    unit: str
+    kernel_code: int
+    summary: str
+
+    def coordinate_name(self, i: int) -> str:
+        """The name of joint i's coordinate in q ('theta_2', 'd_3'); '' for a weld."""
+        return f"{self.symbol}_{i}" if self.has_coordinate else ""
+
+
+#: The one table of joint kinds, by code (Joint.kind).
+JOINT_KINDS = {k.code: k for k in (
+    JointKind("R", "Revolute", True, True, False, False, False, "theta", "rad", JOINT_R,
+              "revolute: the link turns by theta_i at the host's tip"),
+    JointKind("Pa", "SlidingPrismatic", True, False, True, True, False, "d", "m", JOINT_PA,
+              "sliding prismatic: a carriage fixed to the link runs along the host, d_i"),
+    JointKind("Pb", "FixedPrismatic", True, False, True, False, True, "d", "m", JOINT_PB,
+              "fixed prismatic: the link slides through a guide at the host's tip, d_i"),
+    JointKind("W", "Weld", False, False, False, False, False, "", "", JOINT_WELD,
+              "weld: the link is clamped to its host at the fixed angle, no coordinate"),
+)}
 
 
 def _rotation(name: str, value):
@@ -27,8 +81,18 @@ def _rotation(name: str, value):
     return tuple(tuple(float(v) for v in row) for row in R)
 
 
+class _Joint:
+    """What every joint class has: ``spec``, the row of JOINT_KINDS of its ``kind``."""
+
+    __slots__ = ()
+
+    @property
+    def spec(self) -> JointKind:
+        return JOINT_KINDS[self.kind]
+
+
 @dataclass(frozen=True)
-class Revolute:
+class Revolute(_Joint):
     """A revolute joint: link i turns by theta_i [rad] about the z axis at the host's tip (docs/theory.md §7.2).
 
     J_i = Rot(R) Rz(theta_i) (formulation §17): G_i = E_(i-1) J_i, or A_p(x_a) J_i in a tree; on a
@@ -49,7 +113,7 @@ class Revolute:
 
 
 @dataclass(frozen=True)
-class Weld:
+class Weld(_Joint):
     """A welded joint: link i is clamped to its parent at a fixed angle, with no coordinate
     (formulation §17): J_i = Rot(R) Rz(angle).
 
@@ -123,7 +187,7 @@ def _joint_angle(kind: str, value) -> float:
 
 
 @dataclass(frozen=True)
-class SlidingPrismatic:
+class SlidingPrismatic(_Joint):
     """Pa: a carriage fixed to link i slides along the host link i-1 (docs/theory.md §7.3).
 
     The carriage has half-length c and rides on the host's centreline with two
@@ -163,7 +227,7 @@ class SlidingPrismatic:
 
 
 @dataclass(frozen=True)
-class FixedPrismatic:
+class FixedPrismatic(_Joint):
     """Pb: link i slides through a guide fixed at the host's tip (docs/theory.md §7.4).
 
     The guide sits at the host's deflected tip, along its tangent turned by

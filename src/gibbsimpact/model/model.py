@@ -89,7 +89,6 @@ class Model:
         g = np.asarray(gravity, dtype=float) if not isinstance(gravity, str) else np.array([])
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ValueError(f"Model gravity={gravity!r} must be three finite numbers (m/s^2), e.g. (0, -9.81, 0)")
-        n = chain.n_links
         self._chain = chain
         self._quadrature = (int(quadrature[0]), int(quadrature[1]))
         self._gravity = g
@@ -99,12 +98,12 @@ class Model:
         # [X1, X2, j_1 .. j_n, deltas]; fixed base: [j_1 .. j_n, deltas] (docs/theory.md §1, §8).
         base = {"free": ["X1", "X2", "X3", "theta_-1", "theta_0"], "planar": ["X1", "X2"]}.get(
             chain.base if chain.free_base else "", [])
-        kinds = [j.kind for j in chain.joints]
+        kinds = [j.spec for j in chain.joints]
         # a weld has no coordinate (formulation §17): joint variables in link order, welds skipped
-        names = base + [f"theta_{i}" if kd == "R" else f"d_{i}" for i, kd in enumerate(kinds, start=1) if kd != "W"]
+        names = base + [kd.coordinate_name(i) for i, kd in enumerate(kinds, start=1) if kd.has_coordinate]
         joint_index = []
         for kd in kinds:
-            joint_index.append(-1 if kd == "W" else len(base) + len(joint_index) - joint_index.count(-1))
+            joint_index.append(len(base) + len(joint_index) - joint_index.count(-1) if kd.has_coordinate else -1)
         delta_index = []
         directions = []
         k = len(names)
@@ -121,11 +120,11 @@ class Model:
         # The same indices as slices (each link's modes are contiguous): cheap views in the kernel.
         self._delta_slice = tuple(slice(int(d[0]), int(d[-1]) + 1) if d.size else slice(0, 0) for d in delta_index)
         self._theta_index = tuple(joint_index)
-        n_joint = n - kinds.count("W")
+        n_joint = sum(kd.has_coordinate for kd in kinds)
         self._bending = tuple([""] * (len(base) + n_joint) + directions)
         # Unit of each coordinate: angles and FE node slopes in rad, the rest in m.
         units = ["m", "m", "m", "rad", "rad"][:len(base)]
-        units += ["rad" if kd == "R" else "m" for kd in kinds if kd != "W"]
+        units += [kd.unit for kd in kinds if kd.has_coordinate]
         for lk, ld in zip(chain.links, self._links):
             units += (["m", "rad"] * (ld.K.shape[0] // 2)) if lk.elements else ["m"] * ld.K.shape[0]
         self._units = tuple(units)
@@ -155,6 +154,8 @@ class Model:
     planar = property(lambda self: self._chain.planar, doc="True for a planar chain (docs/theory.md §8).")
     joint_kinds = property(lambda self: tuple(j.kind for j in self._chain.joints),
                            doc="'R', 'Pa', 'Pb' or 'W' (a weld) per joint (n,).")
+    joint_specs = property(lambda self: tuple(j.spec for j in self._chain.joints),
+                           doc="The JointKind of each joint (n,) (model.joints.JOINT_KINDS: its properties).")
     base_transform = property(lambda self: self._base_transform, doc="T_0 (4, 4) of a fixed base, None for a free one.")
     base_chart = property(lambda self: self._chart, doc=(
         "R_ref (3, 3), the reference orientation the free base's angles are measured from: "
@@ -271,7 +272,7 @@ class Model:
         order (n_joints): hosts of a prismatic child joint, then the leaves of a tree but the last
         link (formulation §17: every link end that carries no child)."""
         joints = self._chain.joints
-        hosts = [i - 1 for i, j in enumerate(joints) if i > 0 and j.kind in ("Pa", "Pb")]
+        hosts = [i - 1 for i, j in enumerate(joints) if i > 0 and j.spec.prismatic]
         return tuple(hosts + [i for i in self._chain.free_tips if i != len(joints) - 1])
 
     @property
@@ -284,7 +285,7 @@ class Model:
         out = []
         for i in range(n):
             at_tip = [j for j in chain.children[i] if chain.attach[j] in (None, chain.links[i].length)
-                      and chain.joints[j].kind in ("R", "W")]
+                      and not chain.joints[j].spec.prismatic]
             out.append(n if i == n - 1 else (at_tip[0] if at_tip else extra[i]))
         return tuple(out)
 
@@ -300,8 +301,9 @@ class Model:
 
         The common case, float64 arrays of shape (N,) with finite entries, costs a shape compare
         and one dot product (q.q + qdot.qdot is finite exactly when every entry is, or overflowed
-        beyond 1e154 with numpy's RuntimeWarning, which the full check below then clears), so that the alias methods cost
-        what the kernel costs.
+        beyond 1e154 with numpy's RuntimeWarning, which the full check below then clears). (The alias
+        methods below leave the check of the common case to the compiled call, and come here only
+        for the message of a state it refused.)
         """
         N = len(self._names)
         if q.__class__ is np.ndarray and q.dtype is _F64 and q.shape == (N,):
@@ -329,7 +331,7 @@ class Model:
         """' (joint i is a gi.Weld: no coordinate)' when name is theta_i of a welded joint, else ''."""
         joint = re.fullmatch(r"theta_([1-9][0-9]*)", name)
         i = int(joint[1]) if joint else 0
-        if 1 <= i <= self.n_links and self.chain.joints[i - 1].kind == "W":
+        if 1 <= i <= self.n_links and not self.chain.joints[i - 1].spec.has_coordinate:
             return f" (joint {i} is a gi.Weld: link {i} is clamped to its parent, no coordinate)"
         return ""
 
@@ -347,56 +349,57 @@ class Model:
             q[self._names.index(name)] = float(v)
         return q
 
-    # -- algorithms (thin delegations to pure functions) ---------------------
+    # -- algorithms (one-line aliases of the pure functions of gibbsimpact.dynamics) --------------
+    # Each is one call of the compiled kernel, which validates q and qdot (check=True: their sizes
+    # and finite entries, with Model.check_state's messages on the error path), so that an alias
+    # costs what its kernel call costs (benchmarks/bench_entry.py).
     def mass_matrix(self, q):
         """Mass matrix M(q), shape (N, N) [kg, kg m, kg m^2 by block]."""
-        return _dynamics().mass_matrix(self, self.check_state(q))
+        return _dynamics().mass_matrix(self, q, check=True)
 
     def bias_forces(self, q, qdot):
         """Velocity-product terms h(q, qdot), shape (N,) [N, N m]."""
-        return _dynamics().bias_forces(self, *self.check_state(q, qdot))
+        return _dynamics().bias_forces(self, q, qdot, check=True)
 
     def potential_forces(self, q):
         """Gradient dV/dq of gravity plus strain energy, shape (N,) [N, N m]."""
-        return _dynamics().potential_forces(self, self.check_state(q))
+        return _dynamics().potential_forces(self, q, check=True)
 
     def forward_dynamics(self, q, qdot):
         """Generalised accelerations qddot, shape (N,): M qddot = -h - dV/dq."""
-        return _dynamics().checked_forward_dynamics(self, q, qdot)
+        return _dynamics().forward_dynamics(self, q, qdot, check=True)
 
     def energy(self, q, qdot):
         """Energy(kinetic, gravity, strain, total) in joules."""
-        return _dynamics().energy(self, *self.check_state(q, qdot))
+        return _dynamics().energy(self, q, qdot, check=True)
 
     def joint_positions(self, q):
         """Inertial positions of O_1 ... O_(n+1), shape (n+1, 3) [m]."""
-        return _kinematics().joint_positions(self, self.check_state(q))
+        return _kinematics().joint_positions(self, q, check=True)
 
     def joint_jacobians(self, q):
         """Jacobians d O_j / d q, shape (n+1, 3, N)."""
-        return _kinematics().joint_jacobians(self, self.check_state(q))
+        return _kinematics().joint_jacobians(self, q, check=True)
 
     def joint_velocities(self, q, qdot):
-        """Inertial velocities of O_1 ... O_(n+1), shape (n+1, 3) [m/s]."""
+        """Inertial velocities of O_1 ... O_(n+1), shape (n+1, 3) [m/s]: dO_j/dt = J_j(q) qdot."""
         q, qdot = self.check_state(q, qdot)
         return self.joint_jacobians(q) @ qdot
 
     def linear_momentum(self, q, qdot):
         """Total linear momentum, shape (3,) [kg m/s]."""
-        return _dynamics().momentum(self, *self.check_state(q, qdot))[0]
+        return _dynamics().linear_momentum(self, q, qdot, check=True)
 
     def angular_momentum(self, q, qdot, about=None):
         """Angular momentum about ``about`` (3,) [m], default the mass centre; (3,) [kg m^2/s]."""
-        momentum = _dynamics().momentum
-        q, qdot = self.check_state(q, qdot)
-        L, H0, c = momentum(self, q, qdot)
+        L, H0, c = _dynamics().momentum(self, q, qdot, check=True)
         point = c if about is None else np.asarray(about, dtype=float)
         # H_P = H_0 - P x L
         return H0 - np.cross(point, L)
 
     def center_of_mass(self, q):
         """Mass centre, shape (3,) [m]."""
-        return _dynamics().center_of_mass(self, self.check_state(q))
+        return _dynamics().center_of_mass(self, q, check=True)
 
     def __repr__(self):
         return f"Model(n_links={self.n_links}, n_dof={self.n_dof}, gravity={tuple(self._gravity)})"

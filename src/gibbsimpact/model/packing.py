@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..kernel.layout import (_CI, _F_BASE, _F_LINKS, _GAUSS, _H, _LI, BASE_FIXED, BASE_FREE, BASE_PLANAR, END_GENERAL,
-                             END_RIGID, JOINT_PA, JOINT_PB, JOINT_R, JOINT_WELD, KIND_MODE, KIND_PA, KIND_PB,
+                             END_RIGID, JOINT_PA, JOINT_PB, JOINT_R, KIND_MODE, KIND_PA, KIND_PB,
                              KIND_ROTATION, KIND_TRANSLATION)
 from .elements import assemble as assemble_elements, element_stiffness, hermite_shape
 from .shapes import foreshortening_matrix, mass_points, section_tables, shape_functions
@@ -139,16 +139,38 @@ def _tree_block(model, i):
 
 
 def pack(model):
-    """The model as (fdat float64 (F,), idat int64 (I,)) for the kernel."""
+    """The model as (fdat float64 (F,), idat int64 (I,)) for the kernel (kernel/layout.py).
+
+    idat: the header, the coordinate table ci (N, _CI), the link table li (n, _LI) and the tree
+    tables; fdat: the base transform (16), gravity (4) and one block per link (_link_block).
+    """
+    idat, ci, li, first, slot = _int_tables(model)
+    _base_coordinates(model, ci)
+    f = [base_block(model).ravel(), np.append(model.gravity, 0.0)]
+    off = _F_LINKS
+    for i in range(model.n_links):
+        block = _link_block(model, i, ci, li, off, first, slot)
+        f += block
+        off += sum(np.size(b) for b in block)
+    _second_twists(model, ci)
+    fdat = np.ascontiguousarray(np.concatenate([np.ravel(np.asarray(b, dtype=float)) for b in f]))
+    assert fdat.size == off
+    return fdat, np.ascontiguousarray(idat)
+
+
+def _int_tables(model):
+    """(idat (I,), its views ci (N, _CI) and li (n, _LI), first (n,), slot (n,)): idat with its header
+    (n, N, base kind, extra tips, the variant's two flags, offsets) and tree tables written, ci's
+    unset entries -1 (_tree_tables for first and slot)."""
     n, N = model.n_links, model.n_dof
-    free = model.free_base
     chain = model.chain
-    base_kind = BASE_FIXED if not free else (BASE_PLANAR if chain.base == "planar" else BASE_FREE)
+    free = model.free_base
     tables, NE, first, slot = _tree_tables(model)
     idat = np.zeros(_H + _CI * N + _LI * n + tables.size, dtype=np.int64)
-    idat[0], idat[1], idat[2] = n, N, base_kind
+    idat[0], idat[1] = n, N
+    idat[2] = BASE_FIXED if not free else (BASE_PLANAR if chain.base == "planar" else BASE_FREE)
     idat[3] = len(model.extra_tips)
-    idat[4] = int(any(jt.kind in ("Pa", "Pb") for jt in chain.joints))  # the kernel variant (variant())
+    idat[4] = int(any(jt.spec.prismatic for jt in chain.joints))  # the kernel variant (variant())
     # a link end moved by its modes, or a child attached along a flexible parent
     idat[5] = int(any(not ld.end_is_rigid for ld in model.link_data)
                   or any(a is not None and model.delta_index[p].size for a, p in zip(chain.attach, chain.parents)))
@@ -157,71 +179,84 @@ def pack(model):
     ci = idat[_H:_H + _CI * N].reshape(N, _CI)
     li = idat[_H + _CI * N:idat[6]].reshape(n, _LI) if n else np.zeros((0, _LI), dtype=np.int64)
     ci[:, 3] = -1
+    ci[:, 5] = -1
     ci[:, 6] = -1
-    if base_kind == BASE_FREE:
+    return idat, ci, li, first, slot
+
+
+def _base_coordinates(model, ci):
+    """ci rows of the floating base's coordinates: X1 X2 (X3) translations, theta_-1, theta_0 rotations."""
+    if model.free_base and model.chain.base == "planar":
+        for a in range(2):
+            ci[a, :3] = (KIND_TRANSLATION, a, 0)
+    elif model.free_base:
         for a in range(3):
             ci[a, :3] = (KIND_TRANSLATION, a, 0)
         ci[3, :3] = (KIND_ROTATION, 0, 0)
         ci[4, :3] = (KIND_ROTATION, 1, 0)
-    elif base_kind == BASE_PLANAR:
-        for a in range(2):
-            ci[a, :3] = (KIND_TRANSLATION, a, 0)
-    f = [base_block(model).ravel(),
-         np.append(model.gravity, 0.0)]
-    off = _F_LINKS
-    axis_of = {"y": 1, "z": 2}
-    joint_of = {"R": JOINT_R, "Pa": JOINT_PA, "Pb": JOINT_PB, "W": JOINT_WELD}
-    for i, (ld, lk, jt) in enumerate(zip(model.link_data, model.chain.links, model.chain.joints)):
-        th = model.theta_index[i]
-        idx = model.delta_index[i]
-        m = idx.size
-        jk = joint_of[jt.kind]
-        if jk == JOINT_WELD:
-            pass  # no coordinate
-        elif jk == JOINT_R:
-            ci[th, :3] = (KIND_ROTATION, 2, i)
-        elif jk == JOINT_PA:
-            ci[th, :3] = (KIND_PA, 0, i)
-        else:
-            # d_i moves frames i.. by a translation and deforms link i (its own shape chi, slot m).
-            ci[th, :6] = (KIND_PB, 1, i, i, m, 0)
-        for l, c in enumerate(idx):
-            ci[c, :6] = (KIND_MODE, axis_of[ld.directions[l]], _first_frame(chain, i), i, l, 0)
-            if first[i] >= 0:
-                ci[c, 6:] = (first[i] + l, len(chain.children[i]) - 1)
-        # A moving end always takes the Rodrigues path (exact at phi = 0: R = I, dR[u] = a skew(u)).
-        end = END_RIGID if ld.end_is_rigid else END_GENERAL
-        li[i] = (m, idx[0] if m else 0, th, off, end, jk, -1, -1, -1, slot[i])
-        P0 = np.array(ld.P0, dtype=float)
-        J = ld.J_body
-        # Rotary inertia as a pseudo-inertia: Sigma = tr(J)/2 I - J (module docstring, item 5).
-        P0[:3, :3] += 0.5 * np.trace(J) * np.eye(3) - J
-        axes = np.array([axis_of[d] for d in ld.directions], dtype=int)
-        cx = ld.C[np.arange(m), 0, axes] if m else np.zeros(0)
-        c1 = ld.C[np.arange(m), 3, axes] if m else np.zeros(0)
-        Mpsi = ld.D[np.arange(m)[:, None], np.arange(m)[None, :], axes[:, None], axes[None, :]] if m else np.zeros((0, 0))
-        mu = lk.mass_per_length if not callable(lk.mass_per_length) else 0.0
-        ei = lk.EI_z if not callable(lk.EI_z) else 0.0
-        joint = [getattr(jt, "angle", 0.0), getattr(jt, "half_length", 0.0), lk.elements, mu, ei]
-        block = [P0.ravel(), ld.m_r0, [ld.length], cx, c1, Mpsi.ravel(), np.asarray(ld.K).ravel(),
-                 np.asarray(ld.end_t).ravel(), np.asarray(ld.end_phi).ravel(), joint]
-        if jk == JOINT_PB:
-            block += _pb_tables(lk)
-        if lk.stiffened:
-            li[i, 6] = off + sum(np.size(b) for b in block)
-            block += _fs_tables(lk, model.quadrature)
-        for field, table in zip((7, 8), _tree_block(model, i)):
-            if table is not None:
-                li[i, field] = off + sum(np.size(b) for b in block)
-                block.append(table)
-        f += block
-        off += sum(np.size(b) for b in block)
-    # A second twist (B[ss + N + c]): the protruding length D of a flexible Pb link that carries
-    # a Pa carriage moves the carriage's frame i.. once more, through its deflection (_pa_step).
-    ci[:, 5] = -1
-    for i, jt in enumerate(chain.joints):
-        if i > 0 and jt.kind == "Pa" and model.chain.joints[i - 1].kind == "Pb" and model.delta_index[i - 1].size:
+
+
+_AXIS = {"y": 1, "z": 2}
+
+
+def _link_block(model, i, ci, li, off, first, slot) -> list:
+    """Link i's fdat block (a list of arrays, at offset ``off``), with its rows of ci (its joint
+    variable and deltas) and li written."""
+    chain = model.chain
+    ld, lk, jt = model.link_data[i], chain.links[i], chain.joints[i]
+    th, idx = model.theta_index[i], model.delta_index[i]
+    m = idx.size
+    jk = jt.spec.kernel_code
+    if jk == JOINT_R:
+        ci[th, :3] = (KIND_ROTATION, 2, i)
+    elif jk == JOINT_PA:
+        ci[th, :3] = (KIND_PA, 0, i)
+    elif jk == JOINT_PB:
+        # d_i moves frames i.. by a translation and deforms link i (its own shape chi, slot m).
+        ci[th, :6] = (KIND_PB, 1, i, i, m, -1)
+    for l, c in enumerate(idx):
+        ci[c, :6] = (KIND_MODE, _AXIS[ld.directions[l]], _first_frame(chain, i), i, l, -1)
+        if first[i] >= 0:
+            ci[c, 6:] = (first[i] + l, len(chain.children[i]) - 1)
+    # A moving end always takes the Rodrigues path (exact at phi = 0: R = I, dR[u] = a skew(u)).
+    end = END_RIGID if ld.end_is_rigid else END_GENERAL
+    li[i] = (m, idx[0] if m else 0, th, off, end, jk, -1, -1, -1, slot[i])
+    block = _link_constants(ld, lk, jt)
+    if jk == JOINT_PB:
+        block += _pb_tables(lk)
+    if lk.stiffened:
+        li[i, 6] = off + sum(np.size(b) for b in block)
+        block += _fs_tables(lk, model.quadrature)
+    for field, table in zip((7, 8), _tree_block(model, i)):
+        if table is not None:
+            li[i, field] = off + sum(np.size(b) for b in block)
+            block.append(table)
+    return block
+
+
+def _link_constants(ld, lk, jt) -> list:
+    """The fixed part of a link's fdat block: pseudo-inertia P0 (16), m_r0 (4), l, the modal tables
+    cx, c1 (m), M_psi (m m), K (m m), end tables t, phi, and the joint's [gamma, c, n_e, mu, EI]."""
+    m = ld.K.shape[0]
+    P0 = np.array(ld.P0, dtype=float)
+    J = ld.J_body
+    # Rotary inertia as a pseudo-inertia: Sigma = tr(J)/2 I - J (module docstring, item 5).
+    P0[:3, :3] += 0.5 * np.trace(J) * np.eye(3) - J
+    axes = np.array([_AXIS[d] for d in ld.directions], dtype=int)
+    cx = ld.C[np.arange(m), 0, axes] if m else np.zeros(0)
+    c1 = ld.C[np.arange(m), 3, axes] if m else np.zeros(0)
+    Mpsi = ld.D[np.arange(m)[:, None], np.arange(m)[None, :], axes[:, None], axes[None, :]] if m else np.zeros((0, 0))
+    mu = lk.mass_per_length if not callable(lk.mass_per_length) else 0.0
+    ei = lk.EI_z if not callable(lk.EI_z) else 0.0
+    joint = [getattr(jt, "angle", 0.0), getattr(jt, "half_length", 0.0), lk.elements, mu, ei]
+    return [P0.ravel(), ld.m_r0, [ld.length], cx, c1, Mpsi.ravel(), np.asarray(ld.K).ravel(),
+            np.asarray(ld.end_t).ravel(), np.asarray(ld.end_phi).ravel(), joint]
+
+
+def _second_twists(model, ci):
+    """ci[:, 5]: a second twist (B[ss + N + c]): the protruding length D of a flexible Pb link that
+    carries a Pa carriage moves the carriage's frame i.. once more, through its deflection (_pa_step)."""
+    joints = model.chain.joints
+    for i, jt in enumerate(joints):
+        if i > 0 and jt.spec.carriage and joints[i - 1].spec.guide and model.delta_index[i - 1].size:
             ci[model.theta_index[i - 1], 5] = i
-    fdat = np.ascontiguousarray(np.concatenate([np.ravel(np.asarray(b, dtype=float)) for b in f]))
-    assert fdat.size == off
-    return fdat, np.ascontiguousarray(idat)

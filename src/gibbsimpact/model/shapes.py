@@ -128,7 +128,7 @@ def link_deflection(model, q, i: int, x, derivative: int = 0) -> tuple[np.ndarra
     if len(idx) == 0:
         return v, w
     delta = q[idx]
-    if model.chain.joints[i].kind == "Pb":
+    if model.chain.joints[i].spec.guide:
         d = q[model.theta_index[i]]
         sigma = x - (lk.length - d)
         inside = sigma >= 0.0

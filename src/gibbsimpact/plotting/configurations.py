@@ -142,7 +142,7 @@ def _configurations_note(model, panels, planar: bool) -> str:
     parts = [
         "red star: impacting point; red arrow: wall normal into the free region" if any(p.hit for p in panels) else "",
         "red diamond: a prismatic joint at an end stop" if any(p.stops for p in panels) else "",
-        "thin line on the host: the part of a link behind its guide" if "Pb" in model.joint_kinds else "",
+        "thin line on the host: the part of a link behind its guide" if any(k.guide for k in model.joint_specs) else "",
         "" if planar else "pale wide band: the chain's shadow on the floor; X2 vertical, camera along the least "
                           "joint motion",
     ]

@@ -29,7 +29,7 @@ def _link_parts(model, q, n_points: int = 41) -> list:
     out = []
     for i, lk in enumerate(model.chain.links):
         rear = None
-        if model.chain.joints[i].kind == "Pb":
+        if model.chain.joints[i].spec.guide:
             s = min(max(lk.length - float(q[model.theta_index[i]]), 0.0), lk.length)
             main = points_on_link(model, q, T, i, np.linspace(s, lk.length, n_points))
             if s > 0.0:
@@ -57,7 +57,7 @@ def _stop_point(model, q, joint: int) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     T = transforms(model, q)
     i = joint - 1
-    if model.chain.joints[i].kind == "Pb":
+    if model.chain.joints[i].spec.guide:
         s = model.chain.links[i].length - float(q[model.theta_index[i]])
         return (T[i] @ np.array([s, 0.0, 0.0, 1.0]))[:3]
     return T[i][:3, 3].copy()
@@ -72,18 +72,17 @@ def _prismatic_marks(model, q) -> list:
     rail on the base of a SlidingPrismatic joint 1, its travel d_min - c ... d_max + c along the
     base x axis, with a tick at each end.
     """
-    kinds = [j.kind for j in model.chain.joints]
-    if all(k in ("R", "W") for k in kinds):
+    if not any(j.spec.prismatic for j in model.chain.joints):
         return []
     q = np.asarray(q, dtype=float)
     T = transforms(model, q)
     L = _chain_scale(model)
     out = []
     for i, jt in enumerate(model.chain.joints):
-        if jt.kind == "Pb":
+        if jt.spec.guide:
             a, b = T[i][:3, 0], T[i][:3, 1]
             out.append(("guide", i + 1, _box(_stop_point(model, q, i + 1), a, b, 0.03 * L, 0.014 * L)))
-        elif jt.kind == "Pa":
+        elif jt.spec.carriage:
             g = jt.angle
             # The carriage frame is link i's frame turned back by gamma.
             a = np.cos(g) * T[i][:3, 0] - np.sin(g) * T[i][:3, 1]

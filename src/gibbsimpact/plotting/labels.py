@@ -90,7 +90,7 @@ def _stop_label(result, joint: int, q) -> str:
     'stop i' when it is another limit (a carriage at the end of a Pb link's protruding part)."""
     model = result.model
     jt = model.chain.joints[joint - 1] if 1 <= joint <= model.n_links else None
-    if jt is None or jt.kind not in ("Pa", "Pb"):
+    if jt is None or not jt.spec.prismatic:
         return f"stop {joint}"
     d = float(q[model.theta_index[joint - 1]])
     lo, hi = jt.range

@@ -86,7 +86,7 @@ def _draw_chain_2d(ax, model, q, n_points, hit=(), normals=None, labels=True, ar
     for group in coincident_groups(O) if labels else ():
         j, p, text = group[0] + 1, O[group[0]], _shared_label([k + 1 for k in group])
         a = T[j - 1][:2, 0] if j <= model.n_links else np.zeros(2)
-        if j <= model.n_links and model.joint_kinds[j - 1] == "Pb" and np.linalg.norm(a) > 0:
+        if j <= model.n_links and model.joint_specs[j - 1].guide and np.linalg.norm(a) > 0:
             # The rear end of a link in a guide lies on the host, with the guide just ahead:
             # its label goes beside the link (right-hand side), not onto the guide.
             a = a / np.linalg.norm(a)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model.joints import JOINT_KINDS
 from ..model.shapes import link_deflection
 from ..simulation.charts import recharts_text
 from .geometry import is_planar
@@ -71,13 +72,14 @@ def _curve(ax, t, y, label=None, **style):
 # Time histories
 
 def _joint_variables(result):
-    """[(colour index, coordinate index, joint number or None, 'R' | 'Pa' | 'Pb')] of the joint variables
+    """[(colour index, coordinate index, joint number or None, its JointKind)] of the joint variables
     plot_angles draws: theta_-1, theta_0 of a spatial free base when the motion is not planar,
     then theta_i / d_i of every joint (a planar free base adds no angle: its theta_1 is joint 1's)."""
     model = result.model
-    rows = [(k, i, kd) for i, (k, kd) in enumerate(zip(model.theta_index, model.joint_kinds), start=1) if kd != "W"]
+    rows = [(k, i, kd) for i, (k, kd) in enumerate(zip(model.theta_index, model.joint_specs), start=1)
+            if kd.has_coordinate]
     if model.chain.base == "free" and not is_planar(result):
-        rows = [(3, None, "R"), (4, None, "R")] + rows
+        rows = [(3, None, JOINT_KINDS["R"]), (4, None, JOINT_KINDS["R"])] + rows
     return [(c, k, i, kd) for c, (k, i, kd) in enumerate(rows)]
 
 
@@ -117,7 +119,7 @@ def plot_angles(result, case_name=None, ax=None):
     """
     model = result.model
     rows = _joint_variables(result)
-    groups = {"R": [r for r in rows if r[3] == "R"], "P": [r for r in rows if r[3] in ("Pa", "Pb")]}
+    groups = {"R": [r for r in rows if r[3].turns], "P": [r for r in rows if r[3].prismatic]}
     panels = [(g, rate) for g in ("R", "P") for rate in (False, True) if groups[g]]
     own = ax is None
     if own:
@@ -248,7 +250,7 @@ def tip_deflections(model, qs) -> list:
         for c, k in enumerate(idx):
             e = np.zeros(model.n_dof)
             e[k] = 1.0
-            if model.chain.joints[i].kind == "Pb":
+            if model.chain.joints[i].spec.guide:
                 e[model.theta_index[i]] = lk.length  # any protruding length: the tip value is d-free
             basis[:, c] = np.column_stack(link_deflection(model, e, i, x))
         dirs = {model.bending_directions[k] for k in idx}
@@ -272,7 +274,7 @@ def plot_deflection(result, case_name=None, ax=None):
     curves = tip_deflections(model, result.q)
     if not curves:
         return None
-    pb = [i for i, kd in enumerate(model.joint_kinds) if kd == "Pb"]  # 0-based links in a guide
+    pb = [i for i, kd in enumerate(model.joint_specs) if kd.guide]  # 0-based links in a guide
     n_panels = 2 if pb else 1
     own = ax is None
     if own:
@@ -294,7 +296,7 @@ def plot_deflection(result, case_name=None, ax=None):
         for pos, i in enumerate(pb):
             _curve(axes[1], result.t, result.q[:, model.theta_index[i]], color=_link_colour(i), lw=1.3,
                          ls=_P_STYLES[pos % len(_P_STYLES)], label=f"link {i + 1}: $d_{{{i + 1}}}$")
-        _draw_ranges(axes[1], model, [(0, None, i + 1, "Pb") for i in pb], colour=lambda j: _link_colour(j - 1))
+        _draw_ranges(axes[1], model, [(0, None, i + 1, JOINT_KINDS["Pb"]) for i in pb], colour=lambda j: _link_colour(j - 1))
         axes[1].set_ylabel("protruding\nlength d [m]")
     for a in axes:
         _legend(a, outside=own)

@@ -68,7 +68,7 @@ def joint_limits(model) -> tuple[Limit, ...]:
     joints = model.chain.joints
     links = model.chain.links
     for i, jt in enumerate(joints):
-        if jt.kind not in ("Pa", "Pb"):  # a revolute or a weld (no coordinate) has no limits
+        if not jt.spec.prismatic:  # a revolute or a weld (no coordinate) has no limits
             continue
         k = model.theta_index[i]
         lo, hi = jt.range
@@ -76,7 +76,7 @@ def joint_limits(model) -> tuple[Limit, ...]:
         e[k] = 1.0
         out.append(Limit(f"{names[k]} >= d_min = {lo:g} m", i + 1, e, -lo))
         out.append(Limit(f"{names[k]} <= d_max = {hi:g} m", i + 1, -e, hi))
-        if jt.kind == "Pa" and i > 0 and joints[i - 1].kind == "Pb":
+        if jt.spec.carriage and i > 0 and joints[i - 1].spec.guide:
             kp = model.theta_index[i - 1]
             n = e.copy()
             n[kp] = 1.0

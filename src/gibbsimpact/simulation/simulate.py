@@ -116,45 +116,27 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
              _in_step_check: bool = True) -> Result:
     """Simulate flight phases, impacts and resting contact from (q0, qdot0) over t_span (module docstring).
 
+    Each option in full, with its units and rules: gibbsimpact.simulation.settings.Settings.
+
     Parameters
     ----------
     model : Model; q0, qdot0 : (N,) initial coordinates and velocities (order: model.coordinate_names)
     t_span : (t0, t_end) [s]; walls : sequence of Circle, Sphere, Plane
     restitution : e in [0, 1] of the walls whose own ``restitution`` is None
-    rtol, atol, method : the solver's tolerances and method (solve_ivp's meaning), or "auto": DOP853 or Radau
-        from the highest frequency (simulation.auto; Result.settings["method"], ["method_choice"] why)
-    output_dt : [s] or None: None stores every accepted step, a float uniform samples from the
-        dense output (plus both sides of every impact); max_step : [s] the solver's largest step
-    contact_tol : [m] gaps within the contact band max(2 contact_tol, L_q (atol + rtol max|q|)),
-        L_q = 1 + 2 sum l_i, belong to one impact
-    grazing_velocity : [m/s] an event with v_n >= -grazing_velocity is no impact
-    penetration_tol : [m] a gap below -penetration_tol between events stops the run
+    rtol, atol, method : the solver's tolerances and method (solve_ivp's meaning), or "auto" (DOP853 or Radau)
+    output_dt : [s] or None (every accepted step); max_step : [s] the solver's largest step
+    contact_tol [m], grazing_velocity [m/s], penetration_tol [m] : the contact band, no impact above
+        v_n = -grazing_velocity, the stop below a gap of -penetration_tol
     zeno_interval [s], zeno_count : the accumulation criteria; max_impacts : the impact budget
-    progress : None, True (a tqdm bar on stderr) or progress(t, n_impacts), called at most
-        5 times a second of wall time and once at the end
-    inputs : applied generalised forces Q_in (gibbsimpact.forces): a callable Q(t, q, qdot) -> (N,),
-        a constant (N,), or {coordinate name: number or f(t, q, qdot)} (N m on an angle, N on a
-        translation). With inputs or damped links the run integrates their work (Result.work)
-        and energy_error measures E(t) - E(start) - (W(t) - W(start))
-    joint_limit : "stop" (status "joint_limit" at a prismatic joint's end of range) or "impact"
-        (an end-stop impact with joint_restitution in [0, 1], an ImpactRecord with wall -1; a stop
-        that no longer rebounds then holds its joint with a force mu >= 0, Result.stop_forces,
-        until mu falls to zero: gibbsimpact.simulation.joint_limits)
-    accumulation : "rest" (an accumulation of impacts goes on in resting contact,
-        Result.contact_forces, or at a held end stop) or "stop" (status "zeno" there, or
-        "joint_limit" at an end stop)
-    link_contacts : True: the closest point of every flexible link to every wall is a contact
-        candidate too; False: joints only, as in the published case studies
-    prescribed : None or {joint coordinate: f(t) -> (q, qdot, qddot)}, motions imposed by actuators (docs/api.md)
-    contact_filter : None, or contact_filter(q) -> (C,) bool over the contact candidates (O1 .. O<P>, then "link i" columns, "body k"):
-        a candidate that is False at q and not resting is no candidate there (no event, impact, resting contact
-        or penetration check): a rule of the run where contacts may begin (simulation.contact_filter)
-    max_cpu_time [s], max_rhs_calls : None (no limit), or the CPU time (its thread's) and right-hand
-        sides after which the run stops with "budget_exceeded" (simulation.budget; cost estimates them)
-    cutoff_frequency : None, or [rad/s]: with method "Radau" (or "auto" choosing it), the modes of the
-        linearised chain above it are left out of the error estimate of the compiled Radau steps, which then
-        step over them and damp them: their energy goes to the energy audit's numerical part
-        (gibbsimpact.simulation.compiled_radau; docs/theory.md, "Implicit integration")
+    progress : None, True (a tqdm bar on stderr) or progress(t, n_impacts)
+    inputs : applied generalised forces Q_in: Q(t, q, qdot) -> (N,), a constant (N,), or {name: value or f}
+    joint_limit : "stop" or "impact" (with joint_restitution in [0, 1]) at a prismatic joint's end of range
+    accumulation : "rest" (go on in resting contact) or "stop" (status "zeno")
+    link_contacts : True (the closest point of each flexible link is a candidate too) or False (joints only)
+    prescribed : None or {joint coordinate: f(t) -> (q, qdot, qddot)}, motions imposed by actuators
+    contact_filter : None or contact_filter(q) -> (C,) bool: where contacts may begin
+    max_cpu_time [s], max_rhs_calls : None or the budget after which the run stops ("budget_exceeded")
+    cutoff_frequency : None or [rad/s]: Radau leaves the modes above it out of its error estimate
     _in_step_check : private; False leaves solve_ivp's sign test at step ends only (benchmarks, tests)
 
     Returns

@@ -81,7 +81,7 @@ def derive_equations(model, method: str = "gibbs-appell", *, rational: bool = Fa
 
     if not isinstance(model, Model):
         raise ValueError(f"derive_equations model={model!r} must be a gibbsimpact.Model")
-    if model.chain.base == "planar" or any(k not in ("R", "W") for k in model.joint_kinds):
+    if model.chain.base == "planar" or any(k.prismatic for k in model.joint_specs):
         # The symbolic recursion builds revolute and welded joints behind a spatial free or a fixed base only.
         raise NotImplementedError(
             "derive_equations: prismatic joints and the planar floating base are not derived symbolically yet "

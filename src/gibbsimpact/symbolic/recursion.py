@@ -142,11 +142,11 @@ def _base_state(model, alg, q, qd, velocities, rotary):
 
 def _joint_step(alg, rec, joint, k, q):
     """rec <- rec J_i: J = Rot(R) Rz(theta_k) of a revolute (R its axis_rotation), Rot(R) Rz(angle) of a weld."""
-    R = getattr(joint, "axis_rotation", None) if joint.kind == "R" else joint.rotation
+    R = getattr(joint, "axis_rotation", None) if joint.spec.turns else joint.rotation
     if R is not None:  # a constant rotation: no local coordinate, but it turns the angular velocity columns
         G = [[alg.const(v) for v in row] + [alg.Z] for row in np.asarray(R, dtype=float)] + [[alg.Z] * 3 + [alg.O]]
         rec.step(G, [], ("general",))
-    if joint.kind == "W":
+    if not joint.spec.has_coordinate:
         if joint.angle != 0.0:
             rec.step(rot4(alg, 2, alg.const(joint.angle)), [], ("general",))
     else:
@@ -177,7 +177,7 @@ def _tree_frames(model, alg, q, qd, velocities, rotary):
 
 def _link_frames(model, alg, q, qd, velocities, rotary):
     """Yield (i, recursion state at T_i) for i = 0 .. n-1 (state valid only during the yield)."""
-    if not model.chain.serial or any(getattr(j, "axis_rotation", None) is not None or j.kind == "W"
+    if not model.chain.serial or any(getattr(j, "axis_rotation", None) is not None or not j.spec.has_coordinate
                                      for j in model.chain.joints):
         yield from _tree_frames(model, alg, q, qd, velocities, rotary)
         return
