@@ -210,7 +210,7 @@ def test_obstacle_skip_rule_is_a_valid_lower_bound(name, rng):
         walls = _obstacles_near(model, q, trial % model.n_links, rng, clearance=(0.001, 0.02, 0.3)[trial % 3])
         for wall in walls:
             ct = Contacts(model, [wall])
-            assert ct.flex == list(range(model.n_links))
+            assert sorted(set(ct.flex)) == list(range(model.n_links))  # one column per cell of every link
             skip = ct.skipped(q)[0]
             gj = wall.gap(P)
             for f, i in enumerate(ct.flex):

@@ -235,8 +235,9 @@ def mixed_constraint_data(model, walls, q, qd, Q, pairs, n_joints: int, flex, ve
     if velocities:
         pd[joint], a0[joint], c[joint] = d0.pd, d0.a0, d0.c
     sp = np.flatnonzero(span & ~tip)
-    for a, (i, x) in zip(sp, span_abscissae(model, walls, q, pairs[sp], n_joints, flex)):
-        _, J[a], nrm[a], pd[a], a0[a], g[a], c[a] = span_point_terms(model, walls[pairs[a, 0]], q, qd_use, i, x)
+    for a, (i, x, stat) in zip(sp, span_abscissae(model, walls, q, pairs[sp], n_joints, flex)):
+        _, J[a], nrm[a], pd[a], a0[a], g[a], c[a] = span_point_terms(model, walls[pairs[a, 0]], q, qd_use, i, x,
+                                                                     stat)
         W[:, a] = J[a].T @ nrm[a]
     for a in np.flatnonzero(tip):  # a tree's free tip: a fixed material point at x = l
         i = model.extra_tips[pairs[a, 1] - model.n_links - 1]
@@ -296,7 +297,8 @@ class RestingContacts:
 
     def __init__(self, model, walls, contact_tol, v_tol=1e-6, n_cols=None, flex=()):
         self.model, self.walls, self.contact_tol, self.v_tol = model, walls, contact_tol, v_tol
-        # Link columns (n_cols > P): the closest point of link flex[c - P], a span pair (span_resting.py).
+        # Link columns (n_cols > P): cell flex[c - P] = (link, cell, cells) (contact.span_cells.link_cells), a
+        # span pair (span_resting.py).
         self.n_joints, self.flex = model.n_joints, list(flex)
         P = model.n_joints if n_cols is None else n_cols  # columns of the gap matrix (contacts.Contacts)
         self.active = np.zeros((len(walls), P), dtype=bool)

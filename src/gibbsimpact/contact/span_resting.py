@@ -36,10 +36,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..dynamics.link_points import material_jacobians
-from .closest_points import closest_points
+from .span_cells import link_minima
 
 #: Step of the central differences along the link, relative to its length.
 H_X = 1e-4
+#: phi_xx l below which a minimum is held as a fixed material point (no sliding term; module docstring).
+MIN_CURVATURE = 1.0
 
 
 def _bilinear(wall, p, u, v) -> float:
@@ -48,9 +50,12 @@ def _bilinear(wall, p, u, v) -> float:
     return 0.25 * float(wall.curvature(P, (u + v)[None, :])[0] - wall.curvature(P, (u - v)[None, :])[0])
 
 
-def span_point_terms(model, wall, q, qd, i: int, x: float):
+def span_point_terms(model, wall, q, qd, i: int, x: float, stationary: bool = True):
     """Equations (1)-(2) of the module docstring for the material point x [m] of link i on ``wall``.
 
+    stationary : x is an interior minimum of the link's gap (phi_x = 0: the point slides along the
+    link, the term -(phi_xq qd)^2 / phi_xx of (2)), or False: a fixed material point (the end of a
+    cell, contact/span_cells.py), whose gap acceleration is that of the material point.
     Returns p (3,) [m], J (3, N), n (3,), pd (3,) [m/s], a0 (3,) [m/s^2] of the material point,
     g [m], the acceleration term c = n.a0 + pd^T H pd - (phi_xq qd)^2 / phi_xx [m/s^2].
     """
@@ -62,11 +67,13 @@ def span_point_terms(model, wall, q, qd, i: int, x: float):
     n = wall.normal(p[None, :])[0]
     g = float(wall.gap(p[None, :])[0])
     pd = J @ qd
+    c = float(n @ a0) + float(wall.curvature(p[None, :], pd[None, :])[0])
+    if not stationary:
+        return p, J, n, pd, a0, g, c
     p_x, p_xx = (pp - pm) / (2.0 * h), (pp - 2.0 * p + pm) / (h * h)
     pd_x = (Jp - Jm) @ qd / (2.0 * h)
-    c = float(n @ a0) + float(wall.curvature(p[None, :], pd[None, :])[0])
     phi_xx = float(n @ p_xx) + float(wall.curvature(p[None, :], p_x[None, :])[0])
-    if phi_xx > 0.0:
+    if phi_xx * length > MIN_CURVATURE:
         phi_xq = float(n @ pd_x) + _bilinear(wall, p, p_x, pd)
         c -= phi_xq * phi_xq / phi_xx
     return p, J, n, pd, a0, g, c
@@ -93,8 +100,9 @@ def tree_tip_columns(model) -> np.ndarray:
     return np.arange(model.n_links + 1, model.n_joints)
 
 
-def span_abscissae(model, walls, q, pairs, n_joints: int, flex) -> list:
-    """(link, x* [m]) of every span pair (wall, column >= n_joints) of ``pairs`` (k, 2): closest_points."""
-    cp = closest_points(model, q, walls)
-    return [(flex[c - n_joints], float(cp.x[w, flex[c - n_joints]])) for w, c in pairs]
-
+def span_abscissae(model, walls, q, pairs, n_joints: int, cells) -> list:
+    """(link, x* [m], stationary) of every span pair (wall, column >= n_joints) of ``pairs`` (k, 2); the
+    columns after the joints are ``cells`` ((i, c, m), contact.span_cells.link_cells): link_minima."""
+    cols = [cells[c - n_joints] for c in pairs[:, 1]]
+    cm = link_minima(model, q, walls, cols)
+    return [(cols[a][0], float(cm.x[w, a]), bool(cm.stationary[w, a])) for a, (w, _) in enumerate(pairs)]

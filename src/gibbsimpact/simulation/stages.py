@@ -136,7 +136,7 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
     lipschitz = gap_lipschitz(model)
     band = contact_band(s.contact_tol, lipschitz, s.rtol, s.atol, q0)
-    resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols, contacts.flex)
+    resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols, contacts.cells)
     if s.contact_filter is not None:
         contacts.resting = lambda: resting.active  # resting pairs are never filtered out
     compliant = (CompliantContacts(model, contacts, s.wall_restitution, lipschitz)
