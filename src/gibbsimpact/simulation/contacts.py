@@ -144,6 +144,9 @@ class Contacts:
         self.refine_below = 0.01 * (1.0 + sum(ld.length for ld in model.link_data))
         self._key, self._g = None, None
         self._pkey, self._pg = None, None
+        # resting : None or callable () -> (W, C) bool, the pairs resting now (contact.resting.RestingContacts
+        # .active): a resting link column stays continuous at its link's ends (gaps_batch).
+        self.resting, self._resting_key = None, None
         # The compiled event gaps (kernel.event_gaps): packed walls, and the skip rule's (link,
         # wall) pairs (f, w, a, b) with their tables (_bound_tables).
         for w in walls:
@@ -232,6 +235,13 @@ class Contacts:
         out[:, self._rules[:, 1], self._rules[:, 0]] = rest[:K * len(self._rules)].reshape(K, -1) != 0.0
         return out if np.ndim(q) == 2 else out[0]
 
+    def _held(self):
+        """(W, F) bool, the resting link columns, or None when none rests."""
+        if self.resting is None or not self.flex:
+            return None
+        held = self.resting()[:, self.n_joints:self.n_joints + len(self.flex)]
+        return held if held.any() else None
+
     def _link_gaps(self, qs, need=None, out=None):
         """Link columns (K, W, F) [m], the closest points' abscissae x (K, W, F) [m], their normals
         (K, W, F, 3) and whether they are interior (K, W, F), for the states qs (K, N).
@@ -251,7 +261,12 @@ class Contacts:
             out[...] = NOT_INTERIOR
         if need.any():
             cm = link_minima(self.model, qs[need], self.walls, self.cells, refine_below=self.refine_below)
-            out[need] = np.where(cm.inside, cm.gap, NOT_INTERIOR)
+            # A resting column keeps the cell's minimum when it reaches the link's end (details=False: the
+            # events' gaps): its point hands over to the end joint there without a jump, so its drift
+            # events see a continuous gap (span_resting.span_abscissae holds it at the end's material point).
+            held = None if details else self._held()
+            inside = cm.inside if held is None else cm.inside | held
+            out[need] = np.where(inside, cm.gap, NOT_INTERIOR)
             if details:
                 x[need], nrm[need], inside[need] = cm.x, cm.normal, cm.inside
         return (out, x, nrm, inside) if details else None
@@ -280,6 +295,9 @@ class Contacts:
 
     def gaps(self, q: np.ndarray) -> np.ndarray:
         """g (W, C) [m]; cached per q (every event function of a step sees the same q)."""
+        rkey = None if self.resting is None else self.resting().tobytes()
+        if rkey != self._resting_key:  # the resting pairs changed: so may the link columns (gaps_batch)
+            self._key, self._resting_key = None, rkey
         key = q.tobytes()
         if key != self._key:
             self._g = self.gaps_batch(np.asarray(q, dtype=float).reshape(1, -1))[0]
@@ -299,6 +317,8 @@ class Contacts:
         g = np.empty((len(qs), len(self.walls), self.n_cols))
         g[:, :, :P] = g_joints
         search = rest[len(qs) * len(self._rules):] != 0.0  # (K,) states that need a link search
+        if self._held() is not None:  # a resting column is searched always (its value at a link's end)
+            search[:] = True
         if F and search.any():
             self._link_gaps(qs, search, out=g[:, :, P:P + F])
         else:
