@@ -61,7 +61,7 @@ def test_an_offset_payload_strikes_the_floor_with_its_centre():
 
 
 def test_body_candidates_in_the_contact_columns_and_the_start_check():
-    # Columns: O1-O3, the span of flexible link 2, then the offset payload ("body 1"); a body with
+    # Columns: O1-O3, the span of flexible link 2 (one column per element), then the offset payload ("body 1"); a body with
     # c = 0 is the tip point O3 itself and holds it (Newton's law well posed there).
     from gibbsimpact.simulation.contact_points import contact_points
 
@@ -70,8 +70,8 @@ def test_body_candidates_in_the_contact_columns_and_the_start_check():
     links = [gi.Link(0.5, 1.0, 1.0), gi.Link(0.4, 1.0, 5.0, elements=2, bodies=[at_tip, offset])]
     model = gi.Model(gi.Chain(links, base=gi.FixedBase((0.0, 0.6), 0.0)))
     points = contact_points(model)
-    assert [p.name for p in points] == ["O1", "O2", "O3", "link 2", "body 1"]
-    assert [p.newton_ill_posed for p in points] == [False, False, False, True, False]
+    assert [p.name for p in points] == ["O1", "O2", "O3", "link 2.1", "link 2.2", "body 1"]
+    assert [p.newton_ill_posed for p in points] == [False, False, False, True, True, False]
     bare = gi.Model(gi.Chain([links[0], gi.Link(0.4, 1.0, 5.0, elements=2)], base=gi.FixedBase((0.0, 0.6), 0.0)))
     assert contact_points(bare)[2].newton_ill_posed
     # Start check: link 2 hanging straight down from O2 at y = 0.6 puts O3 at y = 0.2 and the payload's

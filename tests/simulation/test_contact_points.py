@@ -30,7 +30,8 @@ def test_what_each_point_is():
     ill = lambda model: [p.newton_ill_posed for p in contact_points(model)]  # noqa: E731
     fe_arm = contact_points(issue26_model(elements=2))
     assert [(p.name, p.description, p.link, p.free) for p in fe_arm] == [
-        ("O1", "joint 1", None, False), ("O2", "tip of link 1", 0, True), ("link 1", "span of link 1", 0, True)]
+        ("O1", "joint 1", None, False), ("O2", "tip of link 1", 0, True), ("link 1.1", "span of link 1", 0, True),
+        ("link 1.2", "span of link 1", 0, True)]  # one span column per element (contact/span_cells.py)
     assert ill(issue26_model(elements=0)) == [False, False]  # a rigid rod: no span column either
     cf = issue26_model(elements=0, modes=[gi.Mode("clamped-free", "y")])
     assert ill(cf) == [False, True, True]

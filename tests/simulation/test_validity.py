@@ -187,8 +187,8 @@ def test_check_impact_names_the_point_and_only_ill_posed_ones():
 
     fe = issue26_model(elements=2)
     floor = (gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)),)
-    (span,) = check_impact(fe, record([3], [0], [0.1]), floor)  # column 3: the closest point of link 1
-    assert "at link 1 (span of link 1)" in span and "2 finite elements" in span and "link_contacts=False" in span
+    (span,) = check_impact(fe, record([3], [0], [0.1]), floor)  # column 3: the lowest point of link 1's element 1
+    assert "at link 1.1 (span of link 1)" in span and "2 finite elements" in span and "link_contacts=False" in span
     # No impulse there, an end stop, the joint O1: nothing to say.
     assert check_impact(fe, record([2, 1], [0, 0], [0.0, 0.3]), floor) == []
     assert check_impact(fe, record([1], [-1], [0.3]), floor) == []

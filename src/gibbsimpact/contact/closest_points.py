@@ -258,22 +258,28 @@ def _foreshorten(model, wp: _WallParams, st, qs, x, best_g, best_p):
     the point and gap returned are those of the closest material point of the foreshortened link
     (the ones the impact's Jacobian, material_jacobian, uses).
     """
-    for i, lk in enumerate(model.chain.links):
-        if not lk.stiffened:
-            continue
+    for i in [i for i, lk in enumerate(model.chain.links) if lk.stiffened]:
         for k, q in enumerate(qs):
-            xs = x[k, :, i].copy()
-            for _ in range(MAX_ITERATIONS):
-                p, p1, p2 = _foreshortened_curve(model, q, i, xs, st.R[k, i], st.o[k, i])
-                g, _, g1, g2 = _gap_terms(wp, p, p1, p2)
-                step = np.where(g2 > 0.0, -g1 / np.where(g2 > 0.0, g2, 1.0), 0.0)
-                new = np.clip(xs + step, 0.0, lk.length)
-                done = np.abs(new - xs).max() <= X_TOL * lk.length
-                xs = new
-                if done:
-                    break
-            p = _foreshortened_curve(model, q, i, xs, st.R[k, i], st.o[k, i])[0]
-            x[k, :, i], best_p[k, :, i], best_g[k, :, i] = xs, p, _gap_terms(wp, p)[0]
+            x[k, :, i], best_p[k, :, i], best_g[k, :, i] = _foreshortened_minimum(model, wp, q, i, x[k, :, i], st.R[k, i],
+                                                                                st.o[k, i])
+
+
+def _foreshortened_minimum(model, wp: _WallParams, q, i: int, xs, R, o, newton=True):
+    """x (P,) [m], p (P, 3) [m], g (P,) [m]: minima of stiffened link i's foreshortened gap to the walls wp (row
+    by row) from xs (P,) [m] (_foreshorten's iteration; the points at xs where newton (P,) bool is False);
+    R (3, 3), o (3,): the link's frame at q."""
+    length, xs = model.chain.links[i].length, np.array(xs, dtype=float)
+    for _ in range(MAX_ITERATIONS if np.any(newton) else 0):
+        p, p1, p2 = _foreshortened_curve(model, q, i, xs, R, o)
+        g, _, g1, g2 = _gap_terms(wp, p, p1, p2)
+        step = np.where((g2 > 0.0) & newton, -g1 / np.where(g2 > 0.0, g2, 1.0), 0.0)
+        new = np.clip(xs + step, 0.0, length)
+        done = np.abs(new - xs).max() <= X_TOL * length
+        xs = new
+        if done:
+            break
+    p = _foreshortened_curve(model, q, i, xs, R, o)[0]
+    return xs, p, _gap_terms(wp, p)[0]
 
 
 def _foreshortened_curve(model, q, i, xs, R, o):

@@ -110,7 +110,7 @@ from .. import kernel as _k
 from ..dynamics.gibbs_appell import _raise_singular
 from .impact import _solve_lcp
 from ..dynamics.kinematics import as_vector, run_kernel, states
-from .span_resting import span_abscissae, span_point_terms, tip_point_terms, tree_tip_columns
+from .span_resting import rolls, span_abscissae, span_point_terms, tip_point_terms, tree_tip_columns
 from .walls import packed_walls, tangent_basis
 
 _JOB = _k.JOB_SOLVE | _k.JOB_M | _k.JOB_POINTS | _k.JOB_JACOBIANS | _k.JOB_FRAMES
@@ -217,10 +217,10 @@ def constraint_data(model, walls, q, qd, Q, pairs, velocities=True) -> Constrain
     return _constraint_data(model, out, r, plan)
 
 
-def mixed_constraint_data(model, walls, q, qd, Q, pairs, n_joints: int, flex, velocities=True):
+def mixed_constraint_data(model, walls, q, qd, Q, pairs, n_joints: int, flex, velocities=True, seats=None):
     """resting.ConstraintData of pairs (k, 2) some of which are span pairs (column >= n_joints):
     the joint pairs from the compiled contact terms (resting.constraint_data), the span pairs from
-    span_resting.span_point_terms at x*, then W (N, k), M^-1 W, G = W^T M^-1 W and, with
+    span_resting.span_point_terms at x* (or at their seats (k,) [m], NaN: none; RestingContacts.seat), then W (N, k), M^-1 W, G = W^T M^-1 W and, with
     velocities, equation (3) of resting.py (lam, qdd). Shapes and units as ConstraintData."""
     pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
     k, N = len(pairs), model.n_dof
@@ -235,8 +235,10 @@ def mixed_constraint_data(model, walls, q, qd, Q, pairs, n_joints: int, flex, ve
     if velocities:
         pd[joint], a0[joint], c[joint] = d0.pd, d0.a0, d0.c
     sp = np.flatnonzero(span & ~tip)
-    for a, (i, x) in zip(sp, span_abscissae(model, walls, q, pairs[sp], n_joints, flex)):
-        _, J[a], nrm[a], pd[a], a0[a], g[a], c[a] = span_point_terms(model, walls[pairs[a, 0]], q, qd_use, i, x)
+    for a, (i, x, stat) in zip(sp, span_abscissae(model, walls, q, pairs[sp], n_joints, flex,
+                                                  None if seats is None else seats[sp])):
+        _, J[a], nrm[a], pd[a], a0[a], g[a], c[a] = span_point_terms(model, walls[pairs[a, 0]], q, qd_use, i, x,
+                                                                     stat)
         W[:, a] = J[a].T @ nrm[a]
     for a in np.flatnonzero(tip):  # a tree's free tip: a fixed material point at x = l
         i = model.extra_tips[pairs[a, 1] - model.n_links - 1]
@@ -296,7 +298,8 @@ class RestingContacts:
 
     def __init__(self, model, walls, contact_tol, v_tol=1e-6, n_cols=None, flex=()):
         self.model, self.walls, self.contact_tol, self.v_tol = model, walls, contact_tol, v_tol
-        # Link columns (n_cols > P): the closest point of link flex[c - P], a span pair (span_resting.py).
+        # Link columns (n_cols > P): cell flex[c - P] = (link, cell, cells) (contact.span_cells.link_cells), a
+        # span pair (span_resting.py).
         self.n_joints, self.flex = model.n_joints, list(flex)
         P = model.n_joints if n_cols is None else n_cols  # columns of the gap matrix (contacts.Contacts)
         self.active = np.zeros((len(walls), P), dtype=bool)
@@ -307,6 +310,9 @@ class RestingContacts:
         self.slip_offset = np.zeros((len(walls), P))
         # Slipping pairs that started from rest: their slip direction is held at s0 (equation (7')).
         self.slow = np.zeros((len(walls), P), dtype=bool)
+        # The abscissa [m] at which a resting span pair is held as a fixed material point until the next mode
+        # decision (NaN: it follows its cell's minimum; _seat_flat_minima).
+        self.seat = np.full((len(walls), P), np.nan)
         self.mu = np.array([w.friction for w in walls], dtype=float)
         # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves when
         # joint 1 is revolute (J = 0 there), but it does as a carriage on the base rail (Pa) or as the
@@ -344,6 +350,7 @@ class RestingContacts:
         self.slip_dir[:] = 0.0
         self.slip_offset[:] = 0.0
         self.slow[:] = False
+        self.seat[:] = np.nan
         self._cache = (None, None)
 
     # -- equations (1)-(3), (6) ------------------------------------------------------
@@ -357,7 +364,7 @@ class RestingContacts:
         pairs = np.asarray(pairs, dtype=int).reshape(-1, 2)
         if self._in_python(pairs):
             return mixed_constraint_data(self.model, self.walls, q, qd, Q, pairs, self.n_joints, self.flex,
-                                         velocities)
+                                         velocities, self.seat[pairs[:, 0], pairs[:, 1]])
         return constraint_data(self.model, self.walls, q, qd, Q, pairs, velocities)
 
     def _solve(self, d, pairs, stick, sdir, slow=None):
@@ -393,7 +400,8 @@ class RestingContacts:
         if self._cache[0] == key:
             return self._cache[1]
         # The active set and its stick / slip data change only at mode decisions: read once per set.
-        mode = (self.active.tobytes(), self.stick.tobytes(), self.slip_dir.tobytes(), self.slow.tobytes())
+        mode = (self.active.tobytes(), self.stick.tobytes(), self.slip_dir.tobytes(), self.slow.tobytes(),
+                self.seat.tobytes())
         if self._mode[0] != mode:
             pairs = self.pairs
             k = len(pairs)
@@ -480,6 +488,7 @@ class RestingContacts:
             lam = _solve_lcp(d.G, d.W.T @ d.qdd_free + d.c)
             on = lam > 1e-10 * max(float(lam.max(initial=0.0)), self.force_scale)
             self.active[candidates[on, 0], candidates[on, 1]] = True
+            self._seat_flat_minima(q)
             return q, qd
         # With friction: contacts slower than v_tol stick (their slip is projected away), the
         # others slip along their velocity. Then an active-set iteration: a negative normal force
@@ -511,7 +520,21 @@ class RestingContacts:
             self.slip_dir[w, j] = sdir[a] if slips else 0.0
             self.slow[w, j] = slips and slow[a]
             self.slip_offset[w, j] = 1e-3 * self.v_tol - min(0.0, along[a]) if slips and from_rest[a] else 0.0
+        self._seat_flat_minima(q)
         return q, qd
+
+    def _seat_flat_minima(self, q) -> None:
+        """Seat every active span pair that does not roll (span_resting.rolls: a cell's end, or a minimum flatter
+        than MIN_CURVATURE) at its present abscissa x* [m]: a fixed material point until the next mode decision.
+        Its gap acceleration is then exact (no sliding term); the true minimum of its cell sinks below it by
+        ~ phi_xx (x* - x_seat)^2 / 2 at most, which the drift event on the cell's column (g = -contact_tol)
+        catches, and the next decision seats it anew."""
+        span = np.argwhere(self.active & (np.arange(self.active.shape[1]) >= self.n_joints)[None, :])
+        if not len(span):
+            return
+        for (w, j), (i, x, stat) in zip(span, span_abscissae(self.model, self.walls, q, span, self.n_joints, self.flex)):
+            if not (stat and rolls(self.model, self.walls[w], q, i, x)):
+                self.seat[w, j] = x
 
     def _active_set(self, q, qd, Q, candidates, stick, sdir, slow) -> np.ndarray:
         """The active-set iteration of decide (its comments): which candidates (k, 2) rest, (k,) bool;

@@ -35,11 +35,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..dynamics.link_points import material_jacobians
-from .closest_points import closest_points
+from ..dynamics.link_points import material_jacobians, material_points
+from .span_cells import link_minima
 
 #: Step of the central differences along the link, relative to its length.
 H_X = 1e-4
+#: phi_xx l below which a minimum is held as a fixed material point (no sliding term; module docstring).
+MIN_CURVATURE = 0.01
 
 
 def _bilinear(wall, p, u, v) -> float:
@@ -48,28 +50,51 @@ def _bilinear(wall, p, u, v) -> float:
     return 0.25 * float(wall.curvature(P, (u + v)[None, :])[0] - wall.curvature(P, (u - v)[None, :])[0])
 
 
-def span_point_terms(model, wall, q, qd, i: int, x: float):
+def span_point_terms(model, wall, q, qd, i: int, x: float, stationary: bool = True):
     """Equations (1)-(2) of the module docstring for the material point x [m] of link i on ``wall``.
 
+    stationary : x is an interior minimum of the link's gap (phi_x = 0: the point slides along the
+    link, the term -(phi_xq qd)^2 / phi_xx of (2)), or False: a fixed material point (the end of a
+    cell, contact/span_cells.py), whose gap acceleration is that of the material point.
     Returns p (3,) [m], J (3, N), n (3,), pd (3,) [m/s], a0 (3,) [m/s^2] of the material point,
     g [m], the acceleration term c = n.a0 + pd^T H pd - (phi_xq qd)^2 / phi_xx [m/s^2].
     """
     length = model.chain.links[i].length
     h = H_X * length
-    x = float(np.clip(x, h, length - h))
     q, qd = model.check_state(q, qd)
+    if not stationary:  # a fixed material point, anywhere on the link (its ends included)
+        return _material_point_terms(model, wall, q, qd, i, x)
+    x = float(np.clip(x, h, length - h))
     (p, J, a0), (pm, Jm, _), (pp, Jp, _) = material_jacobians(model, q, qd, i, (x, x - h, x + h))
     n = wall.normal(p[None, :])[0]
     g = float(wall.gap(p[None, :])[0])
     pd = J @ qd
-    p_x, p_xx = (pp - pm) / (2.0 * h), (pp - 2.0 * p + pm) / (h * h)
-    pd_x = (Jp - Jm) @ qd / (2.0 * h)
     c = float(n @ a0) + float(wall.curvature(p[None, :], pd[None, :])[0])
-    phi_xx = float(n @ p_xx) + float(wall.curvature(p[None, :], p_x[None, :])[0])
-    if phi_xx > 0.0:
+    p_x = (pp - pm) / (2.0 * h)
+    pd_x = (Jp - Jm) @ qd / (2.0 * h)
+    phi_xx = _gap_curvature(wall, p, pm, pp, h)
+    if phi_xx * length > MIN_CURVATURE:
         phi_xq = float(n @ pd_x) + _bilinear(wall, p, p_x, pd)
         c -= phi_xq * phi_xq / phi_xx
     return p, J, n, pd, a0, g, c
+
+
+def _gap_curvature(wall, p, pm, pp, h: float) -> float:
+    """phi_xx = n^T p_xx + p_x^T H_w p_x [1/m] of equation (2) from the material points p, pm, pp (3,) [m] at
+    x, x - h, x + h (central differences)."""
+    n = wall.normal(p[None, :])[0]
+    p_x, p_xx = (pp - pm) / (2.0 * h), (pp - 2.0 * p + pm) / (h * h)
+    return float(n @ p_xx) + float(wall.curvature(p[None, :], p_x[None, :])[0])
+
+
+def rolls(model, wall, q, i: int, x: float) -> bool:
+    """Whether the interior minimum x [m] of link i's gap on ``wall`` at q (N,) rests as a rolling point (equation
+    (2) with its sliding term: phi_xx l > MIN_CURVATURE) rather than as a fixed material point."""
+    length = model.chain.links[i].length
+    h = H_X * length
+    x = float(np.clip(x, h, length - h))
+    p, pm, pp = material_points(model, q, i, np.array([x, x - h, x + h]))
+    return _gap_curvature(wall, p, pm, pp, h) * length > MIN_CURVATURE
 
 
 def tip_point_terms(model, wall, q, qd, i: int):
@@ -78,7 +103,13 @@ def tip_point_terms(model, wall, q, qd, i: int):
     span_point_terms, but at a fixed material point (no sliding-minimum term): c = n.a0 + pd^T H pd.
     Returns p (3,) [m], J (3, N), n (3,), pd (3,) [m/s], a0 (3,) [m/s^2], g [m], c [m/s^2]."""
     q, qd = model.check_state(q, qd)
-    ((p, J, a0),) = material_jacobians(model, q, qd, i, (model.chain.links[i].length,))
+    return _material_point_terms(model, wall, q, qd, i, model.chain.links[i].length)
+
+
+def _material_point_terms(model, wall, q, qd, i: int, x: float):
+    """Equation (2) without its sliding term at the fixed material point x [m] of link i (q, qd checked):
+    p (3,) [m], J (3, N), n (3,), pd (3,) [m/s], a0 (3,) [m/s^2], g [m], c = n.a0 + pd^T H pd [m/s^2]."""
+    ((p, J, a0),) = material_jacobians(model, q, qd, i, (float(x),))
     n = wall.normal(p[None, :])[0]
     pd = J @ qd
     c = float(n @ a0) + float(wall.curvature(p[None, :], pd[None, :])[0])
@@ -93,8 +124,20 @@ def tree_tip_columns(model) -> np.ndarray:
     return np.arange(model.n_links + 1, model.n_joints)
 
 
-def span_abscissae(model, walls, q, pairs, n_joints: int, flex) -> list:
-    """(link, x* [m]) of every span pair (wall, column >= n_joints) of ``pairs`` (k, 2): closest_points."""
-    cp = closest_points(model, q, walls)
-    return [(flex[c - n_joints], float(cp.x[w, flex[c - n_joints]])) for w, c in pairs]
-
+def span_abscissae(model, walls, q, pairs, n_joints: int, cells, seats=None) -> list:
+    """(link, x* [m], stationary) of every span pair (wall, column >= n_joints) of ``pairs`` (k, 2); the
+    columns after the joints are ``cells`` ((i, c, m), contact.span_cells.link_cells): link_minima.
+    seats : None or (k,) [m], NaN or the abscissa of a pair seated at a fixed material point (resting.py's
+    seats: held there, stationary False, until the next mode decision)."""
+    cols = [cells[c - n_joints] for c in pairs[:, 1]]
+    if seats is not None and np.all(np.isfinite(seats)):
+        return [(col[0], float(x), False) for col, x in zip(cols, seats)]
+    cm = link_minima(model, q, walls, cols)
+    if seats is not None:
+        return [(cols[a][0], float(seats[a]), False) if np.isfinite(seats[a]) else
+                (cols[a][0], float(cm.x[w, a]), bool(cm.stationary[w, a] and cm.inside[w, a]))
+                for a, (w, _) in enumerate(pairs)]
+    # A minimum within CELL_END_TOL l of the link's end is held as the material point there (the end joint's
+    # own point at the end): the rolling contact hands over to the corner without a jump (Contacts.hold).
+    return [(cols[a][0], float(cm.x[w, a]), bool(cm.stationary[w, a] and cm.inside[w, a]))
+            for a, (w, _) in enumerate(pairs)]

@@ -52,9 +52,9 @@ def has_contact_forces(result: Result) -> bool:
     return result.has_resting_forces
 def _force_point_names(result: Result) -> list[str]:
     """Names of the columns of Result.contact_forces: O1 .. O_P, then link<i> for the span point of link i
-    (simulation.contacts.link_columns), as many as the array has."""
-    from ..simulation.contacts import link_columns
+    (link<i>.<c> for its cell c: simulation.contacts.link_column_cells), as many as the array has."""
+    from ..simulation.contacts import link_column_cells, link_column_name
 
     names = list(result.model.contact_point_names)
     C = len(names) if result.contact_forces is None else np.shape(result.contact_forces)[2]
-    return (names + [f"link{i + 1}" for i in link_columns(result.model, result.walls)])[:C]
+    return (names + [link_column_name(*cell, sep="") for cell in link_column_cells(result.model, result.walls)])[:C]

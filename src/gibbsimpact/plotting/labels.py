@@ -103,15 +103,15 @@ def _stop_label(result, joint: int, q) -> str:
 
 
 def _point_name(model, j: int, walls=()) -> str:
-    """'O2' for contact point j (1-based) of model.contact_point_names; 'link 1' for the closest point
-    of a link (contacts.Contacts: the columns after the P points, contacts.link_columns of walls)."""
-    from ..simulation.contacts import link_columns
+    """'O2' for contact point j (1-based) of model.contact_point_names; 'link 1' (or 'link 1.2', its cell 2)
+    for a link column (contacts.Contacts: the columns after the P points, contacts.link_column_cells)."""
+    from ..simulation.contacts import link_column_cells, link_column_name
 
     P = model.n_joints
     if j <= P:
         return f"O{j}"
-    flex = link_columns(model, walls)
-    return f"link {flex[j - P - 1] + 1}" if j - P - 1 < len(flex) else f"point {j}"
+    cells = link_column_cells(model, walls)
+    return link_column_name(*cells[j - P - 1]) if j - P - 1 < len(cells) else f"point {j}"
 
 
 def _point_label(model, j: int, same=()) -> str:

@@ -46,14 +46,6 @@ class FilteredContacts(Contacts):
         super().__init__(model, walls, link_contacts)
         self.contact_filter = contact_filter
         self.resting = resting
-        self._resting_key = None
-
-    def gaps(self, q: np.ndarray) -> np.ndarray:
-        """g (W, C) [m] (Contacts.gaps), its cache also keyed by the resting pairs (they are never masked)."""
-        key = None if self.resting is None else self.resting().tobytes()
-        if key != self._resting_key:
-            self._key, self._resting_key = None, key
-        return super().gaps(q)
 
     def watched(self, q) -> np.ndarray:
         """(C,) bool: the filter's answer at q (N,), checked (one bool per candidate)."""

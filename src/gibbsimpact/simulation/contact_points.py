@@ -26,7 +26,7 @@ import numpy as np
 
 from ..model.shapes import section_tables
 from ..contact.candidates import body_candidates
-from .contacts import link_columns
+from .contacts import link_column_cells, link_column_name
 
 __all__ = ["ContactPoint", "contact_points", "describe_point", "rebound_period"]
 
@@ -146,8 +146,8 @@ def contact_points(model, link_contacts: bool = True, walls=()) -> list[ContactP
     points = [_joint_point(model, j) for j in range(1, model.n_joints + 1)]
     if link_contacts:
         # A rigid link's span point (obstacles) moves with the frame only: Newton's law is well posed there.
-        points += [ContactPoint(f"link {i + 1}", f"span of link {i + 1}", i if model.delta_index[i].size else None,
-                                True) for i in link_columns(model, walls)]
+        points += [ContactPoint(link_column_name(i, c, m), f"span of link {i + 1}", i if model.delta_index[i].size
+                                else None, True) for i, c, m in link_column_cells(model, walls)]
     for k, (i, b) in enumerate(body_candidates(model), start=1):
         where = "its tip" if b.at == model.chain.links[i].length else f"x = {b.at:g} m"
         points.append(ContactPoint(f"body {k}", f"centre of a body on link {i + 1} at {where}",

@@ -17,6 +17,7 @@ from ..dynamics.kinematics import joint_positions, joint_positions_and_jacobians
 from .results import ImpactRecord
 from ..contact.walls import has_obstacle, packed_walls, tangent_basis
 from ..contact.candidates import body_candidates
+from ..contact.span_cells import link_cells, link_minima
 from ..dynamics.link_points import body_centers, body_jacobian, body_tables
 
 
@@ -32,6 +33,18 @@ def link_columns(model, walls=()) -> list:
     return list(range(model.n_links)) if has_obstacle(walls) else flexible_links(model)
 
 
+def link_column_cells(model, walls=()) -> list:
+    """The link columns of Contacts as (link i, cell c, cells m) (0-based i, c): the cells of every link of
+    link_columns (contact.span_cells.link_cells: one per element of a finite-element link)."""
+    return link_cells(model, link_columns(model, walls))
+
+
+def link_column_name(i: int, c: int, m: int, sep: str = " ") -> str:
+    """Name of the link column (i, c, m): "link 2" for a link with one cell, else "link 2.3" (cell 3 of
+    link 2, counted from its proximal end); sep "" gives the file form "link2", "link2.3"."""
+    return f"link{sep}{i + 1}" + (f".{c + 1}" if m > 1 else "")
+
+
 #: Gap [m] of a link candidate whose closest point is at an end of the link (its end joint stands for it).
 NOT_INTERIOR = 1e300
 
@@ -40,9 +53,10 @@ class Contacts:
     """Gaps, normals and Jacobians of every (wall, contact point) pair (docs/theory.md §10; issue 9 item 2).
 
     Columns c = 0 .. C-1 of the (W, C) gap matrix: the P joint points (model.contact_point_names),
-    then one column per flexible link i (``flex``; every link when a wall is an obstacle:
-    link_columns): the material point of link i closest to wall w (gibbsimpact.linkpoints),
-    deflection included. A link column holds that point's gap
+    then one column per cell of every flexible link i (``cells`` (i, c, m), ``flex`` their links;
+    every link when a wall is an obstacle: link_columns, link_column_cells): the lowest material point
+    of cell c of link i on wall w (contact.span_cells; with one cell the point of link i closest to
+    wall w, gibbsimpact.linkpoints), deflection included. A link column holds that point's gap
     when it is *interior* (farther than 1e-6 l_i from the link's ends), else NOT_INTERIOR: at
     an end, the end joint's own column is the candidate, so nothing is counted twice. Its
     event fires where a link bulges into a wall between its joints. Rigid links have no column
@@ -120,7 +134,9 @@ class Contacts:
     def __init__(self, model, walls, link_contacts=True):
         self.model, self.walls = model, walls
         self.N, self.n_joints = model.n_dof, model.n_joints
-        self.flex = link_columns(model, walls) if (walls and link_contacts) else []
+        # Link columns: cell c of m of link i (contact.span_cells), flex the link of each.
+        self.cells = link_column_cells(model, walls) if (walls and link_contacts) else []
+        self.flex = [i for i, _, _ in self.cells]
         self.bodies = body_candidates(model) if walls else ()
         self._body_tables = body_tables(model, self.bodies)
         self.n_cols = self.n_joints + len(self.flex) + len(self.bodies)
@@ -128,6 +144,9 @@ class Contacts:
         self.refine_below = 0.01 * (1.0 + sum(ld.length for ld in model.link_data))
         self._key, self._g = None, None
         self._pkey, self._pg = None, None
+        # resting : None or callable () -> (W, C) bool, the pairs resting now (contact.resting.RestingContacts
+        # .active): a resting link column stays continuous at its link's ends (gaps_batch).
+        self.resting, self._resting_key = None, None
         # The compiled event gaps (kernel.event_gaps): packed walls, and the skip rule's (link,
         # wall) pairs (f, w, a, b) with their tables (_bound_tables).
         for w in walls:
@@ -216,6 +235,13 @@ class Contacts:
         out[:, self._rules[:, 1], self._rules[:, 0]] = rest[:K * len(self._rules)].reshape(K, -1) != 0.0
         return out if np.ndim(q) == 2 else out[0]
 
+    def _held(self):
+        """(W, F) bool, the resting link columns, or None when none rests."""
+        if self.resting is None or not self.flex:
+            return None
+        held = self.resting()[:, self.n_joints:self.n_joints + len(self.flex)]
+        return held if held.any() else None
+
     def _link_gaps(self, qs, need=None, out=None):
         """Link columns (K, W, F) [m], the closest points' abscissae x (K, W, F) [m], their normals
         (K, W, F, 3) and whether they are interior (K, W, F), for the states qs (K, N).
@@ -234,13 +260,15 @@ class Contacts:
         else:
             out[...] = NOT_INTERIOR
         if need.any():
-            from ..contact.candidates import closest_points, interior
-
-            cp = closest_points(self.model, qs[need], self.walls, refine_below=self.refine_below)
-            ins = interior(self.model, qs[need], cp.x)[..., self.flex]
-            out[need] = np.where(ins, cp.gap[..., self.flex], NOT_INTERIOR)
+            cm = link_minima(self.model, qs[need], self.walls, self.cells, refine_below=self.refine_below)
+            # A resting column keeps the cell's minimum when it reaches the link's end (details=False: the
+            # events' gaps): its point hands over to the end joint there without a jump, so its drift
+            # events see a continuous gap (span_resting.span_abscissae holds it at the end's material point).
+            held = None if details else self._held()
+            inside = cm.inside if held is None else cm.inside | held
+            out[need] = np.where(inside, cm.gap, NOT_INTERIOR)
             if details:
-                x[need], nrm[need], inside[need] = cp.x[..., self.flex], cp.normal[..., self.flex, :], ins
+                x[need], nrm[need], inside[need] = cm.x, cm.normal, cm.inside
         return (out, x, nrm, inside) if details else None
 
     def gap_single(self, q: np.ndarray, w: int, c: int, full=None) -> float:
@@ -262,11 +290,14 @@ class Contacts:
     def names(self) -> list:
         """Names of the C columns: the joint points, "link i" for the closest point of link i, then
         "body k" for the k-th body candidate (contact_points.body_name)."""
-        return [f"O{j + 1}" for j in range(self.n_joints)] + [f"link {i + 1}" for i in self.flex] + \
+        return [f"O{j + 1}" for j in range(self.n_joints)] + [link_column_name(*cell) for cell in self.cells] + \
             [f"body {k + 1}" for k in range(len(self.bodies))]
 
     def gaps(self, q: np.ndarray) -> np.ndarray:
         """g (W, C) [m]; cached per q (every event function of a step sees the same q)."""
+        rkey = None if self.resting is None else self.resting().tobytes()
+        if rkey != self._resting_key:  # the resting pairs changed: so may the link columns (gaps_batch)
+            self._key, self._resting_key = None, rkey
         key = q.tobytes()
         if key != self._key:
             self._g = self.gaps_batch(np.asarray(q, dtype=float).reshape(1, -1))[0]
@@ -286,6 +317,8 @@ class Contacts:
         g = np.empty((len(qs), len(self.walls), self.n_cols))
         g[:, :, :P] = g_joints
         search = rest[len(qs) * len(self._rules):] != 0.0  # (K,) states that need a link search
+        if self._held() is not None:  # a resting column is searched always (its value at a link's end)
+            search[:] = True
         if F and search.any():
             self._link_gaps(qs, search, out=g[:, :, P:P + F])
         else:

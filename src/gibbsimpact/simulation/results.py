@@ -118,7 +118,8 @@ class Result:
         O_(j+1) at every sample while the pair is in resting contact (gibbsimpact.resting),
         0 elsewhere (impulses of impacts are in ``impacts``); None for results of older files.
         C = P joint points, then, when a span point rested (contact.span_resting), one column per
-        link column of the run (contacts.link_columns): the force on that link's resting span point
+        link column of the run (contacts.link_column_cells: one per cell of a link, "link 1.2" for
+        cell 2 of link 1): the force on that cell's resting span point
     friction_forces : (K, W, C, 3) [N] or None: the tangential (friction) force of wall w on
         O_(j+1) while the pair rests on a wall with friction (sticking or slipping); None when
         no wall has friction

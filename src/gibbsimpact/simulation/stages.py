@@ -136,9 +136,9 @@ def start(model, q0, qdot0, settings, clock) -> Run:
     stops = EndStops(limits, len(walls), contacts.n_cols) if limits else None
     lipschitz = gap_lipschitz(model)
     band = contact_band(s.contact_tol, lipschitz, s.rtol, s.atol, q0)
-    resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols, contacts.flex)
-    if s.contact_filter is not None:
-        contacts.resting = lambda: resting.active  # resting pairs are never filtered out
+    resting = RestingContacts(model, walls, s.contact_tol, s.grazing_velocity, contacts.n_cols, contacts.cells)
+    # Resting pairs are never filtered out, and their link columns stay continuous (Contacts.gaps_batch).
+    contacts.resting = lambda: resting.active
     compliant = (CompliantContacts(model, contacts, s.wall_restitution, lipschitz)
                  if any(map(is_compliant, walls)) else None)
     equations = Equations(model, s, q0, qdot0, resting, clock, compliant, stops)
