@@ -96,3 +96,22 @@ def test_the_docs_impulses_halve_with_every_doubling_of_elements():
         assert impulses[2 * ne] / impulses[ne] == pytest.approx(0.5, abs=5e-3)
     # And the simulation itself (n_e = 1) gives the docs' number.
     assert issue26_arm().impacts[0].impulses[0] == pytest.approx(DOCS_IMPULSES[1], abs=5e-6)
+
+
+def test_a_serial_chain_with_a_weld_strikes_a_floor_as_the_one_rod_it_makes():
+    """A weld in a serial chain (formulation §17) is a contact point at its host's tip like a revolute
+    joint, named 'weld 2'; before, describing it raised KeyError('W') and no run with walls could start.
+    Second route: rods of 1 m and 0.5 m welded straight are one rigid rod of 1.5 m (same mass line),
+    so a planar run onto a floor (e = 0.6, 15 impacts, the last ones resting) has the rod's impact
+    times and final state; both integrate one ODE to rtol 1e-10, so they agree far below 1e-8."""
+    rod = lambda length: gi.Link(length, 1.0, 10.0)  # noqa: E731  rigid (no modes): EI plays no part
+    gravity, floor = (0.0, -9.81, 0.0), gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    welded = gi.Model(gi.Chain([rod(1.0), rod(0.5)], joints=[gi.Revolute(), gi.Weld(0.0)], base="planar"), gravity=gravity)
+    one = gi.Model(gi.Chain([rod(1.5)], base="planar"), gravity=gravity)
+    assert [p.description for p in contact_points(welded)][:3] == ["joint 1", "weld 2", "tip of link 2"]
+    runs = [gi.simulate(m, m.state(X1=0.0, X2=0.5, theta_1=-0.3), m.state(X1=0.2, X2=-1.0, theta_1=2.0),
+                        (0.0, 0.8), walls=[floor], restitution=0.6) for m in (welded, one)]
+    assert [r.status for r in runs] == ["finished", "finished"]
+    assert len(runs[0].impacts) == len(runs[1].impacts) >= 10
+    np.testing.assert_allclose([e.time for e in runs[0].impacts], [e.time for e in runs[1].impacts], atol=1e-8)
+    np.testing.assert_allclose(runs[0].q[-1], runs[1].q[-1], atol=1e-8)

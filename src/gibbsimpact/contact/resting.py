@@ -315,7 +315,7 @@ class RestingContacts:
         self.seat = np.full((len(walls), P), np.nan)
         self.mu = np.array([w.friction for w in walls], dtype=float)
         # Frame origins can rest (a0 from the kernel's frames); O_1 of a fixed base never moves when
-        # joint 1 is revolute (J = 0 there), but it does as a carriage on the base rail (Pa) or as the
+        # joint 1 is revolute or a weld (J = 0 there), but it does as a carriage on the base rail (Pa) or as the
         # rear end of a link sliding through the base guide (Pb): then it rests like any joint.
         # Frame origins and span points (link columns, span_resting.py) rest; the extra tips of prismatic hosts do not, nor
         # the centres of attached bodies (the columns after the link columns, contacts.Contacts).
@@ -323,7 +323,7 @@ class RestingContacts:
         restable = (col <= model.n_links) | ((col >= model.n_joints) & (col < model.n_joints + len(self.flex)))
         self._tips = tree_tip_columns(model)
         restable[self._tips] = True  # a tree's free tips rest (span_resting.tip_point_terms)
-        if not isinstance(model.chain.base, str) and model.joint_kinds[0] == "R":
+        if not isinstance(model.chain.base, str) and not model.joint_specs[0].prismatic:
             restable[0] = False
         self.can_rest = np.broadcast_to(restable[None, :], self.active.shape)  # (W, P): the same for every wall
         grav = float(np.linalg.norm(getattr(model, "gravity", (0.0, 0.0, 0.0))))

@@ -63,13 +63,18 @@ def describe_point(model, j: int) -> str:
     n = model.n_links
     if not model.chain.serial:
         return _describe_tree_point(model, j)
+    specs = model.joint_specs
     if j <= n:
-        return {"R": f"joint {j}", "Pa": f"carriage of joint {j}",
-                "Pb": f"rear end of link {j}, behind its guide"}[model.joint_kinds[j - 1]]
+        spec = specs[j - 1]
+        if spec.carriage:
+            return f"carriage of joint {j}"
+        if spec.guide:
+            return f"rear end of link {j}, behind its guide"
+        return f"{'joint' if spec.has_coordinate else 'weld'} {j}"
     if j == n + 1:
         return f"tip of link {n}"
     joint = _tip_joint(model, j)
-    what = "guide" if model.joint_kinds[joint - 1] == "Pb" else "host of carriage"
+    what = "guide" if specs[joint - 1].guide else "host of carriage"
     return f"tip of link {joint - 1}, {what} {'of joint ' if what == 'guide' else ''}{joint}"
 
 
@@ -105,7 +110,7 @@ def _tree_joint_point(model, j: int) -> ContactPoint:
 
 def _tip_joint(model, j: int) -> int:
     """The prismatic joint i >= 2 (1-based) whose host's tip is contact point O_j, j > n + 1."""
-    return [i for i, kd in enumerate(model.joint_kinds, start=1) if i > 1 and kd != "R"][j - model.n_links - 2]
+    return [i for i, spec in enumerate(model.joint_specs, start=1) if i > 1 and spec.prismatic][j - model.n_links - 2]
 
 
 def _end_moves(model, i: int) -> bool:
@@ -121,7 +126,7 @@ def _tip_body(model, i: int) -> bool:
 
 def _joint_point(model, j: int) -> ContactPoint:
     """ContactPoint of O_j (1-based)."""
-    n, kinds = model.n_links, model.joint_kinds
+    n, specs = model.n_links, model.joint_specs
     if not model.chain.serial:
         return _tree_joint_point(model, j)
     name, text = f"O{j}", describe_point(model, j)
@@ -130,11 +135,11 @@ def _joint_point(model, j: int) -> ContactPoint:
     if j > n + 1:  # a host's tip: a guide holds the next link there (Pb), a carriage rides elsewhere (Pa)
         host = _tip_joint(model, j) - 2
         return ContactPoint(name, text, host if _end_moves(model, host) else None,
-                            kinds[host + 1] == "Pa" and not _tip_body(model, host))
-    if j == 1 or kinds[j - 1] == "Pb":  # the base, or a Pb link's rear end: its own frame's origin
+                            specs[host + 1].carriage and not _tip_body(model, host))
+    if j == 1 or specs[j - 1].guide:  # the base, or a Pb link's rear end: its own frame's origin
         return ContactPoint(name, text, None, False)
     host = j - 2
-    if kinds[j - 1] == "Pa":  # the carriage centre, on the host's centreline at x = d
+    if specs[j - 1].carriage:  # the carriage centre, on the host's centreline at x = d
         return ContactPoint(name, text, host if model.delta_index[host].size else None, False)
     return ContactPoint(name, text, host if _end_moves(model, host) else None, False)
 

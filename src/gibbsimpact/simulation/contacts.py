@@ -178,7 +178,7 @@ class Contacts:
             lk = model.chain.links[i]
             x = u * lk.length
             q = np.zeros(N)
-            if model.chain.joints[i].kind == "Pb":
+            if model.chain.joints[i].spec.guide:
                 # d = l: x = l - d + s d = s l; a slope coordinate's shape scales with d (e_k = delta_k d / l).
                 q[model.theta_index[i]] = lk.length
                 self._pb_slopes.append((model.delta_index[i][1::2], model.theta_index[i], lk.length))
