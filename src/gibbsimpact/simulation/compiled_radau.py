@@ -126,6 +126,8 @@ class CompiledRadau(OdeSolver):
         self.Z, self.Qd = np.zeros((3, n)), np.zeros((n, 3))
         self.y_new, self.f_new = np.zeros(n), np.zeros(n)
         self.y_old = None
+        #: With a cutoff qddot holds the damped fast modes: the event check samples the dense output (flight.py).
+        self.steps_over_fast_modes = bool(program.n_pos)
 
     def _step_impl(self):
         p, st = self.program, self.st

@@ -46,6 +46,8 @@ class CutoffRadau(Radau):
         rtol5, atol5 = radau5_tolerances(max(float(rtol), 100.0 * np.finfo(float).eps), np.asarray(atol, float))
         super().__init__(fun, t0, y0, t_bound, rtol=rtol5, atol=atol5, **options)
         self.n_pos = n_pos
+        #: qddot holds the damped fast modes: the event check samples the dense output (simulation.flight).
+        self.steps_over_fast_modes = True
         self.atol_base = np.array(np.broadcast_to(self.atol, (self.n,)), dtype=float)
 
     def _step_impl(self):
