@@ -9,12 +9,13 @@ ratios to its reference in the same run:
   |joint coordinate - reference| (rad, m) over the second, against DOP853 at rtol 1e-11, atol 1e-13;
 * an R-R-Pb arm (rigid link, 3 + 2 elements, a PD servo on the slide, a floor) over 1.5 s;
 * case 1 with EI_N_m2 = 1e9 on link 1: DOP853 timed over its first 0.05 s and extrapolated to 1 s,
-  against auto (Radau) over 1 s (and up to the first impact, where it stalls: docs/benchmarks.md);
+  against auto (Radau) over 1 s (its resting phase runs simulation.cutoff_radau), and with --dop853-until T
+  the impact times of auto against DOP853's up to T (DOP853 costs ~160 s of CPU a simulated second there);
 * case 1 as shipped over 1 s: DOP853 against auto (which keeps DOP853);
 * scipy's Radau with its finite differences, with the kernel's Jacobian, and the compiled Radau (same run).
 
-Usage: python benchmarks/bench_stiff.py [--repeat 3] [--quick] [--only SECTION]  (--quick: skips the 1e-11
-references and the stiff case's long run; --only: arms, servo, stiff, shipped or jacobian)
+Usage: python benchmarks/bench_stiff.py [--repeat 3] [--quick] [--only SECTION] [--dop853-until T]  (--quick:
+skips the 1e-11 references and the stiff case's long run; --only: arms, servo, stiff, shipped or jacobian)
 """
 
 from __future__ import annotations
@@ -128,10 +129,27 @@ def stiff_rows(repeat, quick) -> list[str]:
     if not quick:
         for what, kw in ((f", cutoff {first.settings['cutoff_frequency']:.3g} rad/s (auto's)", {}),
                          (", cutoff_frequency 1e4 rad/s", dict(cutoff_frequency=1e4))):
-            res, cpu = timed(case, 1, t_end=1.0, method="auto", max_cpu_time=60.0, **kw)
+            res, cpu = timed(case, repeat, t_end=1.0, method="auto", max_cpu_time=60.0, **kw)
             rows.append(f"| case 1, EI 1e9 | auto → {res.settings['method']}{what}, 1 s (max 60 s CPU) | {res.status} "
                         f"(t = {res.t[-1]:.4g} s) | {res.n_steps} | {res.nfev} | {cpu:.3g} | "
                         f"{per_s * float(res.t[-1]) / cpu:.2f} | numerical {res.energy_audit()['numerical']:.2g} J |")
+    return rows
+
+
+def impact_rows(t_until: float) -> list[str]:
+    """Case 1 with EI = 1e9: the impacts of auto over 1 s beside DOP853's up to t_until [s] (one row each,
+    matched in order; DOP853's CPU in the heading row)."""
+    case = stiff_case1()
+    auto = case.simulate(t_end=1.0, method="auto")
+    ref, cpu = timed(case, 1, t_end=t_until, method="DOP853")
+    rows = [f"| impacts to {t_until:g} s | DOP853 {ref.status}, {len(ref.impacts)} impacts, {cpu:.3g} s CPU; "
+            f"auto {len(auto.impacts)} impacts over 1 s | | | | | | |"]
+    for k in range(max(len(ref.impacts), sum(i.time <= t_until for i in auto.impacts))):
+        a = auto.impacts[k] if k < len(auto.impacts) else None
+        b = ref.impacts[k] if k < len(ref.impacts) else None
+        cell = (lambda i: "–" if i is None else f"O{','.join(map(str, i.joints))} at {i.time:.6f} s")
+        diff = "" if a is None or b is None else f"{a.time - b.time:+.2e} s"
+        rows.append(f"| impact {k + 1} | auto {cell(a)} | DOP853 {cell(b)} | {diff} | | | | |")
     return rows
 
 
@@ -172,6 +190,8 @@ def main() -> None:
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--quick", action="store_true")
     p.add_argument("--only", choices=("arms", "servo", "stiff", "shipped", "jacobian"), help="one section only")
+    p.add_argument("--dop853-until", type=float, default=None, metavar="T",
+                   help="with the stiff section: auto's impact times against DOP853's up to T [s]")
     a = p.parse_args()
     sections = {"arms": lambda: arm_rows("fixed_base_R_Pb_arm", a.repeat, a.quick) + arm_rows("fixed_base_R_Pa_arm",
                                                                                                 a.repeat, a.quick),
@@ -179,8 +199,10 @@ def main() -> None:
                 "shipped": lambda: shipped_rows(a.repeat), "jacobian": lambda: jacobian_rows(a.repeat)}
     print("| run | method | status | steps | RHS | CPU [s] | speed-up vs reference | joint error vs 1e-11 |")
     print("|---|---|---|---|---|---|---|---|")
+    if a.dop853_until is not None:
+        sections["impacts"] = lambda: impact_rows(a.dop853_until)
     for name, rows in sections.items():
-        if a.only in (None, name):
+        if a.only in (None, name) or (name == "impacts" and a.only == "stiff"):
             for r in rows():
                 print(r, flush=True)
 

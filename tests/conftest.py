@@ -3,6 +3,7 @@
 import functools
 
 import numpy as np
+import scipy.linalg
 import pytest
 
 import gibbsimpact as gi
@@ -221,3 +222,19 @@ def tight_dop853_text(text: str) -> str:
     old = 'method = "auto"\nrtol = 1e-2\natol = 1e-4\n'
     assert text.count(old) == 1
     return text.replace(old, 'method = "DOP853"\nrtol = 1e-8\natol = 1e-10\n')
+
+
+def fast_mode_energy(model, q, qdot):
+    """0.5 (phi^T M qdot)^2 [J]: the kinetic energy of the highest mode phi (K phi = omega^2 M phi, phi^T M phi = 1)
+    of the chain linearised at q (N,), qdot (N,), K by central differences of dV/dq (as no stepper computes it).
+    Shared by tests/simulation/test_compiled_radau.py and test_cutoff_radau.py."""
+    from gibbsimpact.simulation.stability import mass_matrix, potential_forces
+    N = model.n_dof
+    K = np.empty((N, N))
+    for j in range(N):
+        dq = np.zeros(N)
+        dq[j] = 1e-6 * max(1.0, abs(q[j]))
+        K[:, j] = (potential_forces(model, q + dq) - potential_forces(model, q - dq)) / (2.0 * dq[j])
+    M = mass_matrix(model, q)
+    _, phi = scipy.linalg.eigh(0.5 * (K + K.T), M)
+    return 0.5 * float(phi[:, -1] @ M @ qdot) ** 2

@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-import scipy.linalg
 from scipy.linalg import expm
 
 import gibbsimpact as gi
@@ -190,21 +189,6 @@ def test_numerical_dissipation_of_an_undamped_stiff_chain_is_a_bounded_loss():
     assert -4.9e-3 <= audit["numerical"] < 0.0
 
 
-def _fast_mode_energy(model, q, qdot):
-    """0.5 (phi^T M qdot)^2 [J]: the kinetic energy of the highest mode phi (K phi = omega^2 M phi, phi^T M phi = 1)
-    of the chain linearised at q, K by central differences of dV/dq (as no stepper computes it)."""
-    from gibbsimpact.simulation.stability import mass_matrix, potential_forces
-    N = model.n_dof
-    K = np.empty((N, N))
-    for j in range(N):
-        dq = np.zeros(N)
-        dq[j] = 1e-6 * max(1.0, abs(q[j]))
-        K[:, j] = (potential_forces(model, q + dq) - potential_forces(model, q - dq)) / (2.0 * dq[j])
-    M = mass_matrix(model, q)
-    _, phi = scipy.linalg.eigh(0.5 * (K + K.T), M)
-    return 0.5 * float(phi[:, -1] @ M @ qdot) ** 2
-
-
 def test_auto_steps_over_the_stiff_mode_an_impact_excites_and_the_audit_holds_its_energy():
     """Case 1 with EI = 1e9 on link 1 to 0.47 s, through its first impact (O2 at 0.451524 s, as DOP853: free fall
     before it): the impact puts 2.38 J into link 1's mode at 1.07e6 rad/s (5 m/s). auto takes Radau with the
@@ -214,6 +198,8 @@ def test_auto_steps_over_the_stiff_mode_an_impact_excites_and_the_audit_holds_it
     measured 1 - 5e-6; the slow motion's own share is held to rtol' |E| ~ 1e-6 J and the damped mode's
     remainder to |R(h lambda)| <= 0.03 a step, hence 1e-3. Without the velocity weighting the run stalls at
     the impact (measured: 0.4536 s in 1e5 right-hand sides)."""
+    from conftest import fast_mode_energy
+
     stiff = _stiff_case1(1e9)
     res = stiff.simulate(t_end=0.47, method="auto", max_rhs_calls=20000)
     assert res.status == "finished" and res.settings["method"] == "Radau" and res.n_steps < 200
@@ -221,7 +207,7 @@ def test_auto_steps_over_the_stiff_mode_an_impact_excites_and_the_audit_holds_it
     (imp,) = res.impacts
     assert abs(imp.time - 0.451524) < 1e-6
     q = res.q[np.argmin(np.abs(res.t - imp.time))]
-    e_fast = _fast_mode_energy(stiff.model, q, imp.qdot_after)
+    e_fast = fast_mode_energy(stiff.model, q, imp.qdot_after)
     assert e_fast > 1.0
     assert res.energy_audit()["numerical"] == pytest.approx(-e_fast, rel=1e-3)
 

@@ -198,3 +198,23 @@ def test_contact_mode_events_see_an_excursion_between_the_samples_of_a_long_step
     # Well-sampled values keep their own bracket (no refinement), and no fall gives None.
     assert _earliest_bracket(v, np.array([0.6, 0.62]), [v(0.6), v(0.62)]) == (0.6, 0.62)
     assert _earliest_bracket(v, np.array([0.9, 0.95, 1.0]), [v(0.9), v(0.95), v(1.0)]) is None
+
+
+@pytest.mark.slow
+def test_in_step_samples_of_a_solver_stepping_over_fast_modes_come_from_its_dense_output():
+    """Case 1 with EI_N_m2 = 1e9 on link 1 to 0.7 s under method="auto" (Radau with a cutoff at 1.27e4 rad/s): after
+    O1's impact at 0.6704 s qddot at the step ends holds the damped 1.07e6 rad/s mode, and the quintic built on
+    it dipped 2e-6 m below the wall where the motion does not (the run ended 'penetration' at 0.6743 s). Sampled
+    on the collocation polynomial the run finishes, and O1 = (X1, X2) never leaves the circle R = 1.5 m by more
+    than penetration_tol (its closed-form gap 1.5 - |(X1, X2)|, at every sample)."""
+    import copy
+    from pathlib import Path
+
+    from gibbsimpact.case import case_from_dict
+
+    src = copy.deepcopy(gi.load_case(Path(__file__).resolve().parents[2] / "cases" / "circle_two_link.toml").source)
+    src["links"][0]["EI_N_m2"] = 1e9
+    res = case_from_dict(src, name="case1_EI1e9").simulate(t_end=0.7, method="auto", max_rhs_calls=100_000)
+    assert res.status == "finished" and res.settings["cutoff_frequency"] is not None
+    assert len(res.impacts) >= 5 and res.impacts[4].time == pytest.approx(0.6704, abs=1e-4)
+    assert np.hypot(res.q[:, 0], res.q[:, 1]).max() <= 1.5 + res.settings["penetration_tol"]

@@ -14,7 +14,8 @@ no held end stop), without prescribed coordinates or compliant walls, whose damp
 constant (no damped link behind a FixedPrismatic guide) and whose inputs are the closed-form ones of
 a case file (constant, sine, ramp, pd on its own coordinate: gibbsimpact.dynamics.inputs) or
 constants. Every other phase of a run with method="Radau" runs scipy's Radau with the kernel's
-Jacobian; so does every phase when the user's inputs are Python callables.
+Jacobian; so does every phase when the user's inputs are Python callables (with a cutoff, with this
+stepper's error weights: gibbsimpact.simulation.cutoff_radau).
 
 Stepping over fast modes (docs/theory.md §14.1): with a cutoff frequency (simulate's cutoff_frequency, or
 method="auto" at a gap in the chain's spectrum) the modes of d qddot/d q above it leave the error estimate
@@ -126,6 +127,8 @@ class CompiledRadau(OdeSolver):
         self.Z, self.Qd = np.zeros((3, n)), np.zeros((n, 3))
         self.y_new, self.f_new = np.zeros(n), np.zeros(n)
         self.y_old = None
+        #: With a cutoff qddot holds the damped fast modes: the event check samples the dense output (flight.py).
+        self.steps_over_fast_modes = bool(program.n_pos)
 
     def _step_impl(self):
         p, st = self.program, self.st

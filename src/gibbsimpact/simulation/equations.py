@@ -27,6 +27,7 @@ from ..dynamics.gibbs_appell import SingularMassMatrixError, forward_dynamics
 from ..dynamics.prescribed import partitioned_dynamics
 from .budget import Budget
 from .compiled_radau import CompiledRadau, flight_program
+from .cutoff_radau import CutoffRadau
 from .implicit import IMPLICIT, rhs_jacobian
 
 #: The method whose flight phases run the compiled stepper where they can (simulation.compiled_radau).
@@ -144,8 +145,10 @@ class Equations:
 
     def phase_solver(self, method):
         """The solver of the phase under way: a factory of the compiled Radau (CompiledRadau with the run's
-        FlightProgram) for method="Radau" in a phase it can run, else None (scipy's solver of ``method``,
-        with phase_jacobian). Counts the phases of each kind and scipy's reasons (radau_phases)."""
+        FlightProgram) for method="Radau" in a phase it can run; else, for method="Radau" with a cutoff
+        frequency, one of scipy's Radau with the same error weights (simulation.cutoff_radau.CutoffRadau);
+        else None (scipy's solver of ``method``, with phase_jacobian). Counts the phases of each kind and
+        scipy's reasons (radau_phases)."""
         if method != COMPILED_METHOD:
             return None
         if self._program is None:
@@ -156,7 +159,14 @@ class Equations:
         if why:
             self.radau_phases["scipy"] += 1
             self.scipy_reasons[why] = self.scipy_reasons.get(why, 0) + 1
-            return None
+            if self.cutoff is None:
+                return None
+            N = self.N
+
+            def stepping(fun, t0, y0, t_bound, **options):
+                return CutoffRadau(fun, t0, y0, t_bound, n_pos=N, **options)
+
+            return stepping
         self.radau_phases["compiled"] += 1
 
         def solver(fun, t0, y0, t_bound, **options):

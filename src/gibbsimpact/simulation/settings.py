@@ -111,7 +111,8 @@ class Settings:
     cutoff_frequency : None, or [rad/s]: with method "Radau" (or "auto" choosing it), the modes of the
         linearised chain above it are left out of the error estimate of the compiled Radau steps, which
         then step over them and damp them: their energy goes to the energy audit's numerical part
-        (gibbsimpact.simulation.compiled_radau; docs/theory.md, "Implicit integration")
+        (gibbsimpact.simulation.compiled_radau; the phases it does not run, resting contact among them, run
+        scipy's Radau with the same error weights, simulation.cutoff_radau; docs/theory.md §14.1)
     """
 
     t0: float
