@@ -95,3 +95,25 @@ def test_show_of_a_bad_result_file_is_exit_2_naming_it(name, expected, tmp_path,
     code, text, err = run_main(["show", p], capsys)
     assert code == 2 and text == ""
     assert err.startswith("gibbsimpact: error: " + expected.format(p=p))
+
+
+@pytest.mark.parametrize("make, expected", [
+    ("folder", "CASE.toml: '{p}' is a directory, not a case file, and holds no result.npz; give a case .toml, the "
+               "output folder of a run (holding result.npz) or a result .npz"),
+    ("summary.json", "CASE.toml|RESULT: '{p}' is a JSON file, not a case or a saved run; give the folder holding "
+                     "it ('{d}') or its result.npz"),
+    ("missing", "CASE.toml|RESULT: '{p}': no such file or folder; give a case .toml, the output folder of a run "
+                "(holding result.npz) or a result .npz"),
+])
+def test_show_of_something_neither_a_case_nor_a_run_says_what_show_reads(make, expected, tmp_path, capsys):
+    # a user's first guesses at a saved run (a folder of figures, the run's summary.json, a mistyped folder)
+    # used to get the case-file error ("not valid TOML", "give the path of a case file"), which hid that
+    # show reads saved runs too
+    p = tmp_path / make
+    if make == "folder":
+        p.mkdir()
+    elif make == "summary.json":
+        p.write_text("{}")
+    code, text, err = run_main(["show", p], capsys)
+    assert code == 2 and text == ""
+    assert err == "gibbsimpact: error: " + expected.format(p=p, d=tmp_path) + "\n"

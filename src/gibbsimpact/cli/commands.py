@@ -26,7 +26,7 @@ from .common import (EXIT_BAD_INPUT, EXIT_CODES, EXIT_INTERNAL, EXIT_INTERRUPTED
                      EXIT_OUTPUT, EXIT_STOPPED, _error, _float, _load, _positive_int, _worst, add_limit_options,
                      add_method_option, add_rtol_option)
 from .outputs import OUTPUT_FILES, clear_outputs, output_names, write_outputs
-from .report import describe_saved_result, saved_result_path
+from .report import describe_saved_result, saved_result_path, show_argument_error
 from .run import cmd_run
 
 # Public names of gibbsimpact.cli (its __init__ takes them from here), the run's from cli/run.py and outputs.py.
@@ -378,7 +378,8 @@ def cmd_show(args) -> int:
             bad = _show_saved(path, saved, shown)
             code, shown = _worst(code, bad), shown + (bad == EXIT_OK)
             continue
-        case, bad = _load(path)
+        wrong = show_argument_error(path)
+        case, bad = (None, _error(wrong, EXIT_BAD_INPUT)) if wrong else _load(path)
         if case is None:
             code = _worst(code, bad)
             continue

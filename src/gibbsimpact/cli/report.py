@@ -67,6 +67,22 @@ def saved_result_path(argument) -> Path | None:
     return None
 
 
+def show_argument_error(argument) -> str | None:
+    """The error line for a ``show`` argument that is neither a case file nor a saved run, where the case-file
+    error would mislead (a folder without RESULT_FILE, a run's summary.json, a missing path that is no .toml);
+    None otherwise (a .toml is left to the case loader's errors)."""
+    p = Path(argument)
+    give = f"give a case .toml, the output folder of a run (holding {RESULT_FILE}) or a result .npz"
+    if p.is_dir():
+        return f"CASE.toml: {str(argument)!r} is a directory, not a case file, and holds no {RESULT_FILE}; {give}"
+    if p.suffix == ".json" and p.is_file():
+        return (f"CASE.toml|RESULT: {str(argument)!r} is a JSON file, not a case or a saved run; give the folder "
+                f"holding it ({str(p.parent)!r}) or its {RESULT_FILE}")
+    if p.suffix != ".toml" and not p.exists():
+        return f"CASE.toml|RESULT: {str(argument)!r}: no such file or folder; {give}"
+    return None
+
+
 def describe_saved_result(path: Path) -> str:
     """A saved run in words (what ``gibbsimpact show FOLDER|result.npz`` prints): where it came from, its model
     and span, then run_report_lines. Raises ValueError or OSError when ``path`` is no readable result."""
