@@ -117,3 +117,18 @@ def test_show_of_something_neither_a_case_nor_a_run_says_what_show_reads(make, e
     code, text, err = run_main(["show", p], capsys)
     assert code == 2 and text == ""
     assert err == "gibbsimpact: error: " + expected.format(p=p, d=tmp_path) + "\n"
+
+
+def test_the_audit_line_of_a_run_with_a_cutoff_says_what_its_numerical_part_holds(case1_run):
+    # With cutoff_frequency (set by hand, or by auto at a gap) Radau damps the modes above it after each impact
+    # (case 1 with EI = 1e9 on link 1: numerical -10.5 J of |E| = 4.9 J); the audit line said only
+    # "numerical -10.5 (Radau)", which reads as an integration error.
+    from gibbsimpact.cli.report import run_report_lines
+
+    res = gi.load_result(case1_run[0] / "result.npz")
+    assert "cutoff" not in run_report_lines(res)[-2]
+    res.settings["cutoff_frequency"] = 1.27e4
+    audit = run_report_lines(res)[-2]
+    assert audit.startswith("energy audit [J]: inputs 0,")
+    assert audit.endswith("(DOP853, cutoff 1.27e+04 rad/s: mostly the energy of the modes above it (given by "
+                          "impacts, inputs or the initial state), stepped over and damped; docs/theory.md §14.1)")
