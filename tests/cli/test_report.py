@@ -132,3 +132,15 @@ def test_the_audit_line_of_a_run_with_a_cutoff_says_what_its_numerical_part_hold
     assert audit.startswith("energy audit [J]: inputs 0,")
     assert audit.endswith("(DOP853, cutoff 1.27e+04 rad/s: mostly the energy of the modes above it (given by "
                           "impacts, inputs or the initial state), stepped over and damped; docs/theory.md §14.1)")
+
+
+def test_a_long_impact_list_points_to_where_every_impact_is(case1_run):
+    # A result saved by Result.save has no impacts.csv beside it: the line names Result.impacts too.
+    from gibbsimpact.cli.report import SHOWN_IMPACTS, run_report_lines
+
+    res = gi.load_result(case1_run[0] / "result.npz")
+    res.impacts = res.impacts * (SHOWN_IMPACTS // 2 + 1)
+    n = len(res.impacts)
+    lines = run_report_lines(res)
+    assert f"  ... {n} impacts in all (a run folder's impacts.csv; Result.impacts)" in lines
+    assert sum(line.startswith("  impact ") for line in lines) == SHOWN_IMPACTS

@@ -30,7 +30,7 @@ def run_report_lines(result) -> list[str]:
         joints = "+".join(f"end stop of joint {j}" if w < 0 else f"O{j}" for j, w in zip(rec.joints, rec.wall))
         lines.append(f"  impact {k}: t = {rec.time:.6f} s  {joints}")
     if len(result.impacts) > SHOWN_IMPACTS:
-        lines.append(f"  ... {len(result.impacts)} impacts in all (impacts.csv)")
+        lines.append(f"  ... {len(result.impacts)} impacts in all (a run folder's impacts.csv; Result.impacts)")
     if result.charts:
         lines.append(recharts_text(result.charts) + ": theta_-1, theta_0, theta_1 jump there, the orientation does "
                      "not (base_qw ... base_qz in timeseries.csv; docs/theory.md §2.1)")
