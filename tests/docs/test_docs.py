@@ -254,3 +254,15 @@ def test_citations_of_theory_sections_exist():
                 bad.append(f"{path.relative_to(ROOT)}:{no}: theory.md §{number} does not exist")
     assert n_cited >= 10, n_cited
     assert not bad, "\n".join(bad)
+
+
+def test_api_page_shows_every_row_of_the_joint_kind_table():
+    # docs/api.md's table of joint kinds is written by hand: each row must say what JOINT_KINDS says.
+    from gibbsimpact.model.joints import JOINT_KINDS
+    text = (ROOT / "docs" / "api.md").read_text()
+    yes = lambda b: "yes" if b else "no"  # noqa: E731
+    for k in JOINT_KINDS.values():
+        coordinate = f"`{k.symbol}_i` [{k.unit}]" if k.has_coordinate else "none"
+        row = (f"| `{k.code}` | `gi.{k.name}` | {coordinate} | {yes(k.turns)} | {yes(k.prismatic)} | "
+               f"{yes(k.carriage)} | {yes(k.guide)} | {k.kernel_code} |")
+        assert row in text, row
