@@ -195,18 +195,20 @@ def _foreshorten_cells(model, wp, st, qs, links, xs, best_g, best_p, stationary,
             continue
         cols = np.flatnonzero(links == i)
         rows = type(wp)(*(np.repeat(arr, cols.size, axis=0) for arr in wp))    # (W C_i): wall-major
-        length = model.chain.links[i].length
         for k, q in enumerate(qs):
             R, o, x0 = st.R[k, i], st.o[k, i], x[k][:, cols].ravel()
             stat = stationary[k][:, cols].ravel()
-            lo = np.where(stat, 0.0, xa[k][:, cols].ravel())
-            hi = np.where(stat, length, xb[k][:, cols].ravel())
-            xn, pn, gn = _foreshortened_minimum(model, rows, q, i, x0, R, o, True, (lo, hi))
-            if not stat.all():
-                _, pe, ge = _foreshortened_minimum(model, rows, q, i, x0, R, o, False)
-                keep_end = ~stat & ~((xn > lo) & (xn < hi) & (gn < ge - tie))
-                xn, pn, gn = np.where(keep_end, x0, xn), np.where(keep_end[:, None], pe, pn), np.where(keep_end, ge, gn)
-                stat = stat | ~keep_end
+            xn, pn, gn, g1, g2 = _foreshortened_minimum(model, rows, q, i, x0, R, o, stat, slopes=True)
+            lo, hi = xa[k][:, cols].ravel(), xb[k][:, cols].ravel()
+            # The gap falls from the end into the cell (g' > 0 at the distal end, < 0 at the proximal one) and
+            # g'' > 0 there: Newton's iteration steps into the cell.
+            into = ~stat & (g2 > 0.0) & (((x0 >= hi) & (g1 > 0.0)) | ((x0 <= lo) & (g1 < 0.0)))
+            if into.any():  # Newton from those ends, kept inside their cells
+                xd, pd, gd = _foreshortened_minimum(model, rows, q, i, x0, R, o, into, (lo, hi))
+                dip = into & (xd > lo) & (xd < hi) & (gd < gn - tie)
+                xn, pn, gn = np.where(dip, xd, xn), np.where(dip[:, None], pd, pn), np.where(dip, gd, gn)
+                stat = stat | dip
             x[k][:, cols], best_p[k][:, cols], best_g[k][:, cols] = xn.reshape(-1, cols.size), \
                 pn.reshape(-1, cols.size, 3), gn.reshape(-1, cols.size)
             stationary[k][:, cols] = stat.reshape(-1, cols.size)
+
