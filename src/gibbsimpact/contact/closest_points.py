@@ -265,10 +265,9 @@ def _foreshorten(model, wp: _WallParams, st, qs, x, best_g, best_p):
 
 
 def _foreshortened_minimum(model, wp: _WallParams, q, i: int, xs, R, o, newton=True, bounds=None, slopes=False):
-    """x (P,) [m], p (P, 3) [m], g (P,) [m] (slopes: and g', g'' (P,) there): minima of stiffened link i's
-    foreshortened gap to the walls wp (row by row) from xs (P,) [m] (_foreshorten's iteration; the points at xs
-    where newton (P,) bool is False); R (3, 3), o (3,): the link's frame at q; bounds: None (x kept in [0, l])
-    or (lo, hi) (P,) [m] each."""
+    """x (P,), p (P, 3), g (P,) [m] (slopes: and g', g'' (P,)): _foreshorten's minima of stiffened link i's gap to
+    the walls wp (row by row) from xs (P,) [m], x kept in bounds (lo, hi) [m] (default [0, l]), fixed where newton
+    (P,) bool is False; R (3, 3), o (3,): the link's frame at q."""
     length, xs = model.chain.links[i].length, np.array(xs, dtype=float)
     lo, hi = (0.0, length) if bounds is None else bounds
     for _ in range(MAX_ITERATIONS if np.any(newton) else 0):
@@ -280,9 +279,8 @@ def _foreshortened_minimum(model, wp: _WallParams, q, i: int, xs, R, o, newton=T
         xs = new
         if done:
             break
-    p, p1, p2 = _foreshortened_curve(model, q, i, xs, R, o)
-    g, _, g1, g2 = _gap_terms(wp, p, p1, p2)
-    return (xs, p, g, g1, g2) if slopes else (xs, p, g)
+    g, _, g1, g2 = _gap_terms(wp, *(curve := _foreshortened_curve(model, q, i, xs, R, o)))
+    return (xs, curve[0], g, g1, g2) if slopes else (xs, curve[0], g)
 
 
 def _foreshortened_curve(model, q, i, xs, R, o):
