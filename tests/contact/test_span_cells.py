@@ -82,6 +82,33 @@ def test_a_cell_column_is_continuous_when_its_minimum_crosses_the_cell_end():
     assert set(low) >= {1, 2}
 
 
+def test_a_dip_growing_out_of_a_resting_end_is_seen_from_its_start():
+    """Issue 25 item 5: a fixed-base 2-element stiffened arm tilted onto its tip; turning it (theta from
+    -0.0571 to -0.0570 rad) a dip grows out of the tip on the foreshortened centreline while the linear
+    centreline's samples (the search's) still slope out of the link at the tip. Cell 2's column must equal
+    the public material points' minimum over the closed cell (grid dx = 2.5e-5 m, error < 5e-10 m) at
+    every angle, from the dip's birth at the tip: on main it held the tip's gap until the dip was 7e-7 m
+    deep, so the arm pressed onto the floor (tau = -2 N m, docs/benchmarks.md) went 1.1e-6 m below
+    the floor with no event."""
+    link = gi.Link(1.0, 1.0, (20.0, 20.0), elements=2)
+    model = gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.02), 0.0)), gravity=(0.0, -9.81, 0.0))
+    assert model.chain.links[0].stiffened
+    floor, cells = [gi.Plane((0, 0, 0), (0, 1, 0))], link_cells(model, [0])
+    xs = np.linspace(0.5, 1.0, 20001)
+    deepest = 0.0
+    for th in np.linspace(-0.05712, -0.05700, 25):
+        q = np.array([th, 0.0113, 0.0416, 0.0371, 0.0571])
+        g = material_points(model, q, 0, xs)[:, 1]
+        cm = link_minima(model, q, floor, cells)
+        assert cm.gap[0, 1] <= g.min() + 1e-14
+        assert g.min() - cm.gap[0, 1] < 5e-10
+        assert cm.x[0, 1] == pytest.approx(xs[np.argmin(g)], abs=2e-4)
+        if g[-1] - g.min() > 1e-9:  # a dip beside the tip: interior, stationary
+            assert cm.stationary[0, 1] and cm.inside[0, 1]
+        deepest = max(deepest, g[-1] - g.min())
+    assert deepest > 1e-6   # the dip did grow (not vacuous)
+
+
 def test_a_fixed_material_point_has_no_sliding_term():
     """span_point_terms(stationary=False) at a cell's end: W^T qddot + c is the second derivative of the gap of
     that material point along q(t) = q + t qd + t^2/2 qdd (central differences of the public material points,

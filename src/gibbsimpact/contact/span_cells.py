@@ -125,13 +125,12 @@ def _cell_minima(model, qs, walls, cells, refine_below):
     kk = np.arange(K)[:, None, None]
     best_p = p0[kk, links, best_j]
     stationary = np.zeros((K, W, len(cells)), dtype=bool)
+    scale = 1.0 + np.abs(p0).max()
     _cell_interior_minima(tab, wp, st, g, g1, refine_below, (links, j0, j1), best_s, best_g, best_p, stationary,
-                          1.0 + np.abs(p0).max())
-    x = best_s
-    if tab.has_pb:
-        x = np.where(best_s == tab.Lc[links], tab.length[links], st.offset[:, None, links] +
-                     st.scale[:, None, links] * best_s)
-    _foreshorten_cells(model, wp, st, qs, links, x, best_g, best_p, stationary)
+                          scale)
+    x, xa, xb = (_abscissa(tab, st, links, np.broadcast_to(s, best_s.shape))
+                 for s in (best_s, tab.s_grid[links, j0], tab.s_grid[links, j1]))
+    _foreshorten_cells(model, wp, st, qs, links, (x, xa, xb), best_g, best_p, stationary, _TIE * scale)
     a, b = search_interval(model, qs)
     tol = CELL_END_TOL * tab.length[links]
     inside = (x - a[:, None, links] > tol) & (b[:, None, links] - x > tol)
@@ -172,16 +171,44 @@ def _cell_interior_minima(tab, wp, st, g, g1, refine_below, cols, best_s, best_g
     stationary[ks, ws, col] = True
 
 
-def _foreshorten_cells(model, wp, st, qs, links, x, best_g, best_p, stationary):
+def _abscissa(tab, st, links, s):
+    """x (K, W, C) [m] of the shape coordinates s (K, W, C) of the links (C,) (on a Pb link: its protruding part)."""
+    if not tab.has_pb:
+        return np.array(s, dtype=float)
+    return np.where(s == tab.Lc[links], tab.length[links], st.offset[:, None, links] + st.scale[:, None, links] * s)
+
+
+def _foreshorten_cells(model, wp, st, qs, links, xs, best_g, best_p, stationary, tie):
     """Cells of stiffened links on their foreshortened centreline (closest_points._foreshorten), in place:
-    a stationary minimum by Newton's iteration from x, a cell's end at its abscissa x [m]."""
+    a stationary minimum by Newton's iteration from x, a cell's end at its abscissa x [m] unless the
+    foreshortened gap falls from that end into the cell: then Newton's iteration from the end, kept inside the
+    cell [x_a, x_b], gives the interior minimum (stationary) when it lies strictly inside and lower by tie [m].
+
+    xs = (x, x_a, x_b) (K, W, C) [m]: the cells' points and ends. Why: the samples run on the linear
+    centreline, whose slope at a resting end can still point out of the link while the foreshortened one
+    (sin(theta) v'^2 / 2 apart, theta the link's tilt) already dips below the end (issue 25 item 5): such a
+    dip would otherwise appear only once the linear samples see it, ~1e-6 m deep and below the wall
+    without an event (tests/contact/test_span_cells.py)."""
+    x, xa, xb = xs
     for i in np.unique(links):
         if not model.chain.links[i].stiffened:
             continue
         cols = np.flatnonzero(links == i)
         rows = type(wp)(*(np.repeat(arr, cols.size, axis=0) for arr in wp))    # (W C_i): wall-major
         for k, q in enumerate(qs):
-            xs, p, g = _foreshortened_minimum(model, rows, q, i, x[k][:, cols].ravel(), st.R[k, i], st.o[k, i],
-                                              stationary[k][:, cols].ravel())
-            x[k][:, cols], best_p[k][:, cols], best_g[k][:, cols] = xs.reshape(-1, cols.size), \
-                p.reshape(-1, cols.size, 3), g.reshape(-1, cols.size)
+            R, o, x0 = st.R[k, i], st.o[k, i], x[k][:, cols].ravel()
+            stat = stationary[k][:, cols].ravel()
+            xn, pn, gn, g1, g2 = _foreshortened_minimum(model, rows, q, i, x0, R, o, stat, slopes=True)
+            lo, hi = xa[k][:, cols].ravel(), xb[k][:, cols].ravel()
+            # The gap falls from the end into the cell (g' > 0 at the distal end, < 0 at the proximal one) and
+            # g'' > 0 there: Newton's iteration steps into the cell.
+            into = ~stat & (g2 > 0.0) & (((x0 >= hi) & (g1 > 0.0)) | ((x0 <= lo) & (g1 < 0.0)))
+            if into.any():  # Newton from those ends, kept inside their cells
+                xd, pd, gd = _foreshortened_minimum(model, rows, q, i, x0, R, o, into, (lo, hi))
+                dip = into & (xd > lo) & (xd < hi) & (gd < gn - tie)
+                xn, pn, gn = np.where(dip, xd, xn), np.where(dip[:, None], pd, pn), np.where(dip, gd, gn)
+                stat = stat | dip
+            x[k][:, cols], best_p[k][:, cols], best_g[k][:, cols] = xn.reshape(-1, cols.size), \
+                pn.reshape(-1, cols.size, 3), gn.reshape(-1, cols.size)
+            stationary[k][:, cols] = stat.reshape(-1, cols.size)
+
