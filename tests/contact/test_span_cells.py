@@ -137,15 +137,50 @@ def _momentum(model, q, qd):
     return sum(material_jacobian(model, q, qd, 0, x)[1] @ qd for x in xs) / (2 * ne)
 
 
+def _gauss(model, n=4):
+    """Abscissae x [m] and weights [m] of n-point Gauss rules on every element of the single 1 m link (exact for
+    polynomials of degree 2 n - 1 in x on an element)."""
+    ne = model.chain.links[0].elements
+    gx, gw = np.polynomial.legendre.leggauss(n)
+    h = 1.0 / ne
+    return ((np.arange(ne)[:, None] + 0.5 * (1.0 + gx[None, :])) * h).ravel(), np.tile(0.5 * h * gw, ne)
+
+
+def _angular_momentum(model, q, qd):
+    """z-component of the angular momentum [kg m^2/s] about the world origin of the single uniform link (mu = 1 kg/m,
+    no rotary inertia): the integral of (p x pdot)_z over the centreline, 4-point Gauss per element (exact: the
+    integrand is of degree 6 in x on an element)."""
+    total = 0.0
+    for x, wt in zip(*_gauss(model)):
+        p, J, _ = material_jacobian(model, q, qd, 0, x)
+        v = J @ qd
+        total += wt * (p[0] * v[1] - p[1] * v[0])
+    return total
+
+
+def _centre_x(model, q):
+    """x [m] of the mass centre of the single uniform 1 kg link (Gauss, exact for the cubic centreline)."""
+    x, wt = _gauss(model)
+    return float(wt @ material_points(model, q, 0, x)[:, 0])
+
+
+def _simpson(f, dt):
+    """Simpson's rule over samples f (K, ...) spaced dt (K odd)."""
+    return dt / 3 * (f[0] + f[-1] + 4 * f[1:-1:2].sum(axis=0) + 2 * f[2:-1:2].sum(axis=0))
+
+
 @pytest.mark.slow
-def test_a_beam_across_two_posts_rests_on_both_at_once():
+def test_a_beam_across_two_posts_rests_on_both_at_once(tmp_path):
     """Issue 25 item 1: a 2-element beam (1 m, 1 kg, EI = 20 N m^2) laid at rest across two posts (R = 0.05 m at
     x = +-0.3 m) rests on one span point per post at once, cells 1 and 2 of the same link (one column per
     (wall, link) rested only one of them: the other sank into micro-impacts). Over 20 ms it vibrates on them
     without an impact, no material point (64, public kinematics) sinks into a post by more than contact_tol,
     both forces stay positive, and the recorded forces carry the beam's momentum: p(T) - p(0) equals
     int (F_1 n_1 + F_2 n_2 - m g) dt (Simpson's rule on the 1e-4 s samples; its error h^4/180 T max|F''''|
-    for the beam's vibration below ~2000 rad/s is < 1e-4 N s against an impulse of 0.2 N s)."""
+    for the beam's vibration below ~2000 rad/s is < 1e-4 N s against an impulse of 0.2 N s). Where the forces act
+    (Result.contact_abscissae) is checked the same way: each recorded point lies on its post (|g| <= contact_tol) in
+    its own cell, and the forces' moments carry the angular momentum about the origin, H(T) - H(0) =
+    int sum_k (p_k x F_k n_k)_z - (p_G x m g)_z dt (same error bound, times the lever arm <= 0.5 m)."""
     model = _beam(2)
     R = 0.05
     posts = [gi.Circle(R, (-0.3, -R), inside=False), gi.Circle(R, (0.3, -R), inside=False)]
@@ -158,14 +193,31 @@ def test_a_beam_across_two_posts_rests_on_both_at_once():
     assert np.all(F[:, 0, 2] > 0.5) and np.all(F[:, 1, 3] > 0.5)
     xs = np.linspace(0.0, 1.0, 64)
     cells = link_cells(model, [0])
-    force = np.zeros((len(res.t), 3))
+    X = res.contact_abscissae      # (K, W, C) [m]: where the span forces act, NaN elsewhere
+    assert X.shape == F.shape and np.isnan(X[:, :, :2]).all() and np.isnan(X[:, 0, 3]).all()
+    assert np.all((X[:, 0, 2] > 0.0) & (X[:, 0, 2] < 0.5)) and np.all((X[:, 1, 3] > 0.5) & (X[:, 1, 3] < 1.0))
+    force, torque = np.zeros((len(res.t), 3)), np.zeros(len(res.t))
     for k, q in enumerate(res.q):
         P = material_points(model, q, 0, xs)
         assert min(float(w.gap(P).min()) for w in posts) > -1e-9
         cm = link_minima(model, q, posts, cells)
         force[k] = F[k, 0, 2] * cm.normal[0, 0] + F[k, 1, 3] * cm.normal[1, 1]
+        for w, c in ((0, 2), (1, 3)):
+            p = material_points(model, q, 0, [X[k, w, c]])
+            assert abs(float(posts[w].gap(p)[0])) <= 1e-9
+            f = F[k, w, c] * posts[w].normal(p)[0]
+            torque[k] += p[0, 0] * f[1] - p[0, 1] * f[0]
+        torque[k] -= 9.81 * _centre_x(model, q)     # (p_G x (0, -m g, 0))_z, m = 1 kg
     force[:, 1] -= 9.81
     assert len(res.t) % 2 == 1 and np.allclose(np.diff(res.t), dt)
-    simpson = dt / 3 * (force[0] + force[-1] + 4 * force[1:-1:2].sum(axis=0) + 2 * force[2:-1:2].sum(axis=0))
     dp = _momentum(model, res.q[-1], res.qdot[-1]) - _momentum(model, res.q[0], res.qdot[0])
-    np.testing.assert_allclose(dp, simpson, atol=1e-4)
+    np.testing.assert_allclose(dp, _simpson(force, dt), atol=1e-4)
+    dH = _angular_momentum(model, res.q[-1], res.qdot[-1]) - _angular_momentum(model, res.q[0], res.qdot[0])
+    assert dH == pytest.approx(_simpson(torque, dt), abs=5e-5)
+    # The abscissae in contact_forces.csv and result.npz.
+    rows = np.genfromtxt(res.to_csv(tmp_path)["contact_forces"], delimiter=",", names=True)
+    np.testing.assert_array_equal(rows["x_w1_link11_m"], X[:, 0, 2])   # genfromtxt drops the '.' of link1.1
+    assert np.isnan(rows["x_w1_link12_m"]).all() and np.isnan(rows["x_w2_link11_m"]).all()
+    res.save(tmp_path / "r.npz")
+    back = gi.load_result(tmp_path / "r.npz")
+    np.testing.assert_array_equal(back.contact_abscissae, X)

@@ -207,6 +207,8 @@ def test_plot_into_given_axes(planar, spatial):
         planar.plot(ax=ax)
     with pytest.raises(ValueError, match="unknown figure 'spectrum'"):
         planar.plot("spectrum")
+    with pytest.raises(ValueError, match=r"pass the folder as directory='out/figs'"):  # a path where a name goes
+        planar.plot("out/figs")
     assert set(planar.plot(["angles", "energy"])) == {"angles", "energy"}  # a list: {name: Figure}
 
 

@@ -442,6 +442,21 @@ class RestingContacts:
             Ft[self.active] = F_t
         return F, Ft
 
+    def abscissa_matrix(self, q) -> np.ndarray:
+        """x (W, P) [m] along its link of every resting span pair's contact point at q (N,): its seat (a fixed
+        material point) or its cell's minimum (a rolling point; span_abscissae); NaN for the joint points and
+        for pairs that do not rest. With the link from Contacts' columns this says where a span force acts."""
+        X = np.full(self.active.shape, np.nan)
+        span = self._span_pairs()
+        if len(span):
+            X[span[:, 0], span[:, 1]] = [x for _, x, _ in span_abscissae(
+                self.model, self.walls, q, span, self.n_joints, self.flex, self.seat[span[:, 0], span[:, 1]])]
+        return X
+
+    def _span_pairs(self) -> np.ndarray:
+        """(k, 2) the active span pairs (columns after the joint points), row-major order."""
+        return np.argwhere(self.active & (np.arange(self.active.shape[1]) >= self.n_joints)[None, :])
+
     # -- equation (5) -----------------------------------------------------------------
     def project(self, q, qd, pairs, stick=None, max_iter=20):
         """(q, qd) moved onto g = 0, v_n = 0 of the pairs (k, 2) along the metric of M (equation (5));
@@ -529,7 +544,7 @@ class RestingContacts:
         Its gap acceleration is then exact (no sliding term); the true minimum of its cell sinks below it by
         ~ phi_xx (x* - x_seat)^2 / 2 at most, which the drift event on the cell's column (g = -contact_tol)
         catches, and the next decision seats it anew."""
-        span = np.argwhere(self.active & (np.arange(self.active.shape[1]) >= self.n_joints)[None, :])
+        span = self._span_pairs()
         if not len(span):
             return
         for (w, j), (i, x, stat) in zip(span, span_abscissae(self.model, self.walls, q, span, self.n_joints, self.flex)):

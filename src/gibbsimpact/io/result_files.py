@@ -247,7 +247,8 @@ def write_impacts_csv(result: Result, path) -> Path:
 def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
     """Write t, phase and the resting-contact force of every (wall, contact point) pair, one row per sample
     (with ``every`` > 1 those of sample_rows); with friction on a wall also the friction force
-    Ft_w<wall>_<point>_X<a>_N (world components); with compliant walls their normal forces Fc_w<wall>_<column>_N;
+    Ft_w<wall>_<point>_X<a>_N (world components); where a span point rested, its abscissa along the link
+    x_w<wall>_link<i>.<c>_m [m] (NaN while it does not rest); with compliant walls their normal forces Fc_w<wall>_<column>_N;
     with prismatic joints the end-stop forces Fstop_<coordinate>_<min|max|carriage>_N [N] (Result.stop_forces)."""
     path = Path(path)
     r = sample_rows(len(result.t), every)
@@ -259,6 +260,12 @@ def write_contact_forces_csv(result: Result, path, every: int = 1) -> Path:
     if result.friction_forces is not None:
         F = np.hstack((F, np.asarray(result.friction_forces).reshape(K, -1)))
         header += [c.replace("F_", "Ft_", 1)[:-2] + f"_X{a + 1}_N" for c in contact_force_columns(result) for a in range(3)]
+    if result.contact_abscissae is not None:  # where on its link each resting span point acts (NaN: not resting)
+        P, names = result.model.n_joints, contact_force_columns(result)
+        X = np.asarray(result.contact_abscissae)
+        F = np.hstack((F, X[:, :, P:].reshape(K, -1)))
+        header += [names[w * X.shape[2] + c].replace("F_", "x_", 1)[:-2] + "_m"
+                   for w in range(X.shape[1]) for c in range(P, X.shape[2])]
     if result.compliant_forces is not None:
         F = np.hstack((F, np.asarray(result.compliant_forces).reshape(K, -1)))
         header += compliant_force_columns(result)
@@ -571,6 +578,8 @@ def save_result(result: Result, path, metadata: dict | None = None) -> Path:
         arrays["contact_forces"] = np.asarray(result.contact_forces, dtype=float)
     if result.friction_forces is not None:
         arrays["friction_forces"] = np.asarray(result.friction_forces, dtype=float)
+    if result.contact_abscissae is not None:
+        arrays["contact_abscissae"] = np.asarray(result.contact_abscissae, dtype=float)
     if result.stop_forces is not None:
         arrays["stop_forces"] = np.asarray(result.stop_forces, dtype=float)
     arrays.update(chart_arrays(result))
@@ -661,7 +670,7 @@ def load_result(path, with_metadata: bool = False):
         wall_time=float(_untag(meta["wall_time"])), energy_error=float(_untag(meta["energy_error"])),
         energy_error_whole_run_J=float(_untag(meta.get("energy_error_whole_run_J", float("nan")))),
         work=a.get("work"), contact_forces=a.get("contact_forces"), friction_forces=a.get("friction_forces"),
-        resting_time=float(_untag(meta.get("resting_time", 0.0))), stop_forces=a.get("stop_forces"),
+        contact_abscissae=a.get("contact_abscissae"), resting_time=float(_untag(meta.get("resting_time", 0.0))), stop_forces=a.get("stop_forces"),
         prescribed=tuple(meta.get("prescribed", ())), effort=a.get("effort"),
         compliant_forces=a.get("compliant_forces"), compliant_points=a.get("compliant_points"),
         compliant_integrals=a.get("compliant_integrals"),

@@ -66,7 +66,10 @@ def plot_one(result, which: str, ax=None, case_name=None, n_points: int = 41):
         return plot_configurations(result, case_name, n_points, ax=ax)
     if which == "trajectory":
         return plot_trajectory(result, case_name, n_points, ax=ax)
-    raise ValueError(f"unknown figure {which!r}; choose from {', '.join(FIGURES + OPTIONAL_FIGURES)}")
+    hint = ""
+    if "/" in which or "\\" in which or which.endswith(".png"):  # a path given where a figure name goes
+        hint = f"; to save every figure as <dir>/<name>.png, pass the folder as directory={which!r}"
+    raise ValueError(f"unknown figure {which!r}; choose from {', '.join(FIGURES + OPTIONAL_FIGURES)}{hint}")
 
 
 def save_figures(figures: dict, directory, dpi: int = 120, close: bool = True) -> dict:

@@ -29,6 +29,7 @@ class Chunk(NamedTuple):
     stops: np.ndarray | None = None  # (k, L) [N or N m] forces of the held end stops; None: all zero
     chart: np.ndarray | None = None  # (3, 3) R_ref of the free base's chart of these samples (model.base_chart)
     change: object = None  # the ChartChange (simulation.charts) whose sample after it this chunk is
+    where: np.ndarray | None = None  # (k, W, C) [m] abscissae of the resting span points (NaN: none); None: none
 
 
 def one_sample(E: Energy) -> Energy:
@@ -81,14 +82,15 @@ class Recorder:
                                   balance=jump, chart=self.model.base_chart))
         self.n_impacts += 1
 
-    def flight(self, T, Y, phase, forces=None, friction=None, compliant=None, stops=None):
+    def flight(self, T, Y, phase, forces=None, friction=None, compliant=None, stops=None, where=None):
         """Samples T (K,), Y (K, 2N [+ 2 or 3 [+ 3 + N]]) of a flight phase that started at the last stored sample.
 
         forces : None or (K, W, P) [N], the resting-contact forces at the samples;
         friction : None or (K, W, P, 3) [N], their tangential (friction) forces;
         compliant : None or ((K, W, C) [N], (K, W, C, 3) [m]), the compliant contacts' normal forces and points
         (simulation.compliant), whose integrals are Y's last 3 + N columns;
-        stops : None or (K, L) [N or N m], the forces of the held end stops.
+        stops : None or (K, L) [N or N m], the forces of the held end stops;
+        where : None or (K, W, C) [m], the abscissae of the resting span points (NaN: a pair that does not rest).
         """
         N = self.model.n_dof
         last = self.chunks[-1]
@@ -104,11 +106,12 @@ class Recorder:
         extra = None if compliant is None else (*compliant, Y[:, 2 * N + nw:])
         self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces,
                                   friction, float(balance[-1]) if T.size else 0.0, extra, stops,
-                                  self.model.base_chart))
+                                  self.model.base_chart, where=where))
 
-    def mode(self, t, q, qdot, phase, forces, friction, stops=None):
+    def mode(self, t, q, qdot, phase, forces, friction, stops=None, where=None):
         """After a contact-mode decision at t: its contact forces (W, P) and friction forces (W, P, 3) [N]
-        (and end-stop forces (L,) or None) on the last sample, or a new sample when the projection
+        (and end-stop forces (L,) or None, span abscissae (W, P) [m] or None) on the last sample, or a new sample
+        when the projection
         (gibbsimpact.resting, the end stops') moved the state (q, qdot) (N,)."""
         last = self.chunks[-1]
         S = np.zeros(self.n_limits) if stops is None else stops
@@ -117,12 +120,16 @@ class Recorder:
             Ft = np.zeros(F.shape + (3,)) if last.friction is None else last.friction.copy()
             Sk = np.zeros((last.t.size, self.n_limits)) if last.stops is None else last.stops.copy()
             F[-1], Ft[-1], Sk[-1] = forces, friction, S
-            self.chunks[-1] = last._replace(forces=F, friction=Ft, stops=Sk)
+            Xk = last.where
+            if where is not None or Xk is not None:
+                Xk = np.full(F.shape, np.nan) if Xk is None else Xk.copy()
+                Xk[-1] = np.nan if where is None else where
+            self.chunks[-1] = last._replace(forces=F, friction=Ft, stops=Sk, where=Xk)
             return
         self.chunks.append(Chunk(np.array([t]), q[None, :].copy(), qdot[None, :].copy(), np.array([phase]),
                                   last.work[-1:].copy(), one_sample(energy(self.model, q, qdot)), 0.0, None,
                                   forces[None].copy(), friction[None].copy(), stops=S[None].copy(),
-                                  chart=self.model.base_chart))
+                                  chart=self.model.base_chart, where=None if where is None else where[None].copy()))
 
     def chart(self, t, q, qdot, phase, change):
         """A re-chart at t (simulation.charts): the state (q, qdot) (N,) in the new chart (self.model's, already
@@ -138,7 +145,16 @@ class Recorder:
         self.chunks.append(Chunk(np.array([t]), q[None, :].copy(), qdot[None, :].copy(), np.array([phase]),
                                   last.work[-1:].copy(), E, 0.0, None, last_forces, last_friction,
                                   float(E.total[0] - last.energy.total[-1]), last_compliant, last_stops,
-                                  chart=self.model.base_chart, change=change))
+                                  chart=self.model.base_chart, change=change,
+                                  where=None if last.where is None else last.where[-1:].copy()))
+
+    def abscissae(self):
+        """Abscissae (K, W, C) [m] of the resting span points at every sample (NaN where a pair does not rest), or
+        None when no span point rested."""
+        if all(c.where is None for c in self.chunks):
+            return None
+        return np.concatenate([np.full((c.t.size,) + self.force_shape, np.nan) if c.where is None else c.where
+                               for c in self.chunks])
 
     @property
     def chart_changes(self) -> list:

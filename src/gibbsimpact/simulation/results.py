@@ -120,6 +120,10 @@ class Result:
         C = P joint points, then, when a span point rested (contact.span_resting), one column per
         link column of the run (contacts.link_column_cells: one per cell of a link, "link 1.2" for
         cell 2 of link 1): the force on that cell's resting span point
+    contact_abscissae : (K, W, C) [m] or None: where on its link the span point of each contact_forces column
+        acts while it rests (its abscissa x along link i of the column "link i.c", measured from O_i; the point
+        is then the material point at x, gibbsimpact.dynamics.link_points.material_points); NaN for the joint
+        points and for pairs that do not rest; None when no span point rested
     friction_forces : (K, W, C, 3) [N] or None: the tangential (friction) force of wall w on
         O_(j+1) while the pair rests on a wall with friction (sticking or slipping); None when
         no wall has friction
@@ -181,6 +185,7 @@ class Result:
     work: np.ndarray | None = None
     contact_forces: np.ndarray | None = None
     friction_forces: np.ndarray | None = None
+    contact_abscissae: np.ndarray | None = None
     resting_time: float = 0.0
     stop_forces: np.ndarray | None = None
     prescribed: tuple = ()

@@ -270,8 +270,8 @@ def mode(run) -> None:
         changed = changed or held_before or stops.held.any()
     if changed:
         q, qd = run.y[:N], run.y[N:2 * N]
-        F, Ft, S = _forces_at(run, [t], run.y[None, :])
-        run.recorder.mode(t, q, qd, run.phase, F[0], Ft[0], None if S is None else S[0])
+        F, Ft, S, X = _forces_at(run, [t], run.y[None, :])
+        run.recorder.mode(t, q, qd, run.phase, F[0], Ft[0], None if S is None else S[0], None if X is None else X[0])
     run.release = run.forced = run.slipping = None
     run.pending_mode = False
 
@@ -372,8 +372,9 @@ def _joined(extras):
 
 def _forces_at(run, T, Y):
     """Normal (K, W, C) and tangential (K, W, C, 3) [N] resting-contact forces (C: the joint points, then the
-    span points of the link columns), and the end-stop forces
-    (K, L) [N or N m] (None without joint limits), at the samples T (K,), Y (K, 2N [+ 2])."""
+    span points of the link columns), the end-stop forces (K, L) [N or N m] (None without joint limits) and
+    the abscissae (K, W, C) [m] of the resting span points (RestingContacts.abscissa_matrix; None when no span
+    point rests), at the samples T (K,), Y (K, 2N [+ 2])."""
     N, applied, stops = run.N, run.equations.applied, run.stops
     F = [run.resting.force_matrix(yk[:N], yk[N:2 * N], applied(tk, yk[:N], yk[N:2 * N])) for tk, yk in zip(T, Y)]
     S = None
@@ -381,7 +382,10 @@ def _forces_at(run, T, Y):
         S = np.zeros((len(T), len(stops.limits)))
         if stops.held.any():
             S[:, stops.held] = [run.equations.stop_forces(tk, yk[:N], yk[N:2 * N]) for tk, yk in zip(T, Y)]
-    return np.stack([f[0] for f in F]), np.stack([f[1] for f in F]), S
+    X = None
+    if run.resting.any() and run.resting.active[:, run.resting.n_joints:].any():
+        X = np.stack([run.resting.abscissa_matrix(yk[:N]) for yk in Y])
+    return np.stack([f[0] for f in F]), np.stack([f[1] for f in F]), S, X
 
 
 def flight(run):
@@ -410,9 +414,10 @@ def flight(run):
     run.counters["n_steps"] += out.n_steps
     run.counters["n_examined"] += out.n_examined
     if out.sample_t.size:
-        forces = _forces_at(run, out.sample_t, out.sample_y) if run.resting.any() or held else (None, None, None)
+        forces = _forces_at(run, out.sample_t, out.sample_y) if run.resting.any() or held else (None,) * 4
         compliant = None if run.compliant is None else run.compliant.sample_forces(out.sample_y)
-        run.recorder.flight(out.sample_t, out.sample_y, run.phase, *forces[:2], compliant=compliant, stops=forces[2])
+        run.recorder.flight(out.sample_t, out.sample_y, run.phase, *forces[:2], compliant=compliant, stops=forces[2],
+                            where=forces[3])
     run.flown = None
     if out.interrupted is not None:
         raise KeyboardInterrupt(out.interrupted)  # its samples are recorded: the driver stops the run
@@ -548,8 +553,9 @@ def finish(run, started: float) -> Result:
         run.status = STATUS_FINISHED
     t_all, q_all, qdot_all, phase_all, work_all, E_all, F_all, Ft_all, S_all = run.recorder.arrays()
     P = run.model.n_joints
+    X_all = run.recorder.abscissae()
     if not np.any(F_all[:, :, P:]):  # no span point rested: the joint points' columns only, as before
-        F_all, Ft_all = F_all[:, :, :P], Ft_all[:, :, :P]
+        F_all, Ft_all, X_all = F_all[:, :, :P], Ft_all[:, :, :P], None
     walls = run.settings.walls
     return Result(
         model=run.model.chart_root, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,
@@ -559,7 +565,7 @@ def finish(run, started: float) -> Result:
         wall_time=time.perf_counter() - started, energy_error=run.recorder.energy_error,
         energy_error_whole_run_J=run.recorder.balance_J,
         _energy_cache=E_all, work=work_all if run.equations.driven else None, contact_forces=F_all,
-        friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
+        contact_abscissae=X_all, friction_forces=Ft_all if any(w.friction > 0 for w in walls) else None,
         resting_time=run.counters["resting_time"], stop_forces=S_all, **_efforts(run, t_all, q_all, qdot_all),
         base_chart=run.recorder.base_charts(), charts=run.recorder.chart_changes,
         **({} if run.compliant is None else dict(zip(
