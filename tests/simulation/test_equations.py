@@ -1,14 +1,10 @@
 """The right-hand side of the event loop's phases (simulation.equations.Equations)."""
 
-import warnings
-
 import numpy as np
 from scipy.integrate import DOP853
 
 import gibbsimpact as gi
-from gibbsimpact.simulation.progress import Clock
-from gibbsimpact.simulation.settings import Settings
-from gibbsimpact.simulation.stages import start
+from conftest import started_run
 
 
 def _seated_tip_run():
@@ -17,14 +13,8 @@ def _seated_tip_run():
     right-hand side goes through span_resting (model.check_state on every trial state)."""
     link = gi.Link(1.0, 1.0, (20.0, 20.0), elements=2, damping=0.05)
     model = gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.02), 0.0)), gravity=(0.0, -9.81, 0.0))
-    q0, qd0 = model.state(theta_1=-np.arcsin(0.02)), np.zeros(model.n_dof)
-    settings = Settings.from_arguments((0.0, 1.0), [gi.Plane((0, 0, 0), (0, 1, 0))], 0.0, "DOP853", None, None,
-                                       {"theta_1": -2.0}, 10, 10000, "stop", 0.5, "rest", True, rtol=1e-10,
-                                       atol=1e-12, contact_tol=1e-6, max_step=np.inf, grazing_velocity=1e-6,
-                                       penetration_tol=1e-6, zeno_interval=1e-6, state=(model, q0, qd0))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", gi.ValidityWarning)
-        run = start(model, q0, qd0, settings, Clock(None))
+    run = started_run(model, model.state(theta_1=-np.arcsin(0.02)), np.zeros(model.n_dof),
+                      [gi.Plane((0, 0, 0), (0, 1, 0))], inputs={"theta_1": -2.0})
     col = model.n_joints + 1
     run.resting.active[0, col], run.resting.seat[0, col] = True, 1.0
     run.equations.resting_phase = True
