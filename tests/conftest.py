@@ -238,3 +238,21 @@ def fast_mode_energy(model, q, qdot):
     M = mass_matrix(model, q)
     _, phi = scipy.linalg.eigh(0.5 * (K + K.T), M)
     return 0.5 * float(phi[:, -1] @ M @ qdot) ** 2
+
+
+def started_run(model, q0, qdot0, walls, restitution=0.0, inputs=None, contact_tol=1e-6, method="DOP853"):
+    """The event loop's Run (simulation.stages.start) of a simulate call from (q0, qdot0) (N,) over 1 s with
+    simulate's defaults otherwise: for tests that drive single stages (a mode decision, a phase's right-hand side)."""
+    import warnings
+
+    from gibbsimpact.simulation.progress import Clock
+    from gibbsimpact.simulation.settings import Settings
+    from gibbsimpact.simulation.stages import start
+
+    settings = Settings.from_arguments((0.0, 1.0), walls, restitution, method, None, None, inputs, 10, 10000, "stop",
+                                       0.5, "rest", True, rtol=1e-10, atol=1e-12, contact_tol=contact_tol,
+                                       max_step=np.inf, grazing_velocity=1e-6, penetration_tol=1e-6,
+                                       zeno_interval=1e-6, state=(model, q0, qdot0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gi.ValidityWarning)
+        return start(model, q0, qdot0, settings, Clock(None))

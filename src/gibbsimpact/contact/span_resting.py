@@ -41,7 +41,7 @@ from .span_cells import link_minima
 #: Step of the central differences along the link, relative to its length.
 H_X = 1e-4
 #: phi_xx l below which a minimum is held as a fixed material point (no sliding term; module docstring).
-MIN_CURVATURE = 0.01
+MIN_CURVATURE = 0.1
 
 
 def _bilinear(wall, p, u, v) -> float:

@@ -285,13 +285,39 @@ def _decide_walls(run) -> bool:
     v = np.einsum("wjc,wjcn,n->wj", nrm, Jac, qd)
     if run.compliant is not None:  # no resting mode on a compliant wall: its contact is a force
         g = np.where(run.compliant.rows[:, None], np.inf, g)
-    cand = resting.candidates(g, v, run.band, s.grazing_velocity, run.release, run.forced)
+    sunk = _sunk(run, g)
+    forced = sunk if run.forced is None else run.forced | sunk
+    cand = resting.candidates(g, v, run.band, s.grazing_velocity, run.release, forced)
     if not (len(cand) or resting.any()):
         return False
-    q, qd = resting.decide(q, qd, run.equations.applied(t, q, qd), cand, run.slipping)
+    Q, start = run.equations.applied(t, q, qd), (q, qd)
+    for _ in range(g.size):
+        q, qd = resting.decide(*start, Q, cand, run.slipping)
+        # The projection onto the candidates moves the others too: one pushed beyond the wall joins them.
+        pushed = _sunk(run, run.contacts.full(q)[0]) & ~forced
+        if not pushed.any():
+            break
+        forced |= pushed
+        cand = np.unique(np.vstack((cand.reshape(-1, 2), np.argwhere(pushed))), axis=0)
     run.monitor.streak[resting.active] = 0
     run.y = np.concatenate((q, qd, run.y[2 * N:]))
     return True
+
+
+def _sunk(run, g) -> np.ndarray:
+    """(W, C) bool: the pairs that can rest and lie beyond the wall by more than contact_tol / 2 (g (W, C) [m]):
+    candidates of a mode decision whatever their velocity, like the pairs of an accumulation (the projection (5)
+    of contact/resting.py stops them plastically: the kinetic energy never rises). No event of the next phase
+    could catch them: a "hit" fires where g falls through 0 and a "sink" below the phase-start gap, so a
+    pair that starts under the wall and is not held sinks without an event (docs/theory.md §15.3: a seated span
+    point's drifted minimum, with a normal velocity of ~1e-3 m/s above grazing_velocity; a link's end that
+    takes over a cell's drifted minimum; a point pushed under by the projection onto the other candidates)."""
+    sunk = (g < -0.5 * run.settings.contact_tol) & run.resting.can_rest
+    if run.release is not None:
+        sunk &= ~run.release
+    if run.compliant is not None:
+        sunk &= ~run.compliant.rows[:, None]
+    return sunk
 
 
 # -- flight ------------------------------------------------------------------------------------
