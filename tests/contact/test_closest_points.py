@@ -12,6 +12,8 @@ from gibbsimpact.contact.closest_points import closest_points
 from gibbsimpact.contact.span_cells import link_cells, link_minima
 from gibbsimpact.dynamics.link_points import material_points
 
+from link_models import _check_against_brute_force, _state, _walls_hugging, _walls_near
+
 FLOOR = [gi.Plane((0, 0, 0), (0, 1, 0))]
 
 
@@ -64,3 +66,24 @@ def test_a_foreshortened_dip_where_the_linear_gap_is_monotone(arm):
         assert g[j] - gap <= grid_error + 1e-14
         assert x == pytest.approx(xs[j], abs=dx)
     assert cm.stationary[0, 2] and cm.inside[0, 2]
+
+
+@pytest.mark.slow   # 15 s for the 10^5-sample brute force of 2 x 6 pairs with 24 elements
+@pytest.mark.parametrize("kind", ["off-grid elements", "modes"])
+def test_stiffened_links_against_brute_force(kind, rng):
+    """Stiffened links at random deflected states (delta ~ 0.08), walls near the chain and hugging a bulge:
+    every (wall, link) pair's closest point equals the minimum of the public material points' gaps (10^5
+    samples and a bounded minimisation) to 1e-10 m. With 11 and 13 elements the samples miss nodes, so a
+    bracket that straddles a node is cut there by the sign of the foreshortened g'."""
+    if kind == "modes":
+        cc = "clamped-clamped"
+        links = [gi.Link(1.0, 1.0, 20.0, modes=[gi.Mode(cc, "y"), gi.Mode(cc, "y", 2)]),
+                 gi.Link(0.8, 1.0, 20.0, modes=[gi.Mode(cc, "y")])]
+    else:
+        links = [gi.Link(1.0, 1.0, 20.0, elements=11), gi.Link(0.8, 1.0, 20.0, elements=13)]
+    model = gi.Model(gi.Chain(links))
+    assert all(lk.stiffened for lk in model.chain.links)
+    for trial in range(2):
+        q, _ = _state(model, rng, delta=0.08)
+        walls = _walls_near(model, q, rng) + _walls_hugging(model, q, trial, rng)
+        _check_against_brute_force(model, q, walls, closest_points(model, q, walls), (kind, trial))

@@ -49,7 +49,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .link_tables import _foreshorten_samples, _foreshortened, _state, _tables
+from .link_tables import _foreshorten_points, _foreshorten_samples, _foreshortened, _state, _tables
 
 #: Error left in s (relative to the search interval's length) at which the Newton refinement stops.
 X_TOL = 1e-12
@@ -585,7 +585,7 @@ class _HermiteBasis:
             # g' at the node s_n = e_lo h from the left element; keep the half where g' changes sign.
             self._build(e_lo)
             node = e_lo * h
-            p = self.points(node)
+            p = _foreshorten_points(tab, st, ks, links, node, self.points(node))   # the true g' of a stiffened link
             g1n = _gap_terms(wpp, p[:, 0], p[:, 1])[2]
             right = cut & (g1n < 0.0)
             lo[right] = node[right]
