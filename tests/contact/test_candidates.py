@@ -21,15 +21,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.linalg import eigh
-from scipy.optimize import minimize_scalar
 
 import gibbsimpact as gi
 from gibbsimpact.contact import candidates as lp
 from gibbsimpact.dynamics.kinematics import joint_positions
 
 from conftest import ISSUE25_ITEM5_FLOOR, issue25_item5_model
-from link_models import (MODELS, _case1, _obstacles_near, _prismatic, _spatial_fe, _state, _walls_hugging,
-                         _walls_near)
+from link_models import (MODELS, _case1, _check_against_brute_force, _obstacles_near, _prismatic, _spatial_fe,
+                         _state, _walls_hugging, _walls_near)
 
 # -- 1. positions ------------------------------------------------------------------------------
 
@@ -159,37 +158,6 @@ def test_acceleration_along_a_trajectory(name, rng):
 
 
 # -- 3. closest points --------------------------------------------------------------------------
-
-def _samples(model, q, i, K=100_000):
-    """10^5 abscissae of link i's search interval and their material points (K, 3)."""
-    a, b = lp.search_interval(model, q)
-    x = np.linspace(a[i], b[i], K)
-    return x, lp.material_points(model, q, i, x)
-
-
-def _brute_force(model, q, wall, i, samples):
-    """(x*, gap) by the samples of the gap along link i and a bounded minimisation around the best."""
-    x, p = samples
-    g = wall.gap(p)
-    k = int(np.argmin(g))
-    lo, hi = x[max(k - 1, 0)], x[min(k + 1, x.size - 1)]
-    res = minimize_scalar(lambda t: float(wall.gap(lp.material_points(model, q, i, [t]))[0]), bounds=(lo, hi),
-                          method="bounded", options={"xatol": 1e-14 * (x[-1] - x[0]), "maxiter": 500})
-    return (res.x, res.fun) if res.fun < g[k] else (x[k], g[k])
-
-
-def _check_against_brute_force(model, q, walls, res, label):
-    """Every (wall, link) pair of closest_points' res against _brute_force (<= 1e-10 m); its gap and normal
-    are those of the material point at x*."""
-    samples = [_samples(model, q, i) for i in range(model.n_links)]
-    for w, wall in enumerate(walls):
-        for i in range(model.n_links):
-            x_bf, g_bf = _brute_force(model, q, wall, i, samples[i])
-            assert abs(res.gap[w, i] - g_bf) <= 1e-10, (label, w, i, res.x[w, i], x_bf, res.gap[w, i], g_bf)
-            p = lp.material_points(model, q, i, [res.x[w, i]])
-            assert abs(wall.gap(p)[0] - res.gap[w, i]) <= 1e-13
-            assert np.max(np.abs(wall.normal(p)[0] - res.normal[w, i])) <= 1e-12
-
 
 @pytest.mark.parametrize("name", list(MODELS))
 def test_closest_points_against_brute_force(name, rng):

@@ -110,6 +110,7 @@ from link_models import MODELS, _obstacles_near, _state, _walls_hugging, _walls_
 from gibbsimpact.contact import candidates as lp  # noqa: E402  (search_interval, end_joints only)
 from gibbsimpact.simulation.contacts import Contacts  # noqa: E402
 from gibbsimpact.dynamics.kinematics import joint_positions  # noqa: E402
+from gibbsimpact.dynamics.link_points import material_points  # noqa: E402
 
 
 def _interior_gaps(model, q, wall, i, n=2001):
@@ -193,6 +194,39 @@ def test_skip_rule_is_a_valid_lower_bound(name, rng):
                 else:
                     n_search += 1
     assert n_checked >= 50 and n_skip_near >= 3 and n_search >= 3, (n_checked, n_skip_near, n_search)
+
+
+def test_skip_rule_bounds_a_stiffened_link(rng):
+    """A stiffened link's points (the public material points: x + u_f, v, w) leave the chord along the axis
+    by a(s) = u_f(s l) - s u_f(l) too; with Lam + Lam_f, Lam_f = l/2 (sum_k |delta_k| mu_k)^2 (Contacts
+    docstring), (2) G(s) >= g(c(s)) - Lam s (1 - s) holds at 2001 points for planes through the tip at every
+    angle to the link (along its axis, where phi has no part), and a skipped pair has G > t there. Without
+    Lam_f the bound fails by 0.60 m at the last state (deflections ~1 m: a is quadratic, Lam linear in delta;
+    found among 60 random states of scale 0.5), so the test is not vacuous."""
+    link = gi.Link(1.0, 1.0, 20.0, elements=3)
+    model = gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.0), 0.0)))
+    s = np.linspace(1e-6, 1.0 - 1e-6, 2001)
+    worst_without = np.inf
+    states = [np.append(0.0, rng.normal(scale=amp, size=model.n_dof - 1)) for amp in (0.002, 0.02, 0.2)
+              for _ in range(6)]
+    for q in states + [np.array([0.0, 1.38, 0.52, -0.39, -0.67, -0.49, -0.01])]:
+        P = joint_positions(model, q)
+        A, B = P[0], P[1]
+        G_pts = material_points(model, q, 0, s * link.length)
+        for angle in np.linspace(0.0, 2.0 * np.pi, 8, endpoint=False):
+            axis = (B - A) / np.linalg.norm(B - A)
+            normal = np.cos(angle) * axis + np.sin(angle) * np.array([-axis[1], axis[0], 0.0])
+            wall = gi.Plane(tuple(B), tuple(normal))
+            ct = Contacts(model, [wall])
+            G, chord, u = wall.gap(G_pts), wall.gap((1.0 - s)[:, None] * A + s[:, None] * B), s * (1.0 - s)
+            lam = ct._link_bounds(q[None], wall.gap(P)[None, None], P[None])[0][0][0]
+            assert np.all(G >= chord - lam * u - 1e-12), (q, angle, np.min(G - chord + lam * u))
+            if ct.skipped(q)[0, 0]:
+                assert G.min() > min(wall.gap(P).min(), ct.refine_below) - 1e-12
+            ct._axial = None
+            lam_old = ct._link_bounds(q[None], wall.gap(P)[None, None], P[None])[0][0][0]
+            worst_without = min(worst_without, np.min(G - chord + lam_old * u))
+    assert worst_without < -0.5
 
 
 @pytest.mark.parametrize("name", list(MODELS))

@@ -16,7 +16,8 @@ over states, links, walls and samples, with one kernel call for all frames):
 2. *Flexible links*: g and g' = dg/ds are sampled at S points evenly spaced on the search
    interval, in the shape coordinate s (s = x, or s = xi = sigma / d on the protruding part
    of a Pb link). The local points r(s) and dr/ds at the samples are one product
-   r0 + A qe with a matrix A precomputed per model (qe: q with the Pb slopes times d).
+   r0 + A qe with a matrix A precomputed per model (qe: q with the Pb slopes times d); a stiffened link's
+   samples and refined points are foreshortened (x + u_f, formulation §15: link_tables._foreshortened).
    Sampling rule: S = max_i S_i with S_i = max(17, ceil(8 beta_max l / pi) + 1) for assumed
    modes (at least 8 samples per half-wavelength pi / beta of the shortest mode) and
    S_i = max(17, 8 n_e + 1) for n_e Hermite elements (8 per element); S - 1 is then rounded
@@ -48,7 +49,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .link_tables import _state, _tables
+from .link_tables import _foreshorten_points, _foreshorten_samples, _foreshortened, _state, _tables
 
 #: Error left in s (relative to the search interval's length) at which the Newton refinement stops.
 X_TOL = 1e-12
@@ -117,8 +118,7 @@ def _walls(walls: tuple) -> _WallParams:
     except KeyError:
         if len(_WALLS) > 64:
             _WALLS.clear()
-        wp = _WALLS[walls] = _wall_params(walls)
-        return wp
+        return _WALLS.setdefault(walls, _wall_params(walls))
     except TypeError:  # an unhashable entry: not a wall of this package (_wall_params says so)
         return _wall_params(walls)
 
@@ -243,20 +243,18 @@ def closest_points(model, q, walls, refine_below: float = np.inf) -> ClosestPoin
     best_n = np.empty((K, W, n, 3))
     for k in range(W):
         best_n[:, k] = _normals(wp, k, best_p[:, k])
-    if qa.ndim == 1:
-        return ClosestPoints(x[0], best_g[0], best_n[0])
-    return ClosestPoints(x, best_g, best_n)
+    out = ClosestPoints(x, best_g, best_n)
+    return out if qa.ndim == 2 else ClosestPoints(*(a[0] for a in out))
 
 
 def _foreshorten(model, wp: _WallParams, st, qs, x, best_g, best_p):
     """Closest points of stiffened links on their foreshortened centreline (formulation §15), in place:
     x (K, W, n) [m], best_g (K, W, n) [m], best_p (K, W, n, 3) [m].
 
-    The search above runs on the linear centreline r = (x, v, w); from its x* a safeguarded Newton
-    iteration on g'(x) = 0 along r = (x + u_f, v, w) (steps only where g'' > 0, x kept in [0, l];
-    u_f' = -1/2 (v'^2 + w'^2), u_f'' = -(v' v'' + w' w'')) until the step is below X_TOL l, so that
-    the point and gap returned are those of the closest material point of the foreshortened link
-    (the ones the impact's Jacobian, material_jacobian, uses).
+    The search above already runs on r = (x + u_f, v, w); from its x* (an end included) a Newton
+    iteration on g'(x) = 0 (steps only where g'' > 0, x kept in [0, l]; u_f' = -1/2 (v'^2 + w'^2),
+    u_f'' = -(v' v'' + w' w'')) until the step is below X_TOL l gives the point and gap of the closest
+    material point of the foreshortened link (those the impact's Jacobian, material_jacobian, uses).
     """
     for i in [i for i, lk in enumerate(model.chain.links) if lk.stiffened]:
         for k, q in enumerate(qs):
@@ -300,6 +298,7 @@ def _sample_gaps(tab, wp: _WallParams, st, K: int, W: int):
     n, S, N = tab.n, tab.S, tab.N
     # Samples: local r and dr/ds (K, 2, n, S, 3) = r0 + A qe, world p, dp/ds; g, g' (K, W, n, S).
     r = tab.r0 + (tab.A @ st.qe.reshape(K, N + 1).T).T.reshape(K, 2, n, S, 3)
+    _foreshorten_samples(tab, st.qe.reshape(K, N + 1), r)
     p = np.matmul(r, st.R.swapaxes(-1, -2)[:, None])
     p0, p1 = p[:, 0], p[:, 1]
     p0 += st.o[:, :, None, :]
@@ -483,9 +482,9 @@ def _slopes(tab, wp, st, ks, ws, links, js, s):
         lo = tab.s_grid[links[sel], js[sel]]
         hi = tab.s_grid[links[sel], js[sel] + 1]
         ss = s[sel].copy()
-        basis = _ModalBasis(tab, st, ks[sel], links[sel]) if is_modal else \
-            _HermiteBasis(tab, st, ks[sel], links[sel], js[sel], lo, hi, ss, wpp)
-        out[sel] = _gap_derivatives(wpp, basis.points(s[sel]))[1]
+        args = (tab, st, ks[sel], links[sel])
+        basis = _ModalBasis(*args) if is_modal else _HermiteBasis(*args, js[sel], lo, hi, ss, wpp)
+        out[sel] = _gap_derivatives(wpp, _foreshortened(basis, *args).points(s[sel]))[1]
     return out
 
 
@@ -534,7 +533,7 @@ def _refine(tab, wp, st, ks, ws, links, js, ga, gb, g1a, g1b, bounds=None):
 def _group(tab, st, ks, links, js, modal, wpp, lo, hi, s, tol):
     """_newton for seeds whose links share one kind of basis (assumed modes, or Hermite elements)."""
     basis = _ModalBasis(tab, st, ks, links) if modal else _HermiteBasis(tab, st, ks, links, js, lo, hi, s, wpp)
-    return _newton(basis, wpp, lo, hi, s, tol)
+    return _newton(_foreshortened(basis, tab, st, ks, links), wpp, lo, hi, s, tol)
 
 
 class _ModalBasis:
@@ -586,7 +585,7 @@ class _HermiteBasis:
             # g' at the node s_n = e_lo h from the left element; keep the half where g' changes sign.
             self._build(e_lo)
             node = e_lo * h
-            p = self.points(node)
+            p = _foreshorten_points(tab, st, ks, links, node, self.points(node))   # the true g' of a stiffened link
             g1n = _gap_terms(wpp, p[:, 0], p[:, 1])[2]
             right = cut & (g1n < 0.0)
             lo[right] = node[right]

@@ -18,6 +18,7 @@ from .. import kernel as _k
 from ..dynamics.kinematics import as_vector
 from ..model.elements import hermite_local
 from ..model.modes import _normalisation, _sigma_terms, frequency_root
+from ..model.shapes import foreshortening_matrix
 
 _MIN_SAMPLES = 17
 
@@ -38,6 +39,9 @@ class _Tables:
         self.S = _sample_count(model.chain.links)
         self._sample_grid()
         self.r0, self.A = self._local_samples()
+        # Stiffened links (never Pb: s = x): (i, the link, its delta indices (m,), H at the samples (S, m, m) [1/m]).
+        self.stiffened = [(i, lk, np.asarray(model.delta_index[i]), foreshortening_matrix(lk, self.s_grid[i]))
+                          for i, lk in enumerate(model.chain.links) if lk.stiffened]
         self.flex_links = np.flatnonzero(self.flexible)
         self.has_pb = bool(self.pb.any())
         self.offset1, self.scale1 = np.zeros((1, self.n)), np.ones((1, self.n))   # x = offset + scale s, no Pb link
@@ -271,6 +275,65 @@ def _stencils(tab: _Tables, L, s, orders):
         ix[f, :, :2] = left
         ix[f, :, 2:4] = right
     return wt, ix
+
+
+def _foreshorten_samples(tab: _Tables, qe, r):
+    """The samples r (K, 2, n, S, 3) (local r and dr/ds, linear in qe (K, N + 1)) of stiffened links moved
+    onto their foreshortened centreline, in place (formulation §15, docs/theory.md §15):
+
+        r_x = x + u_f(x),  u_f = -1/2 delta^T H(x) delta [m],   dr_x/dx = 1 - 1/2 (v'^2 + w'^2),
+
+    H at the sample abscissae from the tables (the same foreshortening_matrix as the material points).
+    Why: a tilted link's foreshortened gap differs from the linear one by ~ sin(theta) u_f, enough to
+    give it an interior minimum (a bracket of g') where the linear gap is monotone."""
+    for i, _, idx, H in tab.stiffened:
+        d = qe[:, idx]                                                   # (K, m)
+        r[:, 0, i, :, 0] -= 0.5 * np.einsum("km,sml,kl->ks", d, H, d)
+        r[:, 1, i, :, 0] -= 0.5 * (r[:, 1, i, :, 1] ** 2 + r[:, 1, i, :, 2] ** 2)
+
+
+def _foreshorten_points(tab: _Tables, st, ks, links, s, pts):
+    """World p, dp/ds, d2p/ds2 pts (P, 3 orders, 3) of the linear centreline at s (P,) [m] on links (P,) of the
+    states ks (P,), moved onto the foreshortened centreline where the link is stiffened (returned; a copy):
+    p += R e_x u_f, p' += R e_x u_f', p'' += R e_x u_f'' with u_f' = -1/2 (v'^2 + w'^2), u_f'' = -(v' v'' + w' w'')
+    (v', w', v'', w'' [1/m] the local components of p', p'': R^T p')."""
+    out = None
+    for i, lk, idx, _ in tab.stiffened:
+        sel = np.flatnonzero(links == i)
+        if not sel.size:
+            continue
+        out = pts.copy() if out is None else out
+        R = st.R[ks[sel], i]                                             # (P_i, 3, 3)
+        loc = np.einsum("pji,poj->poi", R, pts[sel])                     # R^T (p, p', p'')
+        d = st.qe.reshape(-1, tab.N + 1)[ks[sel]][:, idx]                # (P_i, m)
+        u = -0.5 * np.einsum("pm,pml,pl->p", d, foreshortening_matrix(lk, s[sel]), d)
+        v1, w1, v2, w2 = loc[:, 1, 1], loc[:, 1, 2], loc[:, 2, 1], loc[:, 2, 2]
+        shift = np.stack((u, -0.5 * (v1 * v1 + w1 * w1), -(v1 * v2 + w1 * w2)), axis=1)   # (P_i, 3 orders)
+        out[sel] += shift[:, :, None] * R[:, None, :, 0]
+    return pts if out is None else out
+
+
+class _Foreshortened:
+    """A basis (closest_points._ModalBasis, _HermiteBasis) whose points lie on the foreshortened centreline of
+    stiffened links (_foreshorten_points), so that the refinement's Newton iteration runs on their true gap."""
+
+    def __init__(self, basis, tab: _Tables, st, ks, links):
+        self.basis, self.tab, self.st, self.ks, self.links = basis, tab, st, ks, links
+
+    def points(self, s):
+        """(P, 3 orders, 3): p, dp/ds, d2p/ds2 at s (P,)."""
+        return _foreshorten_points(self.tab, self.st, self.ks, self.links, s, self.basis.points(s))
+
+    def compress(self, keep):
+        self.basis.compress(keep)
+        self.ks, self.links = self.ks[keep], self.links[keep]
+
+
+def _foreshortened(basis, tab: _Tables, st, ks, links):
+    """basis, wrapped in _Foreshortened when one of its links (P,) is stiffened."""
+    if tab.stiffened and np.isin(links, [i for i, *_ in tab.stiffened]).any():
+        return _Foreshortened(basis, tab, st, ks, links)
+    return basis
 
 
 class _State(NamedTuple):

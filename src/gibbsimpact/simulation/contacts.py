@@ -90,6 +90,12 @@ class Contacts:
 
       (the tables of lam_k and of max|psi_k| in (1): 1.1 times their maxima over 4097
       samples, as the old rule (1) took 1.1 times the maximum over 401).
+    * A stiffened link (formulation §15) is not straight along its axis: its points (the end
+      joint B included) move by u_f(x) = -1/2 int_0^x (v'^2 + w'^2), so p(s) - c(s) = R_i (a(s), phi(s)),
+      a(s) = u_f(s l) - s u_f(l) = s int_x^l |u_f'| - (1 - s) int_0^x |u_f'|, each term in [0, u l M],
+      M = max_x |u_f'| <= 1/2 (sum_k |delta_k| mu_k)^2 (mu_k: 1.1 times the sampled max_x |psi_k'(x)|
+      [1/m]). So |a(s)| <= Lam_f u, Lam_f = l/2 (sum_k |delta_k| mu_k)^2 [m]: such a link takes
+      Lam + Lam_f for Lam in (2) - (5), and 2 D_i + Lam_f / 4 for 2 D_i in (1) (max |a| <= Lam_f / 4).
 
     Skip rule, per (wall, link), with t = min(g_A, g_B, refine_below), h_A = g_A - t >= 0,
     h_B = g_B - t >= 0: the pair is skipped when one of these holds, each of which gives
@@ -172,7 +178,7 @@ class Contacts:
         model, N, F = self.model, self.N, len(self.flex)
         u = np.linspace(0.0, 1.0, self._TABLE_SAMPLES)
         inner = slice(1, -1)
-        table = np.zeros((N, 2 * F))
+        table, slopes = np.zeros((N, 2 * F)), np.zeros((N, F))
         self._pb_slopes = []
         for f, i in enumerate(self.flex):
             lk = model.chain.links[i]
@@ -185,12 +191,16 @@ class Contacts:
             for c in model.delta_index[i]:
                 q[c] = 1.0
                 v, w = link_deflection(model, q, i, x)
+                if lk.stiffened:   # mu_k = 1.1 max|psi_k'| [1/m]
+                    slopes[c, f] = 1.1 * float(np.max(np.hypot(*link_deflection(model, q, i, x, 1))))
                 q[c] = 0.0
                 # phi_k = (v, w)(s) - (1 - s) (v, w)(0) - s (v, w)(1); lam_k = max |phi_k| / (s (1 - s)).
                 phi = np.hypot(v - (1.0 - u) * v[0] - u * v[-1], w - (1.0 - u) * w[0] - u * w[-1])
                 table[c, f] = 1.1 * float(np.max(phi[inner] / (u[inner] * (1.0 - u[inner]))))
                 table[c, F + f] = 2.0 * 1.1 * float(np.max(np.hypot(v, w)))
         self._table = table
+        # Stiffened links' axial bound (class docstring): mu_k per column, and l_i (F,) [m]; None without one.
+        self._axial = (slopes, np.array([model.chain.links[i].length for i in self.flex])) if slopes.any() else None
         ends = end_joints(model)[self.flex]
         # The (link, wall) pairs of the skip rule: (f, w, a, b), a = b = -1 for a link without an
         # end joint (never skipped).
@@ -205,7 +215,13 @@ class Contacts:
         e = np.abs(qs)
         for slopes, jd, length in self._pb_slopes:
             e[:, slopes] *= np.abs(qs[:, jd, None]) / length
-        return e @ self._table
+        E = e @ self._table
+        if self._axial is not None:   # Lam_f = l/2 (sum_k |delta_k| mu_k)^2 (stiffened links: never Pb)
+            lam_f = 0.5 * self._axial[1] * (e @ self._axial[0]) ** 2
+            F = lam_f.shape[1]
+            E[:, :F] += lam_f
+            E[:, F:] += 0.25 * lam_f
+        return E
 
     def _event_gaps(self, qs, points, rules=True):
         """The compiled kernel.event_gaps for the states qs (K, N) with contact points (K, P, 3) [m]:
