@@ -282,6 +282,19 @@ def test_issue25_item5_dip_out_of_a_resting_end_is_caught_on_the_wall():
     assert lowest >= -contact_tol, lowest
 
 
+def _o1_and_first_cell(contacts, q, thetas, held):
+    """The gaps (O1, the first link column) (T, 2) [m] along the tilts thetas (T,) [rad] of q[2], without a
+    resting pair (free) and with the pairs held (W, C) resting (rest)."""
+    free, rest = [], []
+    for th in thetas:
+        q[2] = th
+        contacts.resting = None
+        free.append(contacts.gaps(q)[0, [0, contacts.n_joints]])
+        contacts.resting = lambda: held
+        rest.append(contacts.gaps(q)[0, [0, contacts.n_joints]])
+    return np.array(free), np.array(rest)
+
+
 def test_a_resting_link_column_stays_continuous_at_the_link_end():
     """A resting span point rolls to its link's end (the FE arm of test_fe_arm_strikes_a_wall: its rolling
     contact reached O1 and the column jumped from 0 to NOT_INTERIOR, so its drift event fired at every phase
@@ -301,14 +314,7 @@ def test_a_resting_link_column_stays_continuous_at_the_link_end():
     held = np.zeros((1, contacts.n_cols), dtype=bool)
     held[0, P] = True
     thetas = np.linspace(-0.004, 0.001, 51)          # x* from 0.1 m to the end x = 0
-    free, rest = [], []
-    for th in thetas:
-        q[2] = th
-        contacts.resting = None
-        free.append(contacts.gaps(q)[0, [0, P]])
-        contacts.resting = lambda: held
-        rest.append(contacts.gaps(q)[0, [0, P]])
-    free, rest = np.array(free), np.array(rest)
+    free, rest = _o1_and_first_cell(contacts, q, thetas, held)
     at_end = thetas > -1e-12                         # theta >= 0: the lowest point is O1 itself
     assert np.all(free[at_end, 1] == NOT_INTERIOR) and np.all(free[~at_end, 1] < free[~at_end, 0])
     np.testing.assert_allclose(rest[at_end, 1], rest[at_end, 0], atol=1e-15)
@@ -326,21 +332,13 @@ def test_the_cell_next_to_a_resting_end_is_continuous_with_that_end():
     link = gi.Link(1.0, 1.0, (20.0, 20.0), elements=2, geometric_stiffening=False)
     model = gi.Model(gi.Chain([link], base="planar"))
     contacts = Contacts(model, (gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)),))
-    P = model.n_joints
     q = np.zeros(model.n_dof)
     q[:3] = (-0.5, 0.0, 0.0)                       # O1 on the floor
     q[3:7] = (0.02 * 0.25, 0.02, 0.02, 0.04)       # v = 0.02 x^2: the minimum sits at x = -tan(theta) / 0.04
     o1 = np.zeros((1, contacts.n_cols), dtype=bool)
     o1[0, 0] = True
     thetas = np.linspace(0.001, -0.004, 51)        # the dip grows out of O1 (x* from the end to 0.1 m)
-    free, rest = [], []
-    for th in thetas:
-        q[2] = th
-        contacts.resting = None
-        free.append(contacts.gaps(q)[0, [0, P]])
-        contacts.resting = lambda: o1
-        rest.append(contacts.gaps(q)[0, [0, P]])
-    free, rest = np.array(free), np.array(rest)
+    free, rest = _o1_and_first_cell(contacts, q, thetas, o1)
     at_end = thetas > -1e-12
     assert np.all(free[at_end, 1] == NOT_INTERIOR)
     np.testing.assert_allclose(rest[at_end, 1], rest[at_end, 0], atol=1e-15)
