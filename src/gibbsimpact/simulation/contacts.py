@@ -147,10 +147,12 @@ class Contacts:
         # resting : None or callable () -> (W, C) bool, the pairs resting now (contact.resting.RestingContacts
         # .active): a resting link column stays continuous at its link's ends (gaps_batch).
         self.resting, self._resting_key = None, None
-        # The end joint at each link column's cell (F, 2): (proximal, distal) for the link's first / last cell, else -1.
+        # The end joint at each link column's cell (F, 2): (proximal, distal) for the link's first / last cell, else -1;
+        # -1 for a link with one cell (its closest point: not watched so, a modal rod resting at both ends then
+        # crawled, tests/simulation/test_accumulation.py; see end_held).
         ends = end_joints(model)
         self._cell_ends = np.array([(ends[i, 0] if c == 0 else -1, ends[i, 1] if c == m - 1 else -1)
-                                    for i, c, m in self.cells], dtype=int).reshape(-1, 2)
+                                    if m > 1 else (-1, -1) for i, c, m in self.cells], dtype=int).reshape(-1, 2)
         # The compiled event gaps (kernel.event_gaps): packed walls, and the skip rule's (link,
         # wall) pairs (f, w, a, b) with their tables (_bound_tables).
         for w in walls:
