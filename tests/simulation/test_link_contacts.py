@@ -316,6 +316,19 @@ def test_issue25_item5_dip_out_of_a_resting_end_is_caught_on_the_wall():
     assert lowest >= -contact_tol, lowest
 
 
+def _o1_and_first_cell(contacts, q, thetas, held):
+    """The gaps (O1, the first link column) (T, 2) [m] along the tilts thetas (T,) [rad] of q[2], without a
+    resting pair (free) and with the pairs held (W, C) resting (rest)."""
+    free, rest = [], []
+    for th in thetas:
+        q[2] = th
+        contacts.resting = None
+        free.append(contacts.gaps(q)[0, [0, contacts.n_joints]])
+        contacts.resting = lambda: held
+        rest.append(contacts.gaps(q)[0, [0, contacts.n_joints]])
+    return np.array(free), np.array(rest)
+
+
 def test_a_resting_link_column_stays_continuous_at_the_link_end():
     """A resting span point rolls to its link's end (the FE arm of test_fe_arm_strikes_a_wall: its rolling
     contact reached O1 and the column jumped from 0 to NOT_INTERIOR, so its drift event fired at every phase
@@ -335,18 +348,39 @@ def test_a_resting_link_column_stays_continuous_at_the_link_end():
     held = np.zeros((1, contacts.n_cols), dtype=bool)
     held[0, P] = True
     thetas = np.linspace(-0.004, 0.001, 51)          # x* from 0.1 m to the end x = 0
-    free, rest = [], []
-    for th in thetas:
-        q[2] = th
-        contacts.resting = None
-        free.append(contacts.gaps(q)[0, [0, P]])
-        contacts.resting = lambda: held
-        rest.append(contacts.gaps(q)[0, [0, P]])
-    free, rest = np.array(free), np.array(rest)
+    free, rest = _o1_and_first_cell(contacts, q, thetas, held)
     at_end = thetas > -1e-12                         # theta >= 0: the lowest point is O1 itself
     assert np.all(free[at_end, 1] == NOT_INTERIOR) and np.all(free[~at_end, 1] < free[~at_end, 0])
     np.testing.assert_allclose(rest[at_end, 1], rest[at_end, 0], atol=1e-15)
     assert np.abs(np.diff(rest[:, 1])).max() <= 2.0 * (thetas[1] - thetas[0])
+
+
+def test_the_cell_next_to_a_resting_end_is_continuous_with_that_end():
+    """Issue 25, the flat-dropped beam (docs/theory.md §15.3, a dip out of a resting end): while O1 rests, the
+    column of the link's first cell is the cell's minimum over the closed cell, continuous as a dip grows out of
+    O1 (|dg| <= (1 + l) |dtheta|) and equal to O1's gap while the minimum is O1 itself; before, it was
+    NOT_INTERIOR there and jumped to ~g(O1) when the dip went below O1, a value its hit at g = 0 could miss.
+    Without a resting pair the column is NOT_INTERIOR at the end, as before (O1 stands for it)."""
+    from gibbsimpact.simulation.contacts import NOT_INTERIOR, Contacts
+
+    link = gi.Link(1.0, 1.0, (20.0, 20.0), elements=2, geometric_stiffening=False)
+    model = gi.Model(gi.Chain([link], base="planar"))
+    contacts = Contacts(model, (gi.Plane((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)),))
+    q = np.zeros(model.n_dof)
+    q[:3] = (-0.5, 0.0, 0.0)                       # O1 on the floor
+    q[3:7] = (0.02 * 0.25, 0.02, 0.02, 0.04)       # v = 0.02 x^2: the minimum sits at x = -tan(theta) / 0.04
+    o1 = np.zeros((1, contacts.n_cols), dtype=bool)
+    o1[0, 0] = True
+    thetas = np.linspace(0.001, -0.004, 51)        # the dip grows out of O1 (x* from the end to 0.1 m)
+    free, rest = _o1_and_first_cell(contacts, q, thetas, o1)
+    at_end = thetas > -1e-12
+    assert np.all(free[at_end, 1] == NOT_INTERIOR)
+    np.testing.assert_allclose(rest[at_end, 1], rest[at_end, 0], atol=1e-15)
+    # the dip's depth below O1: v(x*) - v(0) + x* tan(theta) = -tan(theta)^2 / 0.08 (closed form, small theta)
+    dip = np.tan(thetas[~at_end]) ** 2 / 0.08
+    np.testing.assert_allclose(rest[~at_end, 1] - rest[~at_end, 0], -dip * np.cos(thetas[~at_end]), rtol=1e-6,
+                               atol=1e-12)
+    assert np.abs(np.diff(rest[:, 1])).max() <= 2.0 * abs(thetas[1] - thetas[0])
 
 
 def test_a_dip_out_of_a_resting_tip_of_a_stiffened_arm_fires_its_hit_at_the_floor():

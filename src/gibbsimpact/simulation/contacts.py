@@ -16,7 +16,7 @@ from ..contact.impact import actuator_impulses, held_impulses, solve_impulses
 from ..dynamics.kinematics import joint_positions, joint_positions_and_jacobians, joint_positions_batch
 from .results import ImpactRecord
 from ..contact.walls import has_obstacle, packed_walls, tangent_basis
-from ..contact.candidates import body_candidates
+from ..contact.candidates import body_candidates, end_joints
 from ..contact.span_cells import link_cells, link_minima
 from ..dynamics.link_points import body_centers, body_jacobian, body_tables
 
@@ -153,6 +153,12 @@ class Contacts:
         # resting : None or callable () -> (W, C) bool, the pairs resting now (contact.resting.RestingContacts
         # .active): a resting link column stays continuous at its link's ends (gaps_batch).
         self.resting, self._resting_key = None, None
+        # The end joint at each link column's cell (F, 2): (proximal, distal) for the link's first / last cell, else -1;
+        # -1 for a link with one cell (its closest point: not watched so, a modal rod resting at both ends then
+        # crawled, tests/simulation/test_accumulation.py; see end_held).
+        ends = end_joints(model)
+        self._cell_ends = np.array([(ends[i, 0] if c == 0 else -1, ends[i, 1] if c == m - 1 else -1)
+                                    if m > 1 else (-1, -1) for i, c, m in self.cells], dtype=int).reshape(-1, 2)
         # The compiled event gaps (kernel.event_gaps): packed walls, and the skip rule's (link,
         # wall) pairs (f, w, a, b) with their tables (_bound_tables).
         for w in walls:
@@ -172,7 +178,6 @@ class Contacts:
         point: searched always); _pb_slopes: (slope indices, d index, l_i) of the Pb links
         (e_k = delta_k d / l_i for a slope).
         """
-        from ..contact.candidates import end_joints
         from ..model.shapes import link_deflection
 
         model, N, F = self.model, self.N, len(self.flex)
@@ -252,11 +257,30 @@ class Contacts:
         return out if np.ndim(q) == 2 else out[0]
 
     def _held(self):
-        """(W, F) bool, the resting link columns, or None when none rests."""
+        """(W, F) bool, the link columns whose event gap is the cell's minimum wherever it lies (the resting
+        columns and those of end_held), or None when none is."""
         if self.resting is None or not self.flex:
             return None
-        held = self.resting()[:, self.n_joints:self.n_joints + len(self.flex)]
+        held = self.resting()[:, self.n_joints:self.n_joints + len(self.flex)] | self.end_held()
         return held if held.any() else None
+
+    def end_held(self) -> np.ndarray:
+        """(W, F) bool: the link columns of a cell at a link's end whose end joint rests on that wall (docs/theory.md
+        §15.3, a dip out of a resting end).
+
+        Such a cell's minimum sits at the resting end, g = g_end ~ 0, until an interior dip next to it goes
+        below the end: with NOT_INTERIOR there the column would jump from 1e300 to ~g_end and, with g_end
+        already below 0 by the end's allowed drift, no fall through 0 is left to fire. Their event gap is
+        the continuous minimum (1) of contact.span_cells over the closed cell instead, watched at the level
+        -contact_tol (stages._phase_events): the same level as the end's own drift event, so the end alone
+        fires it no earlier than its drift event would, and a dip is caught at g = -contact_tol at the latest.
+        """
+        W, F = len(self.walls), len(self.flex)
+        if self.resting is None or not F:
+            return np.zeros((W, F), dtype=bool)
+        active = np.concatenate((self.resting(), np.zeros((W, 1), dtype=bool)), axis=1)  # column -1: no end
+        ends = self._cell_ends  # (F, 2) joint column of the cell's link end, -1 for none
+        return active[:, ends[:, 0]] | active[:, ends[:, 1]]
 
     def _link_gaps(self, qs, need=None, out=None):
         """Link columns (K, W, F) [m], the closest points' abscissae x (K, W, F) [m], their normals

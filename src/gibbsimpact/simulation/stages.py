@@ -330,7 +330,12 @@ def _phase_events(run):
     sink_depth = max(1e-6 * s.contact_tol, 64 * np.finfo(float).eps * (1.0 + float(np.abs(run.y[:3]).max())))
     compliant = run.compliant
     skip = resting.active if compliant is None else resting.active | compliant.rows[:, None]
-    events, kinds = phase_events(run.near, g_start, run.band, sink_depth, skip=skip)
+    watched = _end_held(run) & ~skip
+    events, kinds = phase_events(run.near, g_start, run.band, sink_depth, skip=skip | watched)
+    if watched.any():  # a cell next to a resting end: its dip is caught at -contact_tol (Contacts.end_held)
+        rows = [(w, j, s.contact_tol, -1.0) for w, j in np.argwhere(watched)]
+        events = type(events)(*(np.concatenate((a, b)) for a, b in zip(events, event_spec(rows))))
+        kinds = kinds + [("hit", int(w), int(j)) for w, j, _, _ in rows]
     if compliant is not None:
         rows, compliant_kinds = compliant.events(g_start)
         events = type(events)(*(np.concatenate((a, b)) for a, b in zip(events, event_spec(rows))))
@@ -357,6 +362,15 @@ def _phase_events(run):
         extras.append(chart_event(run.model))
         kinds = kinds + [("chart", -1, -1)]
     return events, kinds, _joined(extras)
+
+
+def _end_held(run) -> np.ndarray:
+    """(W, C) bool: the link columns of Contacts.end_held (a cell next to a resting end) as gap-matrix pairs."""
+    c = run.contacts
+    out = np.zeros(run.resting.active.shape, dtype=bool)
+    if c.flex:
+        out[:, c.n_joints:c.n_joints + len(c.flex)] = c.end_held()
+    return out
 
 
 def _joined(extras):
