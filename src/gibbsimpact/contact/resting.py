@@ -491,14 +491,20 @@ class RestingContacts:
         slipping : None or {(wall, point): s (3,)}: pairs whose sticking force just reached the
         cone (a "slip" event): they slip along s whatever their speed, so that a force exactly
         at the cone's edge does not stick and slip again at the same instant.
+        Q : (N,) the applied generalised forces, or a callable (q, qd) -> (N,): then evaluated at the
+        projected state (velocity-dependent forces such as structural damping change with the projection: taken
+        before it, a pressed FE arm's tip was set resting with lambda = 1.40 N that the phase then found to be
+        -1.42 N, and it stayed pulling on the floor to the end).
         """
         self.clear()
         if len(candidates) == 0:
             return q, qd
         candidates = np.asarray(candidates, dtype=int).reshape(-1, 2)
         mu = self.mu[candidates[:, 0]]
+        applied = Q if callable(Q) else (lambda q, qd: Q)
         if not np.any(mu > 0):
             q, qd = self.project(q, qd, candidates)
+            Q = applied(q, qd)
             d = self._data(q, qd, Q, candidates)
             lam = _solve_lcp(d.G, d.W.T @ d.qdd_free + d.c)
             on = lam > 1e-10 * max(float(lam.max(initial=0.0)), self.force_scale)
@@ -509,7 +515,7 @@ class RestingContacts:
         # others slip along their velocity. Then an active-set iteration: a negative normal force
         # leaves (the most negative first); a sticking force outside the cone |F_t| < mu N (or on
         # its edge) turns into slip against it (the largest excess first).
-        vt = _tangential(self._data(q, qd, Q, candidates))
+        vt = _tangential(self._data(q, qd, applied(q, qd), candidates))
         speed = np.linalg.norm(vt, axis=1)
         stick = (mu > 0) & (speed <= self.v_tol)
         sdir = np.where(speed[:, None] > 0, vt / np.maximum(speed, 1e-300)[:, None], 0.0)
@@ -519,6 +525,7 @@ class RestingContacts:
                 stick[a] = False
                 sdir[a] = s if speed[a] <= self.v_tol else sdir[a]
         q, qd = self.project(q, qd, candidates, stick)
+        Q = applied(q, qd)
         from_rest = (mu > 0) & (speed <= self.v_tol)  # a slip among these starts from rest
         on = self._active_set(q, qd, Q, candidates, stick, sdir, from_rest)
         slow = self._slow_slips(q, qd, Q, candidates, on, stick, sdir, from_rest)

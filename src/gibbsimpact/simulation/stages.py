@@ -290,7 +290,8 @@ def _decide_walls(run) -> bool:
     cand = resting.candidates(g, v, run.band, s.grazing_velocity, run.release, forced)
     if not (len(cand) or resting.any()):
         return False
-    Q, start = run.equations.applied(t, q, qd), (q, qd)
+    # The applied forces at the projected state: damping (-beta K delta_dot) changes with the projected velocities.
+    Q, start = (lambda q, qd: run.equations.applied(t, q, qd)), (q, qd)
     for _ in range(g.size):
         q, qd = resting.decide(*start, Q, cand, run.slipping)
         # The projection onto the candidates moves the others too: one pushed beyond the wall joins them.
