@@ -398,7 +398,7 @@ def _forces_at(run, T, Y):
         if stops.held.any():
             S[:, stops.held] = [run.equations.stop_forces(tk, yk[:N], yk[N:2 * N]) for tk, yk in zip(T, Y)]
     X = None
-    if run.resting.any() and run.resting.active[:, run.resting.n_joints:].any():
+    if run.resting.active[:, run.resting.n_joints:].any():   # some span point rests
         X = np.stack([run.resting.abscissa_matrix(yk[:N]) for yk in Y])
     return np.stack([f[0] for f in F]), np.stack([f[1] for f in F]), S, X
 
