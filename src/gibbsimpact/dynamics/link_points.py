@@ -215,6 +215,34 @@ def _frame_derivatives(model, q, qdot, i: int):
     return F[0, i, 0], F[0, i, 1], F[0, i, 2], F[1:, i, 1]
 
 
+def material_point_jacobians(model, q, i: int, xs):
+    """Positions p (K, 3) [m] and Jacobians J = dp/dq (K, 3, N) of link i's material points at xs (K,) [m],
+    vectorised over the points (the time-stepping grid, contact.span_grid): J[:, :, c] = (dT_i/dq_c r +
+    T_i dr/dq_c)[:3] as in material_jacobian, with r = (x, v, w, 1) and dr/d delta_k = e_dir psi_k(x) (a
+    stiffened link: u_f = -1/2 delta^T H delta added to r_x, -(H delta)_k to dr_x/d delta_k). Not for a link
+    sliding through a guide (Pb): ValueError. q (N,) is taken as checked."""
+    lk, N = model.chain.links[i], model.n_dof
+    if model.chain.joints[i].spec.guide:
+        raise ValueError(f"link {i + 1} slides through a guide: use material_jacobians for its points")
+    xs = np.asarray(xs, dtype=float)
+    T, _, _, dT = _frame_derivatives(model, q, np.zeros(N), i)
+    v, w = link_deflection(model, q, i, xs)
+    r = np.stack([xs, v, w, np.ones_like(xs)], axis=1)                  # (K, 4)
+    dr = np.zeros((xs.size, N, 4))
+    idx = model.delta_index[i]
+    if idx.size:
+        directions, psi = shape_functions(lk, xs, 0)                     # psi (m, K)
+        for k, (c, d) in enumerate(zip(idx, directions)):
+            dr[:, c, 1 if d == "y" else 2] = psi[k]
+        if lk.stiffened:
+            Hd = foreshortening_matrix(lk, xs) @ q[idx]                  # (K, m)
+            r[:, 0] -= 0.5 * (Hd @ q[idx])
+            dr[:, idx, 0] = -Hd
+    p = (r @ T.T)[:, :3]
+    J = np.einsum("cab,kb->kac", dT[:, :3], r) + np.einsum("ab,kcb->kac", T[:3], dr)
+    return p, J
+
+
 def material_jacobian(model, q, qdot, i: int, x: float):
     """Position, Jacobian and velocity-product acceleration of link i's material point at x.
 
