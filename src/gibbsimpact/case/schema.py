@@ -152,6 +152,7 @@ RANGES = {
     "solver.max_cpu_time_s": Range(1e-3, 1e9, "s", why="a millisecond to about 30 years"),
     "solver.max_rhs_calls": Range(1, 1e15, integer=True),
     "solver.cutoff_frequency_rad_per_s": Range(1e-3, 1e15, "rad/s"),
+    "solver.contact_step_s": Range(1e-9, 1.0, "s"),
     "output.dpi": Range(10, 1200, integer=True, why="up to journal line-art resolution"),
     "output.animation_fps": Range(1, 100, integer=True, why="GIF frame delays are whole hundredths of a second"),
     "output.animation_speed": Range(1e-12, 1e12),
@@ -189,6 +190,7 @@ SOLVER_KEYS = {
                                                  "budget_exceeded)"),
     "cutoff_frequency_rad_per_s": ("cutoff_frequency", "number", "Radau: modes above it are left out of the error "
                                                              "estimate (stepped over and damped), rad/s"),
+    "contact_step_s": ("contact_step", "number", "step of the time-stepping contact phases (a link's span at rest), s"),
 }
 #: [solver] string keys with a fixed set of values (and what each means).
 _SOLVER_CHOICES = {

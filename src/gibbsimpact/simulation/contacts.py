@@ -368,9 +368,10 @@ class Contacts:
             g[:, :, P + F:] = np.stack([w.gap(pb) for w in self.walls], axis=1)
         return g
 
-    def full(self, q: np.ndarray):
+    def full(self, q: np.ndarray, abscissae: bool = False):
         """g (W, C) [m], unit normals (W, C, 3), Jacobians (W, C, 3, N), points (W, C, 3) [m] and
-        valid (W, C) bool: the columns that can be candidates of an impact (joints; interior link points)."""
+        valid (W, C) bool: the columns that can be candidates of an impact (joints; interior link points);
+        with abscissae, sixth the abscissa x (W, C) [m] of each link column's point on its link (NaN elsewhere)."""
         p, Jac = joint_positions_and_jacobians(self.model, q)
         W, P = len(self.walls), self.n_joints
         g = np.array([w.gap(p) for w in self.walls]).reshape(W, P)
@@ -378,6 +379,7 @@ class Contacts:
         J = np.broadcast_to(Jac, (W,) + Jac.shape)
         pts = np.broadcast_to(p, (W,) + p.shape)
         valid = np.ones((W, P), dtype=bool)
+        xs = np.full((W, self.n_cols), np.nan)
         if self.flex:
             from ..contact.candidates import material_jacobian
 
@@ -390,6 +392,7 @@ class Contacts:
             g, nrm = np.concatenate((g, gl), axis=1), np.concatenate((nrm, nl), axis=1)
             J, pts = np.concatenate((J, Jl), axis=1), np.concatenate((pts, pl), axis=1)
             valid = np.concatenate((valid, inside), axis=1)
+            xs[:, P:P + F] = x
         if self.bodies:
             pb, Jb = zip(*(body_jacobian(self.model, q, i, b) for i, b in self.bodies))
             pb, Jb = np.array(pb), np.array(Jb)  # (B, 3), (B, 3, N)
@@ -398,7 +401,7 @@ class Contacts:
             J = np.concatenate((J, np.broadcast_to(Jb, (W,) + Jb.shape)), axis=1)
             pts = np.concatenate((pts, np.broadcast_to(pb, (W,) + pb.shape)), axis=1)
             valid = np.concatenate((valid, np.ones((W, len(pb)), dtype=bool)), axis=1)
-        return g, nrm, J, pts, valid
+        return (g, nrm, J, pts, valid, xs) if abscissae else (g, nrm, J, pts, valid)
 
 
 def gap_lipschitz(model) -> float:

@@ -82,7 +82,8 @@ class Recorder:
                                   balance=jump, chart=self.model.base_chart))
         self.n_impacts += 1
 
-    def flight(self, T, Y, phase, forces=None, friction=None, compliant=None, stops=None, where=None):
+    def flight(self, T, Y, phase, forces=None, friction=None, compliant=None, stops=None, where=None,
+               contact_work=None):
         """Samples T (K,), Y (K, 2N [+ 2 or 3 [+ 3 + N]]) of a flight phase that started at the last stored sample.
 
         forces : None or (K, W, P) [N], the resting-contact forces at the samples;
@@ -90,7 +91,9 @@ class Recorder:
         compliant : None or ((K, W, C) [N], (K, W, C, 3) [m]), the compliant contacts' normal forces and points
         (simulation.compliant), whose integrals are Y's last 3 + N columns;
         stops : None or (K, L) [N or N m], the forces of the held end stops;
-        where : None or (K, W, C) [m], the abscissae of the resting span points (NaN: a pair that does not rest).
+        where : None or (K, W, C) [m], the abscissae of the resting span points (NaN: a pair that does not rest);
+        contact_work : None or (K,) [J], the work of the contact impulses since the last stored sample (a stepped
+        contact phase, simulation.stepping), which the balance leaves out: it dissipates by design.
         """
         N = self.model.n_dof
         last = self.chunks[-1]
@@ -102,6 +105,8 @@ class Recorder:
         # All samples in one kernel call; the balance E(t) - E(start) - (W(t) - W(start)) per sample.
         E = energies(self.model, Y[:, :N], Y[:, N:2 * N])
         balance = E.total - E_start.total - (W.sum(axis=1) - W_start)
+        if contact_work is not None:
+            balance = balance - contact_work
         err = float(np.abs(balance).max() / scale) if T.size else 0.0
         extra = None if compliant is None else (*compliant, Y[:, 2 * N + nw:])
         self.chunks.append(Chunk(T, Y[:, :N], Y[:, N:2 * N], np.full(T.size, phase), W, E, err, None, forces,

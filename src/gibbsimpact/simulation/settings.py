@@ -113,6 +113,9 @@ class Settings:
         then step over them and damp them: their energy goes to the energy audit's numerical part
         (gibbsimpact.simulation.compiled_radau; the phases it does not run, resting contact among them, run
         scipy's Radau with the same error weights, simulation.cutoff_radau; docs/theory.md §14.1)
+    contact_step : [s] the step h of a time-stepping contact phase: with accumulation="rest", an accumulation of
+        impacts in which a point of a link's span takes part is stepped by Moreau-Jean's scheme until every
+        contact opens (gibbsimpact.simulation.stepping; docs/theory.md §15.5)
     """
 
     t0: float
@@ -143,6 +146,7 @@ class Settings:
     prescribed: object = None  # simulation.prescribed.Prescribed, or None: every coordinate free
     contact_filter: object = None  # None, or contact_filter(q) -> (C,) bool (simulation.contact_filter)
     cutoff_frequency: float | None = None  # [rad/s] modes above it left out of Radau's error estimate; None: none
+    contact_step: float = 1e-4  # [s] the step of a time-stepping contact phase (simulation.stepping)
 
     @classmethod
     def from_arguments(cls, t_span, walls, restitution, method, output_dt, progress, inputs, zeno_count,
@@ -214,6 +218,6 @@ class Settings:
             max_impacts=self.max_impacts, t_span=[self.t0, self.t_end], joint_limit=self.joint_limit,
             joint_restitution=self.joint_restitution, accumulation=self.accumulation,
             link_contacts=self.link_contacts, max_cpu_time=self.max_cpu_time, max_rhs_calls=self.max_rhs_calls,
-            cutoff_frequency=self.cutoff_frequency,
+            cutoff_frequency=self.cutoff_frequency, contact_step=self.contact_step,
             **extra,
         )

@@ -102,6 +102,7 @@ from .budget import BudgetExceeded
 from .progress import Clock, progress_reporter
 from .results import Result
 from .settings import Settings
+from .stepping import contact_phase
 from .stages import chart, check, dispatch, finish, flight, impact, interrupted, mode, start, stopped_inside
 from .validity import warn_result
 
@@ -113,7 +114,7 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
              inputs=None, joint_limit: str = "stop", joint_restitution: float = 0.5, accumulation: str = "rest",
              link_contacts: bool = True, max_cpu_time: float | None = None, max_rhs_calls: int | None = None,
              prescribed: dict | None = None, contact_filter=None, cutoff_frequency: float | None = None,
-             _in_step_check: bool = True) -> Result:
+             contact_step: float = 1e-4, _in_step_check: bool = True) -> Result:
     """Simulate flight phases, impacts and resting contact from (q0, qdot0) over t_span (module docstring).
 
     Each option in full, with its units and rules: gibbsimpact.simulation.settings.Settings.
@@ -137,6 +138,7 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
     contact_filter : None or contact_filter(q) -> (C,) bool: where contacts may begin
     max_cpu_time [s], max_rhs_calls : None or the budget after which the run stops ("budget_exceeded")
     cutoff_frequency : None or [rad/s]: Radau leaves the modes above it out of its error estimate
+    contact_step : [s] the step of the time-stepping contact phases (an accumulation at a link's span)
     _in_step_check : private; False leaves solve_ivp's sign test at step ends only (benchmarks, tests)
 
     Returns
@@ -156,7 +158,7 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
         contact_tol=contact_tol, grazing_velocity=grazing_velocity, penetration_tol=penetration_tol,
         zeno_interval=zeno_interval, in_step_check=_in_step_check, max_cpu_time=max_cpu_time,
         max_rhs_calls=max_rhs_calls, prescribed=prescribed, cutoff_frequency=cutoff_frequency,
-        state=(model, q0, qdot0), contact_filter=contact_filter)
+        state=(model, q0, qdot0), contact_filter=contact_filter, contact_step=contact_step)
     with progress_reporter(settings.progress, settings.t0, settings.t_end) as report:
         run = start(model, q0, qdot0, settings, Clock(report))
         try:
@@ -174,11 +176,15 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
 
 
 def _loop(run) -> None:
-    """The stages (module docstring) until the run stops: impact, contact mode, chart, flight, check, dispatch."""
+    """The stages (module docstring) until the run stops: impact, contact mode, chart, flight, check, dispatch;
+    a stepped contact phase (simulation.stepping) in place of the last four while run.stepping."""
     while run.status is None:
         impact(run)
         if run.status is not None:
             break
+        if run.stepping:  # an accumulation at a link's span: a time-stepping contact phase
+            contact_phase(run)
+            continue
         mode(run)
         if run.t >= run.settings.t_end:
             run.end("t_end", t_end=run.settings.t_end)

@@ -29,6 +29,7 @@ from .outside import outside_walls, point_name
 from .recorder import Recorder
 from .results import Result
 from .status import STATUS_FINISHED, stop
+from .stepping import can_step
 from .validity import warn_impact, warn_state
 
 #: Budget of contact-mode events (release, slip, stick, drift, speed) of one run: a contact mode that keeps
@@ -74,8 +75,10 @@ class Run:
     compliant: CompliantContacts | None = None  # the compliant walls' pairs (simulation.compliant), or None
     charting: bool = False  # the free base is re-charted (simulation.charts); model is then the current chart's
     pending_chart: bool = False  # the last phase ended at the chart event: re-chart before the next one
+    stepping: bool = False  # a time-stepping contact phase is under way (simulation.stepping)
+    grid: object = None  # the links' grid points of stepped phases (contact.span_grid.SpanGrid), built on first use
     counters: dict = field(default_factory=lambda: {"n_steps": 0, "n_examined": 0, "resting_time": 0.0,
-                                                    "mode_events": 0})
+                                                    "mode_events": 0, "contact_steps": 0, "stepped_phases": 0})
 
     @property
     def N(self) -> int:
@@ -184,8 +187,16 @@ def gap_functions(run):
 # -- impact ------------------------------------------------------------------------------------
 
 def _accumulation(run, accumulation) -> None:
-    """An accumulation of impacts: its pairs go on resting, unless that cannot be (status "zeno")."""
+    """An accumulation of impacts: a stepped contact phase when a span point takes part (simulation.stepping),
+    else its pairs go on resting, unless that cannot be (status "zeno")."""
     rest = run.settings.accumulation == "rest" and bool(run.settings.walls)
+    P = run.model.n_joints
+    if rest and run.monitor.recent_pairs()[:, P:P + len(run.contacts.flex)].any() and can_step(run):
+        run.stepping, run.pending_mode = True, False
+        run.counters["stepped_phases"] += 1
+        run.resting.clear()
+        run.monitor.reset()
+        return
     run.forced = run.monitor.recent_pairs() & run.resting.can_rest
     unresolved = run.monitor.unresolved(run.resting.can_rest) if rest else None
     why = ("accumulation='stop'" if not rest else
@@ -228,7 +239,7 @@ def impact(run) -> None:
             if run.recorder.n_impacts >= s.max_impacts:
                 run.end("max_impacts", max_impacts=s.max_impacts, t=run.t)
                 return
-        run.pending_mode = s.accumulation == "rest" and bool(s.walls) and s.prescribed is None
+        run.pending_mode = s.accumulation == "rest" and bool(s.walls) and s.prescribed is None and not run.stepping
     run.pending_impact = False
 
 
@@ -575,7 +586,7 @@ def finish(run, started: float) -> Result:
     return Result(
         model=run.model.chart_root, walls=walls, t=t_all, q=q_all, qdot=qdot_all, phase=phase_all,
         impacts=run.recorder.impacts, status=run.status, message=run.message,
-        settings={**run.settings.record(), **run.equations.radau_record()},
+        settings={**run.settings.record(), **run.equations.radau_record(), **_stepped(run)},
         nfev=run.equations.nfev, n_steps=run.counters["n_steps"], n_examined=run.counters["n_examined"],
         wall_time=time.perf_counter() - started, energy_error=run.recorder.energy_error,
         energy_error_whole_run_J=run.recorder.balance_J,
@@ -588,6 +599,13 @@ def finish(run, started: float) -> Result:
             run.recorder.compliant_arrays(run.compliant.active.shape)),
             compliant_contacts=list(run.compliant.log))),
     )
+
+
+def _stepped(run) -> dict:
+    """For Result.settings: {"stepped_phases": k, "contact_steps": n} of a run with time-stepping contact phases
+    (simulation.stepping); {} else."""
+    c = run.counters
+    return {"stepped_phases": c["stepped_phases"], "contact_steps": c["contact_steps"]} if c["stepped_phases"] else {}
 
 
 def _efforts(run, t, q, qdot) -> dict:
