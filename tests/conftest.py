@@ -38,6 +38,20 @@ def single_link_sphere_state(model):
     return q, qd
 
 
+#: (beta_k l) of a clamped-clamped beam, k = 1, 2, 3 (roots of cos z cosh z = 1; Blevins, Formulas for Natural
+#: Frequency and Mode Shape, table 8-1).
+CLAMPED_CLAMPED_ROOTS = (4.730040745, 7.853204624, 10.99560784)
+
+
+def welded_beam_model(EI=50.0, mu=2.0, length=1.5):
+    """One link welded to a fixed base with the first three clamped-clamped y-modes, no gravity: N = 3 and no
+    rigid motion, so its frequencies are the beam's, (beta_k l)^2 sqrt(EI / (mu l^4)) (the assumed modes are its
+    eigenfunctions): 54.80, 137.05, 268.67 rad/s as given."""
+    link = gi.Link(length, mu, EI, modes=[gi.Mode("clamped-clamped", "y", k) for k in (1, 2, 3)],
+                   geometric_stiffening=False)
+    return gi.Model(gi.Chain([link], joints=[gi.Weld()], base=gi.FixedBase()), gravity=(0.0, 0.0, 0.0))
+
+
 def random_state(model, rng, angle=0.8, delta=0.05, speed=1.0):
     """A random (q, qdot) away from gimbal lock (|theta_0| < 0.8 rad)."""
     N = model.n_dof
