@@ -15,7 +15,7 @@ import pytest
 import gibbsimpact as gi
 from gibbsimpact.cli import commands as cli
 from gibbsimpact.simulation.auto import choose_method
-from conftest import CLAMPED_CLAMPED_ROOTS, welded_beam_model
+from conftest import CLAMPED_CLAMPED_ROOTS, warning_run, welded_beam_model
 from test_commands import CASES, run_main  # the command line in-process, compile notices dropped from stderr
 
 
@@ -79,6 +79,17 @@ def test_show_of_a_result_saved_from_python_has_no_case_name(case1_run, tmp_path
     path = res.save(tmp_path / "mine.npz")
     code, text, err = run_main(["show", path], capsys)
     assert code == 0 and text.startswith(f"saved run ({path})")
+
+
+def test_show_repeats_the_validity_warnings_the_run_issued(tmp_path, capsys):
+    # A saved run's reader used to see none of the warnings its run gave (here: a link bent 0.15 l at t0,
+    # Newton's law at a finite element's tip, a link spinning 3.2 omega_1): show now prints them on stderr, in
+    # run's words, the messages simulate issued (conftest.warning_run).
+    res, live = warning_run()
+    path = res.save(tmp_path / "warned.npz")
+    code, text, err = run_main(["show", path], capsys)
+    assert code == 0 and text.startswith(f"saved run ({path})")
+    assert err.splitlines() == [f"gibbsimpact: {path}: validity warning: {m}" for m in live] and len(live) == 3
 
 
 @pytest.mark.parametrize("name, expected", [

@@ -1,6 +1,7 @@
 """What a run did, in lines of text: ``gibbsimpact run`` prints them after each run, and ``gibbsimpact show``
 prints them for a saved run (an output folder of ``run``, or any ``result.npz`` that Result.save or a sweep
-wrote), read back with gibbsimpact.load_result.
+wrote), read back with gibbsimpact.load_result, followed on stderr by the validity warnings the run issued
+(recomputed from the Result: simulation.validity.check_run).
 """
 
 from __future__ import annotations
@@ -114,11 +115,17 @@ def show_argument_error(argument) -> str | None:
 
 
 def describe_saved_result(path: Path) -> str:
-    """A saved run in words (what ``gibbsimpact show FOLDER|result.npz`` prints): where it came from, its model
-    and span, then run_report_lines. Raises ValueError or OSError when ``path`` is no readable result."""
+    """A saved run in words (what ``gibbsimpact show FOLDER|result.npz`` prints on stdout): saved_result_text of
+    the result at ``path``. Raises ValueError or OSError when ``path`` is no readable result."""
     from ..io.result_files import load_result
 
     result, meta = load_result(path, with_metadata=True)
+    return saved_result_text(result, meta, path)
+
+
+def saved_result_text(result, meta: dict, path: Path) -> str:
+    """A saved Result in words: where it came from (meta's case name, ``path``), its model and span, then
+    run_report_lines."""
     m = result.model
     case = f" of case {meta['case']}" if meta.get("case") else ""
     t_end = result.settings.get("t_span", [None, None])[1]
