@@ -262,23 +262,31 @@ def _foreshorten(model, wp: _WallParams, st, qs, x, best_g, best_p):
                                                                                 st.o[k, i])
 
 
-def _foreshortened_minimum(model, wp: _WallParams, q, i: int, xs, R, o, newton=True, bounds=None, slopes=False):
+def _foreshortened_minimum(model, wp: _WallParams, q, i: int, xs, R, o, newton=True, bounds=None, slopes=False,
+                           curve=None):
     """x (P,), p (P, 3), g (P,) [m] (slopes: and g', g'' (P,)): _foreshorten's minima of stiffened link i's gap to
     the walls wp (row by row) from xs (P,) [m], x kept in bounds (lo, hi) [m] (default [0, l]), fixed where newton
-    (P,) bool is False; R (3, 3), o (3,): the link's frame at q."""
+    (P,) bool is False; R (3, 3), o (3,): the link's frame at q; curve: _foreshortened_curve at xs if the caller
+    has it (else evaluated here).
+
+    The curve is evaluated once per distinct x: a Newton step that leaves every x as it is (a converged point,
+    the usual case: the search's own Newton has converged on this centreline; an end held by the clip) reuses
+    the evaluation it was computed from, which is the one a fresh evaluation would give."""
     length, xs = model.chain.links[i].length, np.array(xs, dtype=float)
     lo, hi = (0.0, length) if bounds is None else bounds
+    curve = _foreshortened_curve(model, q, i, xs, R, o) if curve is None else curve
     for _ in range(MAX_ITERATIONS if np.any(newton) else 0):
-        p, p1, p2 = _foreshortened_curve(model, q, i, xs, R, o)
-        g, _, g1, g2 = _gap_terms(wp, p, p1, p2)
+        g, _, g1, g2 = _gap_terms(wp, *curve)
         step = np.where((g2 > 0.0) & newton, -g1 / np.where(g2 > 0.0, g2, 1.0), 0.0)
         new = np.clip(xs + step, lo, hi)
         done = np.abs(new - xs).max() <= X_TOL * length
-        xs = new
+        if np.any(new != xs):
+            xs = new
+            curve = _foreshortened_curve(model, q, i, xs, R, o)
         if done:
             break
-    g, _, g1, g2 = _gap_terms(wp, *(curve := _foreshortened_curve(model, q, i, xs, R, o)))
-    return (xs, curve[0], g, g1, g2) if slopes else (xs, curve[0], g)
+    g, _, g1, g2 = _gap_terms(wp, *curve)
+    return (xs, curve[0], g, g1, g2, curve) if slopes else (xs, curve[0], g)
 
 
 def _foreshortened_curve(model, q, i, xs, R, o):
