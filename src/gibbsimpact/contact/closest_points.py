@@ -262,16 +262,10 @@ def _foreshorten(model, wp: _WallParams, st, qs, x, best_g, best_p):
                                                                                 st.o[k, i])
 
 
-def _foreshortened_minimum(model, wp: _WallParams, q, i: int, xs, R, o, newton=True, bounds=None, slopes=False,
-                           curve=None):
-    """x (P,), p (P, 3), g (P,) [m] (slopes: and g', g'' (P,)): _foreshorten's minima of stiffened link i's gap to
-    the walls wp (row by row) from xs (P,) [m], x kept in bounds (lo, hi) [m] (default [0, l]), fixed where newton
-    (P,) bool is False; R (3, 3), o (3,): the link's frame at q; curve: _foreshortened_curve at xs if the caller
-    has it (else evaluated here).
-
-    The curve is evaluated once per distinct x: a Newton step that leaves every x as it is (a converged point,
-    the usual case: the search's own Newton has converged on this centreline; an end held by the clip) reuses
-    the evaluation it was computed from, which is the one a fresh evaluation would give."""
+def _foreshortened_minimum(model, wp, q, i: int, xs, R, o, newton=True, bounds=None, slopes=False, curve=None):
+    """x (P,), p (P, 3), g (P,) [m] (slopes: and g', g'' (P,), the curve at x): _foreshorten's minima of stiffened link
+    i's gap to walls wp (row by row) from xs (P,) [m] in bounds (lo, hi) [m] (default [0, l]), fixed where newton (P,)
+    is False; R (3, 3), o (3,): link frame at q; curve: the curve at xs if known (one evaluation per distinct x)."""
     length, xs = model.chain.links[i].length, np.array(xs, dtype=float)
     lo, hi = (0.0, length) if bounds is None else bounds
     curve = _foreshortened_curve(model, q, i, xs, R, o) if curve is None else curve
@@ -281,8 +275,7 @@ def _foreshortened_minimum(model, wp: _WallParams, q, i: int, xs, R, o, newton=T
         new = np.clip(xs + step, lo, hi)
         done = np.abs(new - xs).max() <= X_TOL * length
         if np.any(new != xs):
-            xs = new
-            curve = _foreshortened_curve(model, q, i, xs, R, o)
+            xs, curve = new, _foreshortened_curve(model, q, i, new, R, o)
         if done:
             break
     g, _, g1, g2 = _gap_terms(wp, *curve)
