@@ -68,6 +68,14 @@ def search_models():
     q = np.zeros(modal.n_dof)
     q[:2], q[5], q[6:8] = (-0.5, 0.01), 0.005, (-0.001, 0.0005)
     yield "modal beam, 2 modes", modal, q, floor
+    # tests/contact/test_closest_points.py's tilted arm (3 stiffened elements, theta = -0.1 rad, element 3 bent so
+    # that its foreshortened gap dips 4e-5 m below the tip at x = 0.871 m), its base lowered so that the dip is
+    # 1e-4 m above the floor: a bracket refined on element 3, then confirmed on the foreshortened centreline.
+    arm = gi.Model(gi.Chain([gi.Link(1.0, 1.0, (20.0, 20.0), elements=3)], base=gi.FixedBase((0.0, 0.0668636))),
+                   gravity=(0.0, -9.81, 0.0))
+    q = np.array([-0.1, -0.008082050196454086, -0.02424615058936226, 0.0, 0.09698460235744903,
+                  0.03307266072537224, 0.10033467208545054])
+    yield "FE arm, dip refined", arm, q, floor
 
 
 def search_cost(calls=2000):
@@ -75,7 +83,7 @@ def search_cost(calls=2000):
     from gibbsimpact.contact import closest_points as cp
     from gibbsimpact.simulation.contacts import Contacts
 
-    print(f"{'model':<22} {'us/call before':>14} {'us/call after':>13}")
+    print(f"{'model':<22} {'us/call before':>14} {'us/call after':>13}  (before/after: without/with _hidden_brackets)")
     hidden = cp._hidden_brackets
     for name, model, q, walls in search_models():
         contacts = Contacts(model, walls)

@@ -38,6 +38,20 @@ def single_link_sphere_state(model):
     return q, qd
 
 
+#: (beta_k l) of a clamped-clamped beam, k = 1, 2, 3 (roots of cos z cosh z = 1; Blevins, Formulas for Natural
+#: Frequency and Mode Shape, table 8-1).
+CLAMPED_CLAMPED_ROOTS = (4.730040745, 7.853204624, 10.99560784)
+
+
+def welded_beam_model(EI=50.0, mu=2.0, length=1.5):
+    """One link welded to a fixed base with the first three clamped-clamped y-modes, no gravity: N = 3 and no
+    rigid motion, so its frequencies are the beam's, (beta_k l)^2 sqrt(EI / (mu l^4)) (the assumed modes are its
+    eigenfunctions): 54.80, 137.05, 268.67 rad/s as given."""
+    link = gi.Link(length, mu, EI, modes=[gi.Mode("clamped-clamped", "y", k) for k in (1, 2, 3)],
+                   geometric_stiffening=False)
+    return gi.Model(gi.Chain([link], joints=[gi.Weld()], base=gi.FixedBase()), gravity=(0.0, 0.0, 0.0))
+
+
 def random_state(model, rng, angle=0.8, delta=0.05, speed=1.0):
     """A random (q, qdot) away from gimbal lock (|theta_0| < 0.8 rad)."""
     N = model.n_dof
@@ -181,6 +195,20 @@ def issue26_arm(elements=1, EI=1e4, t_end=0.275, accumulation="rest"):
         warnings.simplefilter("ignore", gi.ValidityWarning)
         return gi.simulate(model, q0, np.zeros_like(q0), (0.0, t_end), walls=[ISSUE26_FLOOR],
                            accumulation=accumulation)
+
+
+def warning_run():
+    """The issue 26 arm (1 element) made soft (EI = 20 N m^2, omega_1 = 15.8 rad/s), bent 0.15 m at its tip and
+    thrown at the floor at 6 rad/s: each kind of run warning once (initial deflection, Newton at the element's
+    tip, the spin across the link); (the Result, the messages simulate issued, in order). 0.4 s of CPU."""
+    import warnings
+
+    model = issue26_model(elements=1, EI=20.0)
+    q0, qd0 = model.state(delta_1_1=-0.15), model.state(theta_1=-6.0)
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always", gi.ValidityWarning)
+        res = gi.simulate(model, q0, qd0, (0.0, 0.15), walls=[ISSUE26_FLOOR])
+    return res, [str(w.message) for w in record if issubclass(w.category, gi.ValidityWarning)]
 
 
 #: Issue 25 item 5 (the random tester's reproducer): four links, link 2 with a pinned-pinned and a

@@ -15,6 +15,7 @@ import pytest
 import gibbsimpact as gi
 from gibbsimpact.cli import commands as cli
 from gibbsimpact.simulation.auto import choose_method
+from conftest import CLAMPED_CLAMPED_ROOTS, warning_run, welded_beam_model
 from test_commands import CASES, run_main  # the command line in-process, compile notices dropped from stderr
 
 
@@ -80,6 +81,17 @@ def test_show_of_a_result_saved_from_python_has_no_case_name(case1_run, tmp_path
     assert code == 0 and text.startswith(f"saved run ({path})")
 
 
+def test_show_repeats_the_validity_warnings_the_run_issued(tmp_path, capsys):
+    # A saved run's reader used to see none of the warnings its run gave (here: a link bent 0.15 l at t0,
+    # Newton's law at a finite element's tip, a link spinning 3.2 omega_1): show now prints them on stderr, in
+    # run's words, the messages simulate issued (conftest.warning_run).
+    res, live = warning_run()
+    path = res.save(tmp_path / "warned.npz")
+    code, text, err = run_main(["show", path], capsys)
+    assert code == 0 and text.startswith(f"saved run ({path})")
+    assert err.splitlines() == [f"gibbsimpact: {path}: validity warning: {m}" for m in live] and len(live) == 3
+
+
 @pytest.mark.parametrize("name, expected", [
     ("missing.npz", "RESULT: '{p}': no such file; give a result .npz or the output folder of a run"),
     ("garbage.npz", "RESULT: '{p}': not a readable gibbsimpact result"),
@@ -132,6 +144,42 @@ def test_the_audit_line_of_a_run_with_a_cutoff_says_what_its_numerical_part_hold
     assert audit.startswith("energy audit [J]: inputs 0,")
     assert audit.endswith("(DOP853, cutoff 1.27e+04 rad/s: mostly the energy of the modes above it (given by "
                           "impacts, inputs or the initial state), stepped over and damped; docs/theory.md §14.1)")
+
+
+def test_the_report_of_a_run_with_a_cutoff_names_the_modes_it_steps_over(case1_run):
+    # The cutoff's line used to give the frequency alone: a user could not tell which modes Radau's error
+    # estimate left out. The line after the method names them: how many of the free-vibration modes at t0
+    # lie above the cutoff, and the lowest of them.
+    from gibbsimpact.cli.report import cutoff_line, run_report_lines
+
+    res = gi.load_result(case1_run[0] / "result.npz")
+    assert not any(line.startswith("cutoff") for line in run_report_lines(res))
+    res.settings["cutoff_frequency"] = 1.27e4
+    lines = run_report_lines(res)
+    assert lines[1].startswith("method:") and lines[2] == cutoff_line(res.model, res.q[0], 1.27e4)
+    # case 1: 9 coordinates, 3 rigid motions (free-flying, no gravity stiffness in X1, X2 and one angle), links'
+    # modes near 150 rad/s: none above 1.27e4 rad/s = 2.02e3 Hz
+    assert lines[2].startswith("cutoff 1.27e+04 rad/s (2.02e+03 Hz): none of the model's 6 free-vibration modes "
+                               "at t0 lies above it (the highest 1")
+
+
+def test_the_cutoff_line_counts_the_modes_above_it_against_the_beam_closed_form():
+    # welded_beam_model: a clamped-clamped beam, omega_k = (beta_k l)^2 sqrt(EI / (mu l^4)), as given 54.80,
+    # 137.05, 268.67 rad/s (Blevins' roots; the model's frequencies are these to 1e-8, test_stability)
+    from gibbsimpact.cli.report import cutoff_line
+
+    model = welded_beam_model()
+    omega = np.array(CLAMPED_CLAMPED_ROOTS) ** 2 * np.sqrt(50.0 / (2.0 * 1.5**4))
+    for cut, above in ((100.0, 2), (150.0, 1)):
+        low = omega[3 - above]
+        verb = "lies" if above == 1 else "lie"
+        assert cutoff_line(model, model.state(), cut) == (
+            f"cutoff {cut:.3g} rad/s ({cut / (2 * np.pi):.3g} Hz): {above} of the model's 3 free-vibration modes at "
+            f"t0 {verb} above it, the lowest at {low:.4g} rad/s ({low / (2 * np.pi):.4g} Hz): Radau leaves them out "
+            "of its error estimate and steps over them (their motion is not followed)")
+    assert cutoff_line(model, model.state(), 300.0) == (
+        f"cutoff 300 rad/s (47.7 Hz): none of the model's 3 free-vibration modes at t0 lies above it (the highest "
+        f"{omega[2]:.4g} rad/s): none is stepped over")
 
 
 def test_a_long_impact_list_points_to_where_every_impact_is(case1_run):

@@ -221,3 +221,22 @@ def test_a_beam_across_two_posts_rests_on_both_at_once(tmp_path):
     res.save(tmp_path / "r.npz")
     back = gi.load_result(tmp_path / "r.npz")
     np.testing.assert_array_equal(back.contact_abscissae, X)
+
+
+def test_a_refined_cell_minimum_is_not_refined_again(monkeypatch):
+    """The search's Newton refinement runs on the foreshortened centreline, so the foreshortening pass of the cells
+    (span_cells._foreshorten_cells) evaluates that curve once per call, at the cells' points; a second Newton pass
+    from the converged minimum moved x by an ulp and evaluated it again (docs/benchmarks.md, 1.49 -> 1.16 ms a call).
+    The arm of tests/contact/test_closest_points.py, its dip refined in cell 3 (stationary)."""
+    from gibbsimpact.contact import closest_points as cp
+
+    link = gi.Link(1.0, 1.0, (20.0, 20.0), elements=3)
+    model = gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.0668636))), gravity=(0.0, -9.81, 0.0))
+    q = np.array([-0.1, -0.008082050196454086, -0.02424615058936226, 0.0, 0.09698460235744903,
+                  0.03307266072537224, 0.10033467208545054])
+    calls = []
+    curve = cp._foreshortened_curve
+    monkeypatch.setattr(cp, "_foreshortened_curve", lambda *a: calls.append(a[3].copy()) or curve(*a))
+    cm = link_minima(model, q, [gi.Plane((0, 0, 0), (0, 1, 0))], link_cells(model, [0]))
+    assert cm.stationary[0].tolist() == [False, False, True] and cm.gap[0, 2] == pytest.approx(1e-4, abs=1e-6)
+    assert len(calls) == 1

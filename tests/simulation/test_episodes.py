@@ -137,3 +137,42 @@ def test_episodes_refuse_bad_input(rigid_arm):
     with pytest.raises(ValueError, match="result.settings has no contact_tol, rtol, atol"):
         episodes(by_hand)
     assert episodes(dataclasses.replace(rigid_arm, walls=())) == []
+
+
+def test_e_eff_of_a_newton_impact_sees_neither_the_stiffness_nor_the_cutoff():
+    """Case 1 with link 1 stiffened to EI = 1e9 N m^2, e = 1: auto runs Radau with the cutoff 1.27e4 rad/s, and its
+    first episode's e_eff is 0.693, not 1 (docs/theory.md §14.7, "A stiff link under a cutoff"). Neither the
+    cutoff nor a bug: a one-impact episode's e_eff is fixed by the impact alone, and Newton's law sets the impulse
+    from M, where link 1's mode takes its share of the effective mass however stiff it is. So e_eff is the
+    closed form (1 + e) rho - 1 of the published EI = 20 (rho = m_eff / m_eff,rigid at O2 along the normal, from
+    M and J), and only making link 1 rigid gives its own rho' (0.922: e_eff 0.844)."""
+    import copy
+    from pathlib import Path
+
+    from gibbsimpact.case import case_from_dict
+
+    source = gi.load_case(Path(__file__).resolve().parents[2] / "cases" / "circle_two_link.toml").source
+
+    def first(link1, **run):
+        src = copy.deepcopy(source)
+        src["links"][0].update(link1)
+        if link1.get("modes") == []:
+            del src["initial"]["coordinates"]["delta_1_1_m"]
+        res = case_from_dict(src, name="c").simulate(t_end=0.46, **run)
+        return res, res.impacts[0], res.episodes[0]
+
+    def rho(model, q, n):
+        rigid = gi.Model(gi.Chain([gi.Link(1.0, 1.0, 20.0)] * 2), gravity=model.gravity)
+        w, wr = (m.joint_jacobians(qq)[1].T @ n for m, qq in ((model, q), (rigid, q[:7])))
+        return (wr @ np.linalg.solve(rigid.mass_matrix(q[:7]), wr)) / (w @ np.linalg.solve(model.mass_matrix(q), w))
+
+    stiff, rec, ep = first({"EI_N_m2": 1e9}, method="auto")
+    assert stiff.settings["method"] == "Radau" and stiff.settings["cutoff_frequency"] == pytest.approx(1.27e4, rel=1e-2)
+    q = stiff.q[ep.samples[0]]  # falling freely, undeformed: coordinates (X, theta_-1 .. theta_2, delta_1_1, delta_2_1)
+    assert ep.impacts == (0,) and ep.non_contact_share < 1e-6
+    r = rho(stiff.model, q, rec.normals[0])
+    assert r == pytest.approx(0.8466, abs=1e-4) and ep.restitution == pytest.approx(2.0 * r - 1.0, abs=1e-8)
+    rigid1, rec1, ep1 = first({"modes": []})
+    assert rec1.time == pytest.approx(rec.time, abs=1e-9)
+    r1 = rho(rigid1.model, np.delete(q, stiff.model.delta_index[0]), rec1.normals[0])
+    assert r1 == pytest.approx(0.922, abs=1e-3) and ep1.restitution == pytest.approx(2.0 * r1 - 1.0, abs=1e-8)

@@ -180,6 +180,18 @@ def test_newton_at_a_finite_element_tip_warns_once_at_its_first_impact():
     assert Path(newton[0].filename).name == "test_validity.py"  # the line that called simulate
 
 
+def test_check_run_recomputes_the_warnings_a_run_issued():
+    # gibbsimpact show prints a saved run's warnings from check_run: the same messages, in the same order, as
+    # the run issued while it ran (a second route: warn_state at the start, warn_impact in the loop, warn_result
+    # at the end), also after a save and load.
+    from conftest import warning_run
+
+    res, live = warning_run()
+    assert [m.split(" ")[0] for m in live] == ["link", "Newton's", "link"]
+    assert "initial peak deflection 0.15 m" in live[0] and "turns across its axis" in live[2]
+    assert validity.check_run(res) == live
+
+
 def test_check_impact_names_the_point_and_only_ill_posed_ones():
     from conftest import issue26_model, two_link_circle_model
 

@@ -26,7 +26,7 @@ from .common import (EXIT_BAD_INPUT, EXIT_CODES, EXIT_INTERNAL, EXIT_INTERRUPTED
                      EXIT_OUTPUT, EXIT_STOPPED, _error, _float, _load, _positive_int, _worst, add_limit_options,
                      add_method_option, add_rtol_option)
 from .outputs import OUTPUT_FILES, clear_outputs, output_names, write_outputs
-from .report import describe_saved_result, saved_result_path, show_argument_error
+from .report import saved_result_path, saved_result_text, show_argument_error
 from .run import cmd_run
 
 # Public names of gibbsimpact.cli (its __init__ takes them from here), the run's from cli/run.py and outputs.py.
@@ -401,12 +401,19 @@ def _show_saved(argument, path: Path, shown: int) -> int:
     if not path.is_file():
         return _error(f"RESULT: {argument!r}: no such file; give a result .npz or the output folder of a run",
                       EXIT_BAD_INPUT)
+    from ..io.result_files import load_result
+    from ..simulation.validity import check_run
+
     try:
-        text = describe_saved_result(path)
+        result, meta = load_result(path, with_metadata=True)
+        text = saved_result_text(result, meta, path)
     except (ValueError, OSError, KeyError, zipfile.BadZipFile) as exc:
         return _error(f"RESULT: {argument!r}: not a readable gibbsimpact result ({exc}); give the result.npz "
                       "that 'gibbsimpact run', Result.save or a sweep wrote", EXIT_BAD_INPUT)
     print(("\n" if shown else "") + text, flush=True)
+    # The warnings the run issued (run prints them on stderr in these words), recomputed from the saved Result.
+    for msg in check_run(result):
+        print(f"gibbsimpact: {argument}: validity warning: {msg}", file=sys.stderr)
     return EXIT_OK
 
 

@@ -1,13 +1,18 @@
 """What a run did, in lines of text: ``gibbsimpact run`` prints them after each run, and ``gibbsimpact show``
 prints them for a saved run (an output folder of ``run``, or any ``result.npz`` that Result.save or a sweep
-wrote), read back with gibbsimpact.load_result.
+wrote), read back with gibbsimpact.load_result, followed on stderr by the validity warnings the run issued
+(recomputed from the Result: simulation.validity.check_run).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
+from ..simulation.auto import RIGID_ROUNDOFF
 from ..simulation.charts import recharts_text
+from ..simulation.stability import free_vibration_frequencies
 
 #: Impacts listed one per line; the others are counted (impacts.csv has them all).
 SHOWN_IMPACTS = 20
@@ -26,6 +31,8 @@ def run_report_lines(result) -> list[str]:
     """
     E = result.energy()
     lines = [f"status: {result.status} ({result.message})", _method_line(result.settings)]
+    if isinstance(result.settings.get("cutoff_frequency"), (int, float)):
+        lines.append(cutoff_line(result.model_at(0), result.q[0], result.settings["cutoff_frequency"]))
     for k, rec in enumerate(result.impacts[:SHOWN_IMPACTS], start=1):
         joints = "+".join(f"end stop of joint {j}" if w < 0 else f"O{j}" for j, w in zip(rec.joints, rec.wall))
         lines.append(f"  impact {k}: t = {rec.time:.6f} s  {joints}")
@@ -61,6 +68,25 @@ def _method_line(settings: dict) -> str:
     return line
 
 
+def cutoff_line(model, q0, cutoff: float) -> str:
+    """One line: which of the model's free-vibration modes at q0 (N,) [m, rad] lie above the cutoff frequency
+    [rad/s] (how many, and the lowest of them in rad/s and Hz), i.e. which modes the run's Radau left out of its
+    error estimate and stepped over (simulation.stability.free_vibration_frequencies; docs/theory.md §14.1).
+    Frequencies below RIGID_ROUNDOFF of the highest are rigid motions, not counted as modes."""
+    omega = free_vibration_frequencies(model, q0)
+    omega = omega[omega > RIGID_ROUNDOFF * omega.max(initial=0.0)]
+    above = omega[omega > cutoff]
+    head = f"cutoff {cutoff:.3g} rad/s ({cutoff / (2 * np.pi):.3g} Hz): "
+    if above.size == 0:
+        top = f" (the highest {omega[-1]:.4g} rad/s)" if omega.size else ""
+        return head + (f"none of the model's {omega.size} free-vibration modes at t0 lies above it{top}: none is "
+                       "stepped over")
+    verb = "lies" if above.size == 1 else "lie"
+    return head + (f"{above.size} of the model's {omega.size} free-vibration modes at t0 {verb} above it, the lowest "
+                   f"at {above[0]:.4g} rad/s ({above[0] / (2 * np.pi):.4g} Hz): Radau leaves them out of its error "
+                   "estimate and steps over them (their motion is not followed)")
+
+
 def saved_result_path(argument) -> Path | None:
     """The result file a ``show`` argument names (a ``.npz`` file, or a folder holding RESULT_FILE), else None:
     the argument is then a case file."""
@@ -89,11 +115,17 @@ def show_argument_error(argument) -> str | None:
 
 
 def describe_saved_result(path: Path) -> str:
-    """A saved run in words (what ``gibbsimpact show FOLDER|result.npz`` prints): where it came from, its model
-    and span, then run_report_lines. Raises ValueError or OSError when ``path`` is no readable result."""
+    """A saved run in words (what ``gibbsimpact show FOLDER|result.npz`` prints on stdout): saved_result_text of
+    the result at ``path``. Raises ValueError or OSError when ``path`` is no readable result."""
     from ..io.result_files import load_result
 
     result, meta = load_result(path, with_metadata=True)
+    return saved_result_text(result, meta, path)
+
+
+def saved_result_text(result, meta: dict, path: Path) -> str:
+    """A saved Result in words: where it came from (meta's case name, ``path``), its model and span, then
+    run_report_lines."""
     m = result.model
     case = f" of case {meta['case']}" if meta.get("case") else ""
     t_end = result.settings.get("t_span", [None, None])[1]

@@ -262,23 +262,24 @@ def _foreshorten(model, wp: _WallParams, st, qs, x, best_g, best_p):
                                                                                 st.o[k, i])
 
 
-def _foreshortened_minimum(model, wp: _WallParams, q, i: int, xs, R, o, newton=True, bounds=None, slopes=False):
-    """x (P,), p (P, 3), g (P,) [m] (slopes: and g', g'' (P,)): _foreshorten's minima of stiffened link i's gap to
-    the walls wp (row by row) from xs (P,) [m], x kept in bounds (lo, hi) [m] (default [0, l]), fixed where newton
-    (P,) bool is False; R (3, 3), o (3,): the link's frame at q."""
+def _foreshortened_minimum(model, wp, q, i: int, xs, R, o, newton=True, bounds=None, slopes=False, curve=None):
+    """x (P,), p (P, 3), g (P,) [m] (slopes: and g', g'' (P,), the curve at x): _foreshorten's minima of stiffened link
+    i's gap to walls wp (row by row) from xs (P,) [m] in bounds (lo, hi) [m] (default [0, l]), fixed where newton (P,)
+    is False; R (3, 3), o (3,): link frame at q; curve: the curve at xs if known (one evaluation per distinct x)."""
     length, xs = model.chain.links[i].length, np.array(xs, dtype=float)
     lo, hi = (0.0, length) if bounds is None else bounds
+    curve = _foreshortened_curve(model, q, i, xs, R, o) if curve is None else curve
     for _ in range(MAX_ITERATIONS if np.any(newton) else 0):
-        p, p1, p2 = _foreshortened_curve(model, q, i, xs, R, o)
-        g, _, g1, g2 = _gap_terms(wp, p, p1, p2)
+        g, _, g1, g2 = _gap_terms(wp, *curve)
         step = np.where((g2 > 0.0) & newton, -g1 / np.where(g2 > 0.0, g2, 1.0), 0.0)
         new = np.clip(xs + step, lo, hi)
         done = np.abs(new - xs).max() <= X_TOL * length
-        xs = new
+        if np.any(new != xs):
+            xs, curve = new, _foreshortened_curve(model, q, i, new, R, o)
         if done:
             break
-    g, _, g1, g2 = _gap_terms(wp, *(curve := _foreshortened_curve(model, q, i, xs, R, o)))
-    return (xs, curve[0], g, g1, g2) if slopes else (xs, curve[0], g)
+    g, _, g1, g2 = _gap_terms(wp, *curve)
+    return (xs, curve[0], g, g1, g2, curve) if slopes else (xs, curve[0], g)
 
 
 def _foreshortened_curve(model, q, i, xs, R, o):

@@ -180,17 +180,18 @@ def _abscissa(tab, st, links, s):
 
 def _foreshorten_cells(model, wp, st, qs, links, xs, best_g, best_p, stationary, tie):
     """Cells of stiffened links on their foreshortened centreline (closest_points._foreshorten), in place:
-    a stationary minimum by Newton's iteration from x, a cell's end at its abscissa x [m] unless the
-    foreshortened gap falls from that end into the cell: then Newton's iteration from the end, kept inside the
-    cell [x_a, x_b], gives the interior minimum (stationary) when it lies strictly inside and lower by tie [m].
+    every cell's point, gap and slopes g', g'' at its abscissa x [m] (a stationary minimum is where the
+    search's Newton iteration converged, on this same centreline: it is kept), and a cell's end is replaced
+    when the foreshortened gap falls from that end into the cell: then Newton's iteration from the end, kept
+    inside the cell [x_a, x_b], gives the interior minimum (stationary) when it lies strictly inside and lower
+    by tie [m].
 
     xs = (x, x_a, x_b) (K, W, C) [m]: the cells' points and ends. Why: a dip growing out of a resting end
     (issue 25 item 5) must be seen from g = 0, while the samples' brackets see it only once a sample next to
-    the end has turned its slope; the samples themselves run on the foreshortened centreline since fore25
-    (closest_points; before, on the linear one, whose slope at a resting end could still point out of the
-    link while the foreshortened one, sin(theta) v'^2 / 2 apart, already dipped: ~1e-6 m below the wall
-    without an event, tests/contact/test_span_cells.py). This pass then starts from converged points, so
-    for interior minima it only confirms them (a cost, ~0.9 ms per call on a pressed arm, left for now)."""
+    the end has turned its slope (tests/contact/test_span_cells.py). The samples, brackets and Newton
+    refinement run on the foreshortened centreline since fore25 (closest_points), so a stationary minimum
+    needs no second Newton pass here: that pass only confirmed it (to X_TOL l, moving x by an ulp) at the
+    cost of a second evaluation of the curve (docs/benchmarks.md, the search's cost per call)."""
     x, xa, xb = xs
     for i in np.unique(links):
         if not model.chain.links[i].stiffened:
@@ -200,13 +201,13 @@ def _foreshorten_cells(model, wp, st, qs, links, xs, best_g, best_p, stationary,
         for k, q in enumerate(qs):
             R, o, x0 = st.R[k, i], st.o[k, i], x[k][:, cols].ravel()
             stat = stationary[k][:, cols].ravel()
-            xn, pn, gn, g1, g2 = _foreshortened_minimum(model, rows, q, i, x0, R, o, stat, slopes=True)
+            xn, pn, gn, g1, g2, curve = _foreshortened_minimum(model, rows, q, i, x0, R, o, False, slopes=True)
             lo, hi = xa[k][:, cols].ravel(), xb[k][:, cols].ravel()
             # The gap falls from the end into the cell (g' > 0 at the distal end, < 0 at the proximal one) and
             # g'' > 0 there: Newton's iteration steps into the cell.
             into = ~stat & (g2 > 0.0) & (((x0 >= hi) & (g1 > 0.0)) | ((x0 <= lo) & (g1 < 0.0)))
             if into.any():  # Newton from those ends, kept inside their cells
-                xd, pd, gd = _foreshortened_minimum(model, rows, q, i, x0, R, o, into, (lo, hi))
+                xd, pd, gd = _foreshortened_minimum(model, rows, q, i, x0, R, o, into, (lo, hi), curve=curve)
                 dip = into & (xd > lo) & (xd < hi) & (gd < gn - tie)
                 xn, pn, gn = np.where(dip, xd, xn), np.where(dip[:, None], pd, pn), np.where(dip, gd, gn)
                 stat = stat | dip

@@ -185,7 +185,13 @@ class Contacts:
         inner = slice(1, -1)
         table, slopes = np.zeros((N, 2 * F)), np.zeros((N, F))
         self._pb_slopes = []
+        first = {}   # link -> its first column: a link's cells share its tables (they bound the whole link)
         for f, i in enumerate(self.flex):
+            if i in first:
+                g = first[i]
+                table[:, f], table[:, F + f], slopes[:, f] = table[:, g], table[:, F + g], slopes[:, g]
+                continue
+            first[i] = f
             lk = model.chain.links[i]
             x = u * lk.length
             q = np.zeros(N)

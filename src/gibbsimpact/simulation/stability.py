@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.linalg
 from scipy.integrate import DOP853, RK23, RK45
 
 from ..dynamics.forces import damping_matrix
@@ -82,12 +83,10 @@ def accuracy_radius(method: str, phi: float, tol: float) -> float:
     return _first_radius(lambda z: error_estimate(method, z), phi, tol)
 
 
-def linearised_eigenvalues(model, q0: np.ndarray) -> np.ndarray:
-    """Eigenvalues lambda (2N,) [1/s] of A = [[0, I], [-M^-1 K, -M^-1 C]] at q0 (module docstring).
-
-    K (N, N) is the Hessian of V: central differences of dV/dq with steps 1e-6 max(1, |q_k|)
-    (V is quadratic in the elastic coordinates, so these columns are exact to round-off).
-    """
+def stiffness_matrix(model, q0: np.ndarray) -> np.ndarray:
+    """K = d(dV/dq)/dq (N, N) [N/m, N, N m by block] at q0 (N,) [m, rad]: the Hessian of the potential (strain and
+    gravity), by central differences of dV/dq with steps 1e-6 max(1, |q_k|), symmetrised (V is quadratic in the
+    elastic coordinates, so these columns are exact to round-off)."""
     N = model.n_dof
     q0 = np.asarray(q0, dtype=float)
     K = np.empty((N, N))
@@ -95,10 +94,28 @@ def linearised_eigenvalues(model, q0: np.ndarray) -> np.ndarray:
         dq = np.zeros(N)
         dq[k] = 1e-6 * max(1.0, abs(q0[k]))
         K[:, k] = (potential_forces(model, q0 + dq) - potential_forces(model, q0 - dq)) / (2.0 * dq[k])
-    K = 0.5 * (K + K.T)
+    return 0.5 * (K + K.T)
+
+
+def linearised_eigenvalues(model, q0: np.ndarray) -> np.ndarray:
+    """Eigenvalues lambda (2N,) [1/s] of A = [[0, I], [-M^-1 K, -M^-1 C]] at q0 (N,) [m, rad] (module docstring;
+    K: stiffness_matrix)."""
+    N = model.n_dof
+    q0 = np.asarray(q0, dtype=float)
     M = mass_matrix(model, q0)
     A = np.zeros((2 * N, 2 * N))
     A[:N, N:] = np.eye(N)
-    A[N:, :N] = -np.linalg.solve(M, K)
+    A[N:, :N] = -np.linalg.solve(M, stiffness_matrix(model, q0))
     A[N:, N:] = -np.linalg.solve(M, damping_matrix(model, q0))
     return np.linalg.eigvals(A)
+
+
+def free_vibration_frequencies(model, q0: np.ndarray) -> np.ndarray:
+    """The undamped frequencies omega (N,) [rad/s], ascending, of the chain linearised at q0 (N,) [m, rad]:
+    K phi = omega^2 M phi, omega = sqrt(|omega^2|) (a negative omega^2, a position where gravity topples the
+    chain, counts by its magnitude; a rigid motion's omega is 0 to round-off). These are the modes of
+    d qddot/d q = -M^-1 K that the compiled Radau's filter sorts against a cutoff frequency
+    (compiled_radau.slow_projector: |mu| > cutoff^2)."""
+    q0 = np.asarray(q0, dtype=float)
+    w2 = scipy.linalg.eigh(stiffness_matrix(model, q0), mass_matrix(model, q0), eigvals_only=True)
+    return np.sort(np.sqrt(np.abs(w2)))

@@ -51,7 +51,7 @@ from .contact_points import contact_points
 
 __all__ = [
     "DEFLECTION_LIMIT", "GIMBAL_MARGIN", "SPIN_LIMIT", "STRAIN_ENERGY_FACTOR", "ValidityWarning", "check_impact",
-    "check_result", "check_spin", "check_state", "check_stop", "spin_rates", "warn_impact", "warn_result",
+    "check_result", "check_run", "check_spin", "check_state", "check_stop", "spin_rates", "warn_impact", "warn_result",
     "warn_state",
 ]
 
@@ -253,6 +253,23 @@ def check_spin(model, result) -> list[str]:
 def check_result(result) -> list[str]:
     """The messages of a finished or stopped run: check_stop, check_spin."""
     return check_stop(result.model, result) + check_spin(result.model, result)
+
+
+def check_run(result) -> list[str]:
+    """Every message a run issued, recomputed from its Result (a saved run's, gibbsimpact show): check_state at
+    the first sample (q, qdot (N,) [m, rad, m/s, rad/s] and the walls), check_impact of the first impact that
+    has one (a run warns once), then check_result; in the order the run issued them."""
+    if len(result.t) == 0:
+        return []
+    model = result.model_at(0)
+    msgs = check_state(model, result.q[0], result.qdot[0], result.walls)
+    link_contacts = bool(result.settings.get("link_contacts", True))
+    for rec in result.impacts:
+        newton = check_impact(result.model, rec, result.walls, link_contacts)
+        if newton:
+            msgs += newton
+            break
+    return msgs + check_result(result)
 
 
 def _warn(msgs, stacklevel):
