@@ -67,3 +67,46 @@ def test_a_beam_dropped_flat_comes_to_rest():
     assert abs(total[-1] - weight) <= 1e-6 * weight, (total[-1] - weight) / weight
     # At rest on the floor: no vertical or angular motion is left (it may slide: the floor has no friction).
     assert np.abs(res.qdot[-1, 1:]).max() < 1e-6, res.qdot[-1]
+
+
+@pytest.mark.slow
+def test_a_lightly_damped_arm_pressed_onto_a_floor_comes_to_rest():
+    """Issue 25, first bullet (the arm, lightly damped): a fixed-base arm of 3 stiffened Hermite elements (EI = 20
+    N m^2, 1 kg/m, 1 m, damping 0.05; base 2 cm above the floor; e = 0; contact_tol = 1e-6 m) driven onto the floor
+    by tau = -2 N m on theta_1. Event-driven it crawls (1 s in 200 s of CPU, 128 impacts, still moving at
+    |qdot| = 0.05 at 1 s; the damping-0.5 linear arm of test_link_contacts settles event-driven): with
+    accumulation="step" the first impact at its span starts a stepped phase, and it rests. Checked: finished at
+    t_end with |qdot| < 1e-9; no material point (64, public kinematics) below the floor by more than contact_tol at
+    any sample; E - W never rising by more than the work of the loads over contact_tol plus the measured
+    integration error; and at the end the static balance about the base joint, computed independently of the
+    dynamics: the moment of gravity on the material points (Gauss-Legendre, 8 points per element) plus the recorded
+    contact forces at their recorded points (Result.contact_abscissae: a cell's grid points' force-weighted mean)
+    equals -tau to 1e-6 relative."""
+    link = gi.Link(1.0, 1.0, (20.0, 20.0), elements=3, damping=0.05)
+    model = gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.02), 0.0)), gravity=(0.0, -G, 0.0))
+    contact_tol, tau = 1e-6, -2.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gi.ValidityWarning)
+        res = gi.simulate(model, model.state(), np.zeros(model.n_dof), (0.0, 1.0), walls=[gi.Plane((0, 0, 0), (0, 1, 0))],
+                          restitution=0.0, contact_tol=contact_tol, inputs={"theta_1": tau}, accumulation="step",
+                          contact_step=1e-3, max_cpu_time=300.0)
+    assert res.status == "finished", res.message
+    assert res.settings["stepped_phases"] >= 1 and np.abs(res.qdot[-1]).max() < 1e-9
+    lowest = min(float(link_points(model, q, 64)[0, :, 1].min()) for q in res.q)
+    assert lowest >= -contact_tol, lowest
+    balance = res.energy().total - res.work.sum(axis=1)
+    total = res.contact_forces.sum(axis=(1, 2))
+    loads = np.maximum(total[:-1], total[1:]) + G * model.total_mass + abs(tau) / link.length
+    assert np.all(np.diff(balance) <= loads * contact_tol + res.energy_error_per_phase * res.energy_scale)
+    P, F, X = model.n_joints, res.contact_forces[-1, 0], res.contact_abscissae[-1, 0]
+    assert F[P + 2] > 0.9 * np.abs(F).sum(), F          # element 3's span carries the floor's force
+    xg, wg = np.polynomial.legendre.leggauss(8)
+    h = link.length / 3
+    x = np.concatenate([(e + 0.5) * h + 0.5 * h * xg for e in range(3)])
+    base = res.joint_positions()[-1, 0, 0]
+    moment = -G * float(np.sum(0.5 * h * np.tile(wg, 3) * (material_points(model, res.q[-1], 0, x)[:, 0] - base)))
+    joints = res.joint_positions()[-1, :, 0]
+    for c in np.flatnonzero(F):         # each force (0, F_c, 0) [N] at its point's x [m]
+        at = joints[c] if c < P else material_points(model, res.q[-1], 0, X[c:c + 1])[0, 0]
+        moment += float(F[c] * (at - base))
+    assert abs(moment + tau) <= 1e-6 * abs(tau), (moment + tau) / abs(tau)

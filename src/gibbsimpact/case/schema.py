@@ -195,7 +195,8 @@ SOLVER_KEYS = {
 #: [solver] string keys with a fixed set of values (and what each means).
 _SOLVER_CHOICES = {
     "joint_limit": {"stop": "end the run with status joint_limit", "impact": "an end-stop impact"},
-    "accumulation": {"rest": "go on in resting contact", "stop": "end the run with status zeno"},
+    "accumulation": {"rest": "go on in resting contact", "step": "step contact phases from the first impact at a "
+                     "link's span", "stop": "end the run with status zeno"},
 }
 #: Keyword of Case.simulate that overrides a case-file key -> that key's path.
 OVERRIDE_KEYS = {"t_end": "time.t_end_s", **{kw: f"solver.{key}" for key, (kw, _, _) in SOLVER_KEYS.items()}}

@@ -14,7 +14,7 @@ from .contact_filter import checked_filter
 from .joint_limits import JOINT_LIMIT_MODES
 from .prescribed import prescription
 
-ACCUMULATION_MODES = ("rest", "stop")
+ACCUMULATION_MODES = ("rest", "step", "stop")
 
 
 def _positive(name, v, allow_inf=False) -> float:
@@ -95,7 +95,9 @@ class Settings:
         rebounds then holds its joint with a force mu >= 0, Result.stop_forces, until mu falls to zero:
         gibbsimpact.simulation.joint_limits)
     accumulation : "rest" (an accumulation of impacts goes on in resting contact, Result.contact_forces,
-        or at a held end stop) or "stop" (status "zeno" there, or "joint_limit" at an end stop)
+        or at a held end stop; stepped where a point of a link's span takes part: contact_step), "step" (as "rest",
+        and the first impact at a link's span starts a stepped phase already) or "stop" (status "zeno" there, or
+        "joint_limit" at an end stop)
     link_contacts : True: the closest point of every flexible link to every wall is a contact candidate
         too; False: joints only, as in the published case studies
     in_step_check : simulate's private _in_step_check; False leaves solve_ivp's sign test at step ends only
@@ -115,7 +117,8 @@ class Settings:
         scipy's Radau with the same error weights, simulation.cutoff_radau; docs/theory.md §14.1)
     contact_step : [s] the step h of a time-stepping contact phase: with accumulation="rest", an accumulation of
         impacts in which a point of a link's span takes part is stepped by Moreau-Jean's scheme until every
-        contact opens (gibbsimpact.simulation.stepping; docs/theory.md §15.5)
+        contact opens (gibbsimpact.simulation.stepping; docs/theory.md §15.5); with accumulation="step", already
+        the first impact at a link's span
     """
 
     t0: float
@@ -181,8 +184,9 @@ class Settings:
         if not isinstance(link_contacts, (bool, np.bool_)):
             raise ValueError(f"simulate link_contacts={link_contacts!r} must be True (links' closest points are "
                              "contact candidates too) or False (joints only)")
-        _choice("accumulation", accumulation, ACCUMULATION_MODES, "'rest' (go on in resting contact) or 'stop' "
-                "(end the run with status 'zeno')")
+        _choice("accumulation", accumulation, ACCUMULATION_MODES, "'rest' (go on in resting contact; stepped where a "
+                "link's span takes part), 'step' (step from the first impact at a link's span) or 'stop' (end the run "
+                "with status 'zeno')")
         return cls(t0=t0, t_end=t_end, walls=walls, restitution=restitution, method=method, output_dt=output_dt,
                    progress=progress, inputs=inputs, zeno_count=zeno_count, max_impacts=max_impacts, joint_limit=joint_limit,
                    joint_restitution=joint_restitution, accumulation=accumulation,

@@ -132,7 +132,8 @@ def simulate(model, q0, qdot0, t_span, walls=(), restitution: float = 1.0, rtol:
     progress : None, True (a tqdm bar on stderr) or progress(t, n_impacts)
     inputs : applied generalised forces Q_in: Q(t, q, qdot) -> (N,), a constant (N,), or {name: value or f}
     joint_limit : "stop" or "impact" (with joint_restitution in [0, 1]) at a prismatic joint's end of range
-    accumulation : "rest" (go on in resting contact) or "stop" (status "zeno")
+    accumulation : "rest" (go on in resting contact; stepped at a link's span), "step" (step from the first impact
+        at a link's span) or "stop" (status "zeno")
     link_contacts : True (the closest point of each flexible link is a candidate too) or False (joints only)
     prescribed : None or {joint coordinate: f(t) -> (q, qdot, qddot)}, motions imposed by actuators
     contact_filter : None or contact_filter(q) -> (C,) bool: where contacts may begin

@@ -189,13 +189,10 @@ def gap_functions(run):
 def _accumulation(run, accumulation) -> None:
     """An accumulation of impacts: a stepped contact phase when a span point takes part (simulation.stepping),
     else its pairs go on resting, unless that cannot be (status "zeno")."""
-    rest = run.settings.accumulation == "rest" and bool(run.settings.walls)
+    rest = run.settings.accumulation != "stop" and bool(run.settings.walls)
     P = run.model.n_joints
     if rest and run.monitor.recent_pairs()[:, P:P + len(run.contacts.flex)].any() and can_step(run):
-        run.stepping, run.pending_mode = True, False
-        run.counters["stepped_phases"] += 1
-        run.resting.clear()
-        run.monitor.reset()
+        _start_stepping(run)
         return
     run.forced = run.monitor.recent_pairs() & run.resting.can_rest
     unresolved = run.monitor.unresolved(run.resting.can_rest) if rest else None
@@ -210,6 +207,20 @@ def _accumulation(run, accumulation) -> None:
         return
     run.settled_at = run.t
     run.monitor.reset()
+
+
+def _start_stepping(run) -> None:
+    """The next phase is stepped (simulation.stepping), with no resting pair and the accumulation monitor reset."""
+    run.stepping, run.pending_mode = True, False
+    run.counters["stepped_phases"] += 1
+    run.resting.clear()
+    run.monitor.reset()
+
+
+def _span_impact(run, rec) -> bool:
+    """Whether an impact record's impulses act at a link's span (a link column of the gap matrix)."""
+    P, F = run.model.n_joints, len(run.contacts.flex)
+    return any(P < j <= P + F and lam > 0 for j, lam in zip(rec.joints, rec.impulses))
 
 
 def impact(run) -> None:
@@ -232,14 +243,16 @@ def impact(run) -> None:
                 # user -> simulate -> _loop -> impact: stacklevel 4 names the user's line.
                 run.newton_warned = bool(warn_impact(run.model, rec, s.walls, s.link_contacts, stacklevel=4))
             accumulation = run.monitor.add(rec, in_band_before)
-            if accumulation is not None:
+            if s.accumulation == "step" and accumulation is None and _span_impact(run, rec) and can_step(run):
+                _start_stepping(run)   # accumulation="step": the first impact at a span starts a stepped phase
+            elif accumulation is not None:
                 _accumulation(run, accumulation)
                 if run.status is not None:
                     return
             if run.recorder.n_impacts >= s.max_impacts:
                 run.end("max_impacts", max_impacts=s.max_impacts, t=run.t)
                 return
-        run.pending_mode = s.accumulation == "rest" and bool(s.walls) and s.prescribed is None and not run.stepping
+        run.pending_mode = s.accumulation != "stop" and bool(s.walls) and s.prescribed is None and not run.stepping
     run.pending_impact = False
 
 
@@ -524,7 +537,7 @@ def _limit_event(run, kind, j) -> None:
         if rec is not None:
             _record_impact(run, rec, run.y[:N])
             # (held stops are not modelled with prescribed coordinates: there the old stop stays)
-            rest = s.accumulation == "rest" and s.prescribed is None
+            rest = s.accumulation != "stop" and s.prescribed is None
             accumulation = stops.accumulation(rec.time, j, s.zeno_count, s.zeno_interval, rest=rest)
             if accumulation is not None:
                 run.end("end_stop_accumulation", accumulation=accumulation)

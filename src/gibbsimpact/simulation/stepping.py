@@ -125,7 +125,7 @@ def can_step(run) -> bool:
     limits, no prescribed coordinates, no re-charted free base)."""
     s = run.settings
     return (s.walls and run.compliant is None and run.stops is None and s.prescribed is None and not run.charting
-            and not any(w.friction > 0 for w in s.walls) and s.accumulation == "rest")
+            and not any(w.friction > 0 for w in s.walls) and s.accumulation != "stop")
 
 
 def columns(run, q, reach: float = np.inf) -> Columns:
