@@ -284,3 +284,27 @@ def started_run(model, q0, qdot0, walls, restitution=0.0, inputs=None, contact_t
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", gi.ValidityWarning)
         return start(model, q0, qdot0, settings, Clock(None))
+
+
+def pressed_arm_moment(model, res, g=9.81):
+    """The moment about the base joint [N m] at the last sample of a one-link fixed-base finite-element arm resting on
+    a floor (issue 25), from the public kinematics and the recorded forces only (independent of the dynamics): the
+    moment of gravity on the material points (Gauss-Legendre, 8 points per element: exact for the cubic centreline)
+    plus each recorded contact force (0, F_c, 0) at its recorded point (a joint, or the material point at
+    Result.contact_abscissae). Returns (moment, F (C,) [N] the last sample's forces on wall 1)."""
+    from gibbsimpact.dynamics.link_points import material_points
+
+    link = model.chain.links[0]
+    n_e = link.elements
+    P, F, X = model.n_joints, res.contact_forces[-1, 0], res.contact_abscissae[-1, 0]
+    xg, wg = np.polynomial.legendre.leggauss(8)
+    h = link.length / n_e
+    x = np.concatenate([(e + 0.5) * h + 0.5 * h * xg for e in range(n_e)])
+    base = res.joint_positions()[-1, 0, 0]
+    moment = -g * link.mass_per_length * float(
+        np.sum(0.5 * h * np.tile(wg, n_e) * (material_points(model, res.q[-1], 0, x)[:, 0] - base)))
+    joints = res.joint_positions()[-1, :, 0]
+    for c in np.flatnonzero(F):
+        at = joints[c] if c < P else material_points(model, res.q[-1], 0, X[c:c + 1])[0, 0]
+        moment += float(F[c] * (at - base))
+    return moment, F

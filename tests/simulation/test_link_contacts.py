@@ -453,7 +453,8 @@ def test_a_pressed_arm_comes_to_rest_along_its_span():
     balance about the base joint, computed independently of the dynamics: the moment of gravity on the material
     points (Gauss-Legendre, 8 points per element: exact for the cubic centreline) plus the recorded contact
     forces at their recorded points (Result.contact_abscissae) equals -tau to 1e-6 relative."""
-    from gibbsimpact.dynamics.link_points import link_points, material_points
+    from gibbsimpact.dynamics.link_points import link_points
+    from conftest import pressed_arm_moment
 
     link = gi.Link(1.0, 1.0, (20.0, 20.0), elements=3, damping=0.5, geometric_stiffening=False)
     model = gi.Model(gi.Chain([link], base=gi.FixedBase((0.0, 0.02), 0.0)), gravity=(0.0, -G, 0.0))
@@ -477,15 +478,6 @@ def test_a_pressed_arm_comes_to_rest_along_its_span():
     bound = loads * contact_tol + res.energy_error_per_phase * res.energy_scale
     rise = np.diff(balance)
     assert np.all(rise <= bound), (rise - bound).max()
-    P, F, X = model.n_joints, res.contact_forces[-1, 0], res.contact_abscissae[-1, 0]
-    assert F[P + 2] > 0.9 * np.abs(F).sum(), F          # element 3's span carries the floor's force
-    xg, wg = np.polynomial.legendre.leggauss(8)
-    h = link.length / 3
-    x = np.concatenate([(e + 0.5) * h + 0.5 * h * xg for e in range(3)])
-    base = res.joint_positions()[-1, 0, 0]
-    moment = -G * float(np.sum(0.5 * h * np.tile(wg, 3) * (material_points(model, res.q[-1], 0, x)[:, 0] - base)))
-    joints = res.joint_positions()[-1, :, 0]
-    for c in np.flatnonzero(F):         # each force (0, F_c, 0) [N] at its point's x [m]
-        at = joints[c] if c < P else material_points(model, res.q[-1], 0, X[c:c + 1])[0, 0]
-        moment += float(F[c] * (at - base))
+    moment, F = pressed_arm_moment(model, res, G)
+    assert F[model.n_joints + 2] > 0.9 * np.abs(F).sum(), F          # element 3's span carries the floor's force
     assert abs(moment + tau) <= 1e-6 * abs(tau), (moment + tau) / abs(tau)

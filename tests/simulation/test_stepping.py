@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import gibbsimpact as gi
+from conftest import pressed_arm_moment
 from gibbsimpact.dynamics.link_points import link_points, material_point_jacobians, material_points
 
 G = 9.81
@@ -98,15 +99,6 @@ def test_a_lightly_damped_arm_pressed_onto_a_floor_comes_to_rest():
     total = res.contact_forces.sum(axis=(1, 2))
     loads = np.maximum(total[:-1], total[1:]) + G * model.total_mass + abs(tau) / link.length
     assert np.all(np.diff(balance) <= loads * contact_tol + res.energy_error_per_phase * res.energy_scale)
-    P, F, X = model.n_joints, res.contact_forces[-1, 0], res.contact_abscissae[-1, 0]
-    assert F[P + 2] > 0.9 * np.abs(F).sum(), F          # element 3's span carries the floor's force
-    xg, wg = np.polynomial.legendre.leggauss(8)
-    h = link.length / 3
-    x = np.concatenate([(e + 0.5) * h + 0.5 * h * xg for e in range(3)])
-    base = res.joint_positions()[-1, 0, 0]
-    moment = -G * float(np.sum(0.5 * h * np.tile(wg, 3) * (material_points(model, res.q[-1], 0, x)[:, 0] - base)))
-    joints = res.joint_positions()[-1, :, 0]
-    for c in np.flatnonzero(F):         # each force (0, F_c, 0) [N] at its point's x [m]
-        at = joints[c] if c < P else material_points(model, res.q[-1], 0, X[c:c + 1])[0, 0]
-        moment += float(F[c] * (at - base))
+    moment, F = pressed_arm_moment(model, res, G)
+    assert F[model.n_joints + 2] > 0.9 * np.abs(F).sum(), F          # element 3's span carries the floor's force
     assert abs(moment + tau) <= 1e-6 * abs(tau), (moment + tau) / abs(tau)
