@@ -191,15 +191,20 @@ class StepOut(NamedTuple):
     work: float
 
 
-def step(run, t, y, h, e) -> StepOut:
-    """Equations (1)-(6) from (t, y) over h [s]; e (W,) the walls' restitution."""
-    N, model, th = run.N, run.model, THETA
-    q, v = y[:N], y[N:2 * N]
-    rates = run.equations(t, y)             # a = M^-1 f, and the work rates of the applied forces
-    a = rates[N:2 * N]
+def linearised(run, t, y):
+    """(a (N,) [m/s^2 or rad/s^2], A = da/dq (N, N), B = da/dqdot (N, N), M (N, N)) at (t, y): what equation (3)
+    takes from the step's start (simulation.implicit.rhs_jacobian; one evaluation for every halving of a step)."""
+    N = run.N
+    a = run.equations(t, y)[N:2 * N]        # counts as a right-hand side (budget, progress)
     jac = rhs_jacobian(run.equations, t, y[:2 * N])
-    A, B = jac[N:2 * N, :N], jac[N:2 * N, N:2 * N]
-    M = mass_matrix(model, q)
+    return a, jac[N:2 * N, :N], jac[N:2 * N, N:2 * N], mass_matrix(run.model, y[:N])
+
+
+def step(run, t, y, h, e, lin) -> StepOut:
+    """Equations (1)-(5) from (t, y) over h [s]; e (W,) the walls' restitution; lin: linearised(run, t, y)."""
+    N, th = run.N, THETA
+    q, v = y[:N], y[N:2 * N]
+    a, A, B, M = lin
     Mh = M @ (np.eye(N) - h * th * B - h * h * th * th * A)
     solve = _solver(0.5 * (Mh + Mh.T))
     v_free = v + solve(M @ (h * a + h * h * th * (A @ v)))                      # (3) with P = 0
@@ -234,8 +239,9 @@ def controlled_step(run, t, y, h, e, scale: float):
     scale [J]: the phase's energy scale (results.energy_scale)."""
     N, tol, model = run.N, run.settings.contact_tol, run.model
     E0 = energy(model, y[:N], y[N:2 * N]).total - y[2 * N:2 * N + 2].sum()
+    lin = linearised(run, t, y)
     for k in range(MAX_HALVINGS + 1):
-        out = step(run, t, y, h, e)
+        out = step(run, t, y, h, e, lin)
         q1, v1 = out.y[:N], out.y[N:2 * N]
         W1 = out.y[2 * N:2 * N + 2].sum()
         E1 = energy(model, q1, v1).total - W1
