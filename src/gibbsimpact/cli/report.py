@@ -52,6 +52,10 @@ def run_report_lines(result) -> list[str]:
     stepped = (f", cutoff {cutoff:.3g} rad/s: mostly the energy of the modes above it (given by impacts, inputs "
                f"or the initial state), stepped over and damped; docs/theory.md §14.1"
                if isinstance(cutoff, (int, float)) else "")
+    if result.settings.get("stepped_phases"):
+        lines.append(f"contact phases stepped (docs/theory.md §15.5): {result.settings['stepped_phases']}, "
+                     f"{result.settings['contact_steps']} steps of at most {result.settings.get('contact_step'):g} s")
+        actuators += f"stepped contacts {audit['stepped_contacts']:.4g}, "
     lines.append(f"energy audit [J]: inputs {audit['inputs']:.4g}, damping and friction "
                  f"{audit['damping_and_friction']:.4g}, {actuators}impacts {audit['impacts']:.4g}, numerical "
                  f"{audit['numerical']:.3g} ({result.settings.get('method')}{stepped})")

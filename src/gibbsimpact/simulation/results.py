@@ -247,7 +247,7 @@ class Result:
 
     def energy_audit(self) -> dict:
         """Where the energy went from t0 to the last sample [J], signed (gained > 0): E(end) - E(t0) =
-        inputs + damping_and_friction + actuators + impacts + numerical, with
+        inputs + damping_and_friction + actuators + impacts + stepped_contacts + numerical, with
 
         * inputs, damping_and_friction: the work of the inputs and of the structural damping and resting
           friction (Result.work; 0 for an undriven, undamped run);
@@ -255,6 +255,8 @@ class Result:
           Lambda_p . qdot_p at the impacts (Result.work[:, 2]; 0 without prescribed coordinates);
         * impacts: the energy jumps of the impacts that dissipate by design (e < 1, a friction impulse),
           less the actuators' impulse work Lambda_p . qdot_p in them (counted under actuators);
+        * stepped_contacts: the work of the contact impulses and position projections of the time-stepping
+          contact phases (Result.settings["stepped_contact_work_J"], simulation.stepping; 0 without them);
         * numerical: the rest, energy_error_whole_run_J: what the integrator (and the contact-mode
           projections) added or removed. Explicit methods keep it at ~rtol; implicit ones (Radau, BDF)
           damp the modes they step over, so it is negative and can reach the energy of those modes
@@ -269,6 +271,7 @@ class Result:
                               and (r.friction_impulses is None or not np.any(r.friction_impulses))))
         return {"inputs": float(W[0]), "damping_and_friction": float(W[1]),
                 "actuators": float(W[2]) if len(W) > 2 else 0.0, "impacts": impacts,
+                "stepped_contacts": float(self.settings.get("stepped_contact_work_J", 0.0)),
                 "numerical": float(self.energy_error_whole_run_J)}
 
     def chart_segments(self) -> list:

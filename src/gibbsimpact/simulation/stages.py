@@ -78,7 +78,8 @@ class Run:
     stepping: bool = False  # a time-stepping contact phase is under way (simulation.stepping)
     grid: object = None  # the links' grid points of stepped phases (contact.span_grid.SpanGrid), built on first use
     counters: dict = field(default_factory=lambda: {"n_steps": 0, "n_examined": 0, "resting_time": 0.0,
-                                                    "mode_events": 0, "contact_steps": 0, "stepped_phases": 0})
+                                                    "mode_events": 0, "contact_steps": 0, "stepped_phases": 0,
+                                                    "stepped_contact_work": 0.0})
 
     @property
     def N(self) -> int:
@@ -615,10 +616,12 @@ def finish(run, started: float) -> Result:
 
 
 def _stepped(run) -> dict:
-    """For Result.settings: {"stepped_phases": k, "contact_steps": n} of a run with time-stepping contact phases
-    (simulation.stepping); {} else."""
+    """For Result.settings: {"stepped_phases": k, "contact_steps": n, "stepped_contact_work_J": W [J]} of a run with
+    time-stepping contact phases (simulation.stepping; W the work of their contact impulses and projections, which
+    Result.energy_audit lists); {} else."""
     c = run.counters
-    return {"stepped_phases": c["stepped_phases"], "contact_steps": c["contact_steps"]} if c["stepped_phases"] else {}
+    return {"stepped_phases": c["stepped_phases"], "contact_steps": c["contact_steps"],
+            "stepped_contact_work_J": float(c["stepped_contact_work"])} if c["stepped_phases"] else {}
 
 
 def _efforts(run, t, q, qdot) -> dict:

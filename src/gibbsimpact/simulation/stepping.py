@@ -303,6 +303,7 @@ def contact_phase(run) -> None:
             h_used = h
             run.counters["n_steps"] += 1
             run.counters["contact_steps"] += 1
+            run.counters["stepped_contact_work"] += out.work
             rec.add(run, out, t1 - t0)
             if not np.all(np.isfinite(run.y)):
                 run.end("non_finite", t=run.t)
