@@ -192,3 +192,22 @@ def test_a_long_impact_list_points_to_where_every_impact_is(case1_run):
     lines = run_report_lines(res)
     assert f"  ... {n} impacts in all (a run folder's impacts.csv; Result.impacts)" in lines
     assert sum(line.startswith("  impact ") for line in lines) == SHOWN_IMPACTS
+
+
+def test_run_report_names_a_links_span_points_as_the_figures_do():
+    """An impact at a link's span is listed as 'link 1.2' (cell 2 of link 1: contacts.link_column_name, the name of
+    the figures, episodes and contact_forces.csv), not as a joint 'O4' that the chain does not have (a 2-element
+    beam, bowed 2 mm down at mid-span, dropped onto a floor: its span strikes first)."""
+    import warnings
+
+    from gibbsimpact.cli.report import run_report_lines
+
+    link = gi.Link(1.0, 1.0, (20.0, 20.0), elements=2)
+    model = gi.Model(gi.Chain([link], base="planar"), gravity=(0.0, -9.81, 0.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gi.ValidityWarning)
+        res = gi.simulate(model, model.state(X2=0.003, delta_1_1=-0.002), np.zeros(model.n_dof), (0.0, 0.02),
+                          walls=[gi.Plane((0, 0, 0), (0, 1, 0))], restitution=0.5)
+    assert res.impacts and all(j > model.n_joints for r in res.impacts for j in r.joints)
+    listed = [line for line in run_report_lines(res) if line.startswith("  impact ")]
+    assert listed and all(line.split("s  ")[1] in ("link 1.1", "link 1.2", "link 1.1+link 1.2") for line in listed)

@@ -95,6 +95,7 @@ def test_a_lightly_damped_arm_pressed_onto_a_floor_comes_to_rest():
                           contact_step=1e-3, max_cpu_time=300.0)
     assert res.status == "finished", res.message
     assert res.settings["stepped_phases"] >= 1 and np.abs(res.qdot[-1]).max() < 1e-9
+    assert res.resting_time > 0.9, res.resting_time    # the stepped phase's time in contact (it lands at ~0.05 s)
     lowest = min(float(link_points(model, q, 64)[0, :, 1].min()) for q in res.q)
     assert lowest >= -contact_tol, lowest
     balance = res.energy().total - res.work.sum(axis=1)
@@ -104,3 +105,13 @@ def test_a_lightly_damped_arm_pressed_onto_a_floor_comes_to_rest():
     moment, F = pressed_arm_moment(model, res, G)
     assert F[model.n_joints + 2] > 0.9 * np.abs(F).sum(), F          # element 3's span carries the floor's force
     assert abs(moment + tau) <= 1e-6 * abs(tau), (moment + tau) / abs(tau)
+
+
+def test_accumulation_step_warns_where_the_contact_phases_cannot_be_stepped():
+    """accumulation='step' on a wall with friction (Coulomb's law is not in the stepped impulse problem): the run
+    says so instead of falling back silently to event-driven contact phases."""
+    link = gi.Link(1.0, 1.0, (20.0, 20.0), elements=2)
+    model = gi.Model(gi.Chain([link], base="planar"), gravity=(0.0, -G, 0.0))
+    with pytest.warns(gi.ValidityWarning, match=r"cannot be stepped \(a wall with friction"):
+        gi.simulate(model, model.state(X2=0.5), np.zeros(model.n_dof), (0.0, 1e-3),
+                    walls=[gi.Plane((0, 0, 0), (0, 1, 0), friction=0.5)], accumulation="step")

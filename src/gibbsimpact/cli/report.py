@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..plotting.labels import _point_name
 from ..simulation.auto import RIGID_ROUNDOFF
 from ..simulation.charts import recharts_text
 from ..simulation.stability import free_vibration_frequencies
@@ -34,7 +35,8 @@ def run_report_lines(result) -> list[str]:
     if isinstance(result.settings.get("cutoff_frequency"), (int, float)):
         lines.append(cutoff_line(result.model_at(0), result.q[0], result.settings["cutoff_frequency"]))
     for k, rec in enumerate(result.impacts[:SHOWN_IMPACTS], start=1):
-        joints = "+".join(f"end stop of joint {j}" if w < 0 else f"O{j}" for j, w in zip(rec.joints, rec.wall))
+        joints = "+".join(f"end stop of joint {j}" if w < 0 else _point_name(result.model, j, result.walls)
+                          for j, w in zip(rec.joints, rec.wall))
         lines.append(f"  impact {k}: t = {rec.time:.6f} s  {joints}")
     if len(result.impacts) > SHOWN_IMPACTS:
         lines.append(f"  ... {len(result.impacts)} impacts in all (a run folder's impacts.csv; Result.impacts)")

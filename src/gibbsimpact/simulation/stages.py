@@ -8,6 +8,7 @@ gibbsimpact.simulation.simulate's module docstring, each with a test.
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -29,8 +30,8 @@ from .outside import outside_walls, point_name
 from .recorder import Recorder
 from .results import Result
 from .status import STATUS_FINISHED, stop
-from .stepping import can_step
-from .validity import warn_impact, warn_state
+from .stepping import can_step, why_not_stepped
+from .validity import ValidityWarning, warn_impact, warn_state
 
 #: Budget of contact-mode events (release, slip, stick, drift, speed) of one run: a contact mode that keeps
 #: switching without settling ends the run (status "failed") instead of crawling on.
@@ -156,6 +157,11 @@ def start(model, q0, qdot0, settings, clock) -> Run:
         charting=charting,
     )
     chart(run)  # |theta_0| >= RECHART_ANGLE at t0: the run starts in the chart of q0's orientation
+    if s.accumulation == "step" and walls and why_not_stepped(run):
+        warnings.warn(f"accumulation='step': this run's contact phases cannot be stepped ({why_not_stepped(run)}; "
+                      "docs/theory.md §15.5), so they stay event-driven, as with accumulation='rest'; a flexible "
+                      "link settling on a wall may then crawl in micro-impacts (set max_cpu_time)", ValidityWarning,
+                      stacklevel=3)
     return run
 
 

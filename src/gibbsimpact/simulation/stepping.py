@@ -123,9 +123,17 @@ class Columns(NamedTuple):
 def can_step(run) -> bool:
     """Whether this run's contact phases can be stepped (module docstring: frictionless, rigid walls, no joint
     limits, no prescribed coordinates, no re-charted free base)."""
+    return bool(run.settings.walls) and run.settings.accumulation != "stop" and not why_not_stepped(run)
+
+
+def why_not_stepped(run) -> str:
+    """"" when this run's contact phases can be stepped, else what keeps them event-driven (a warning's words)."""
     s = run.settings
-    return (s.walls and run.compliant is None and run.stops is None and s.prescribed is None and not run.charting
-            and not any(w.friction > 0 for w in s.walls) and s.accumulation != "stop")
+    why = [what for what, no in (("a wall with friction", any(w.friction > 0 for w in s.walls)),
+                                 ("a compliant wall", run.compliant is not None), ("joint limits", run.stops is not None),
+                                 ("prescribed coordinates", s.prescribed is not None),
+                                 ("a free base re-charted in 3D", run.charting)) if no]
+    return ", ".join(why)
 
 
 def columns(run, q, reach: float = np.inf) -> Columns:
@@ -304,6 +312,8 @@ def contact_phase(run) -> None:
             run.counters["n_steps"] += 1
             run.counters["contact_steps"] += 1
             run.counters["stepped_contact_work"] += out.work
+            if out.P.any():   # some contact carried a force over this step (Result.resting_time)
+                run.counters["resting_time"] += t1 - t0
             rec.add(run, out, t1 - t0)
             if not np.all(np.isfinite(run.y)):
                 run.end("non_finite", t=run.t)
