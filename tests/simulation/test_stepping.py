@@ -102,6 +102,10 @@ def test_a_lightly_damped_arm_pressed_onto_a_floor_comes_to_rest():
     total = res.contact_forces.sum(axis=(1, 2))
     loads = np.maximum(total[:-1], total[1:]) + G * model.total_mass + abs(tau) / link.length
     assert np.all(np.diff(balance) <= loads * contact_tol + res.energy_error_per_phase * res.energy_scale)
+    # Its contact-force figure keeps the resting level visible beside the stepped impact's spike of impulse / step.
+    fig = res.plot("contact_forces")
+    title = fig._suptitle.get_text() if fig._suptitle is not None else fig.axes[0].get_title()
+    assert fig.axes[0].get_yscale() == "symlog" and "time-stepped" in title, title
     moment, F = pressed_arm_moment(model, res, G)
     assert F[model.n_joints + 2] > 0.9 * np.abs(F).sum(), F          # element 3's span carries the floor's force
     assert abs(moment + tau) <= 1e-6 * abs(tau), (moment + tau) / abs(tau)

@@ -375,6 +375,12 @@ def plot_contact_forces(result, case_name=None, ax=None):
         what = what.replace(" (0 in flight", ", and of each end stop holding its joint (0 in flight")
     if n_panels == 2:
         what += "; below: the friction force |F_t|"
+    if result.settings.get("stepped_phases") and rested:
+        # In a stepped contact phase a contact's force is a step's impulse over the step (docs/theory.md §15.5): an
+        # impact there is a spike of impulse / step, 1e3 times the resting level, which a linear axis flattens.
+        positive = F[F > 0.0]
+        axes[0].set_yscale("symlog", linthresh=float(np.median(positive)))
+        what += "; time-stepped contact phases: a step's impulse / the step (symlog axis)"
     _finish_time_figure(fig, axes, result, _title(result, what, case_name), own)
     return fig
 
