@@ -188,7 +188,9 @@ def _newton_message(model, rec, walls, w: int, point) -> str:
         "elements), or give it clamped-clamped modes (its ends then move with its frame; the number of modes still sets their "
         "effective mass)" + ("; keep the contacts at the joints (link_contacts=False)" if span else "")
         + "; and read the collision as a whole in Result.episodes (its impulse and effective restitution), "
-        "not impact by impact")
+        "not impact by impact" + (". Where the micro-impacts accumulate at the span the run steps them "
+                                  "(accumulation='rest' or 'step', docs/theory.md §15.5): the link comes to rest, "
+                                  "but the transient still depends on the mesh" if span else ""))
 
 
 def check_impact(model, rec, walls, link_contacts: bool = True) -> list[str]:
