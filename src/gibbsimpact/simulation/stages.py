@@ -197,8 +197,7 @@ def _accumulation(run, accumulation) -> None:
     """An accumulation of impacts: a stepped contact phase when a span point takes part (simulation.stepping),
     else its pairs go on resting, unless that cannot be (status "zeno")."""
     rest = run.settings.accumulation != "stop" and bool(run.settings.walls)
-    P = run.model.n_joints
-    if rest and run.monitor.recent_pairs()[:, P:P + len(run.contacts.flex)].any() and can_step(run):
+    if rest and run.monitor.recent_pairs()[:, _span_columns(run)].any() and can_step(run):
         _start_stepping(run)
         return
     run.forced = run.monitor.recent_pairs() & run.resting.can_rest
@@ -224,10 +223,16 @@ def _start_stepping(run) -> None:
     run.monitor.reset()
 
 
+def _span_columns(run) -> slice:
+    """The link columns of the gap matrix (0-based): the points of links' spans (contacts.Contacts)."""
+    P = run.model.n_joints
+    return slice(P, P + len(run.contacts.flex))
+
+
 def _span_impact(run, rec) -> bool:
-    """Whether an impact record's impulses act at a link's span (a link column of the gap matrix)."""
-    P, F = run.model.n_joints, len(run.contacts.flex)
-    return any(P < j <= P + F and lam > 0 for j, lam in zip(rec.joints, rec.impulses))
+    """Whether an impact record's impulses act at a link's span (rec.joints are 1-based columns)."""
+    span = _span_columns(run)
+    return any(span.start <= j - 1 < span.stop and lam > 0 for j, lam in zip(rec.joints, rec.impulses))
 
 
 def impact(run) -> None:

@@ -292,7 +292,7 @@ def contact_phase(run) -> None:
     e = np.asarray(s.wall_restitution, dtype=float)
     h_max, shape = s.contact_step, run.resting.active.shape
     run.equations.resting_phase = False
-    rec, quiet, calm, h, h_used = _Samples(shape), 0, 0, h_max, h_max
+    rec, quiet, calm, h = _Samples(shape), 0, 0, h_max
     scale = energy_scale(run.model, energy(run.model, run.y[:N], run.y[N:2 * N]))
     try:
         while run.status is None:
@@ -304,11 +304,10 @@ def contact_phase(run) -> None:
             last = s.t_end - t0 - h <= 1e-6 * h      # no sliver of a step before t_end: take the rest now
             out, h_done = controlled_step(run, t0, run.y, s.t_end - t0 if last else h, e, scale)
             t1 = s.t_end if last and h_done == s.t_end - t0 else t0 + h_done
+            calm = calm + 1 if h_done == h else 0       # steps accepted without a halving
             run.t, run.y, h = t1, out.y, min(h, h_done)
-            calm = calm + 1 if h == h_used else 0
-            if calm >= GROW_AFTER:       # steps accepted at this h: try twice as long
+            if calm >= GROW_AFTER:                       # try twice as long (up to h_max, above)
                 h, calm = 2.0 * h, 0
-            h_used = h
             run.counters["n_steps"] += 1
             run.counters["contact_steps"] += 1
             run.counters["stepped_contact_work"] += out.work
